@@ -1,0 +1,374 @@
+//! [`VoxelGrid`]: the read-only render structure a VDB grid is converted into.
+//!
+//! The same 5-4-3 hierarchy as OpenVDB, flattened for sampling speed: a root index of
+//! 4096³ nodes (a dense array, or a sorted list when the nodes are far apart), then
+//! 32³ and 16³ slot tables as flat `u32` arrays, then 8³ leaf bricks in one flat `f32`
+//! array. A slot holds either a child index (high bit set) or a tile-value index, so
+//! tiles stay tiles at every level. Each leaf and node keeps the range of its values;
+//! leaves also keep the range over the +1 voxel layer the trilinear stencil reaches, so
+//! the traversal can use them as majorants directly.
+
+use super::{Cell, Field, IndexBox, IndexToWorld, ValueRange};
+use glam::{IVec3, Vec3};
+
+pub(super) const CHILD: u32 = 1 << 31;
+pub(super) const LEAF_VOXELS: usize = 512;
+pub(super) const LOWER_SLOTS: usize = 4096;
+pub(super) const UPPER_SLOTS: usize = 32768;
+
+/// Largest local index magnitude looked up; beyond it everything is background.
+const LOOKUP_LIMIT: f32 = (1 << 30) as f32;
+
+/// Maps a 4096³ node key (`global >> 12`) to a root slot.
+#[derive(Clone, Debug)]
+pub(super) enum RootIndex {
+    /// Every key in a box: `entries[x][y][z]`.
+    Dense { min: IVec3, dims: IVec3, entries: Vec<u32> },
+    /// Sorted keys, binary searched (nodes too far apart for a dense table).
+    Sorted { keys: Vec<[i32; 3]>, entries: Vec<u32> },
+}
+
+impl RootIndex {
+    #[inline]
+    fn get(&self, key: IVec3) -> u32 {
+        match self {
+            RootIndex::Dense { min, dims, entries } => {
+                let r = key - *min;
+                if r.x < 0 || r.y < 0 || r.z < 0 || r.x >= dims.x || r.y >= dims.y || r.z >= dims.z {
+                    return 0;
+                }
+                entries[((r.x * dims.y + r.y) * dims.z + r.z) as usize]
+            }
+            RootIndex::Sorted { keys, entries } => match keys.binary_search(&key.to_array()) {
+                Ok(i) => entries[i],
+                Err(_) => 0,
+            },
+        }
+    }
+}
+
+/// Counts made while building: what the file held and what was sanitised.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct GridStats {
+    pub active_voxels: u64,
+    pub leaves: u64,
+    /// Active tiles by level: `[8³ tiles, 128³ tiles, 4096³ root tiles]`.
+    pub active_tiles_by_level: [u64; 3],
+    /// Minimum, maximum and sum of the finite active values (per channel), before
+    /// sanitising. Empty when there are no active values.
+    pub min: Vec<f64>,
+    pub max: Vec<f64>,
+    pub sum: Vec<f64>,
+    /// Values replaced by 0 at build time (tiles count every voxel they cover).
+    pub nan: u64,
+    pub inf: u64,
+    pub negative: u64,
+    /// Inclusive bounding box of the active voxels, in file index space.
+    pub active_index_bbox: Option<([i32; 3], [i32; 3])>,
+}
+
+impl GridStats {
+    pub fn active_tiles(&self) -> u64 {
+        self.active_tiles_by_level.iter().sum()
+    }
+    pub fn sanitised(&self) -> u64 {
+        self.nan + self.inf + self.negative
+    }
+    pub fn mean(&self) -> Vec<f64> {
+        self.sum.iter().map(|s| if self.active_voxels > 0 { s / self.active_voxels as f64 } else { 0.0 }).collect()
+    }
+}
+
+/// A sparse voxel grid ready for sampling. Built by [`super::grid_build::GridBuilder`].
+#[derive(Clone, Debug)]
+pub struct VoxelGrid {
+    pub(super) name: String,
+    pub(super) channels: usize,
+    pub(super) transform: IndexToWorld,
+    pub(super) root: RootIndex,
+    pub(super) upper_slots: Vec<u32>,
+    pub(super) upper_range: Vec<ValueRange>,
+    pub(super) lower_slots: Vec<u32>,
+    pub(super) lower_range: Vec<ValueRange>,
+    pub(super) leaf_values: Vec<f32>,
+    pub(super) leaf_range: Vec<ValueRange>,
+    pub(super) leaf_stencil: Vec<ValueRange>,
+    /// `channels` values per tile; tile 0 is the background.
+    pub(super) tile_values: Vec<f32>,
+    pub(super) bounds: IndexBox,
+    pub(super) stats: GridStats,
+}
+
+/// Where a voxel lives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Slot {
+    Tile(u32),
+    Leaf(u32),
+}
+
+#[inline]
+pub(super) fn upper_offset(g: IVec3) -> usize {
+    ((((g.x >> 7) & 31) << 10) | (((g.y >> 7) & 31) << 5) | ((g.z >> 7) & 31)) as usize
+}
+#[inline]
+pub(super) fn lower_offset(g: IVec3) -> usize {
+    ((((g.x >> 3) & 15) << 8) | (((g.y >> 3) & 15) << 4) | ((g.z >> 3) & 15)) as usize
+}
+#[inline]
+pub(super) fn leaf_offset(g: IVec3) -> usize {
+    (((g.x & 7) << 6) | ((g.y & 7) << 3) | (g.z & 7)) as usize
+}
+
+impl VoxelGrid {
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+    pub fn stats(&self) -> &GridStats {
+        &self.stats
+    }
+    pub fn leaf_count(&self) -> usize {
+        self.leaf_range.len()
+    }
+    /// The background value (channel 0), after sanitising.
+    pub fn background(&self) -> f32 {
+        self.tile_values.first().copied().unwrap_or(0.0)
+    }
+
+    /// Bytes held by the render structure.
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        let root = match &self.root {
+            RootIndex::Dense { entries, .. } => entries.len() * 4,
+            RootIndex::Sorted { keys, entries } => keys.len() * 12 + entries.len() * 4,
+        };
+        root + (self.upper_slots.len() + self.lower_slots.len()) * 4
+            + (self.leaf_values.len() + self.tile_values.len()) * 4
+            + (self.upper_range.len() + self.lower_range.len() + self.leaf_range.len() + self.leaf_stencil.len())
+                * size_of::<ValueRange>()
+            + size_of::<Self>()
+    }
+
+    #[inline]
+    fn lookup(&self, g: IVec3) -> Slot {
+        let e = self.root.get(g >> 12);
+        if e & CHILD == 0 {
+            return Slot::Tile(e);
+        }
+        let u = (e & !CHILD) as usize;
+        let e = self.upper_slots[u * UPPER_SLOTS + upper_offset(g)];
+        if e & CHILD == 0 {
+            return Slot::Tile(e);
+        }
+        let l = (e & !CHILD) as usize;
+        let e = self.lower_slots[l * LOWER_SLOTS + lower_offset(g)];
+        if e & CHILD == 0 { Slot::Tile(e) } else { Slot::Leaf(e & !CHILD) }
+    }
+
+    /// The stored value of channel `c` at a global index coordinate.
+    #[inline]
+    fn voxel(&self, g: IVec3, c: usize) -> f32 {
+        match self.lookup(g) {
+            Slot::Tile(t) => self.tile_values[t as usize * self.channels + c],
+            Slot::Leaf(l) => self.leaf_values[(l as usize * LEAF_VOXELS + leaf_offset(g)) * self.channels + c],
+        }
+    }
+
+    /// The stored (sanitised) value of channel `c` at a voxel in file index space.
+    pub fn voxel_value(&self, global: IVec3, c: usize) -> f32 {
+        if c >= self.channels {
+            return 0.0;
+        }
+        self.voxel(global, c)
+    }
+
+    /// Trilinear value of channel `c` at a local index point, as OpenVDB's BoxSampler:
+    /// values sit at integer points and blend with the weights of the fractional part.
+    #[inline]
+    pub fn sample_channel(&self, p: Vec3, c: usize) -> f32 {
+        if !(p.abs().max_element() < LOOKUP_LIMIT) || c >= self.channels {
+            return if c < self.channels { self.tile_values[c] } else { 0.0 };
+        }
+        let f = p.floor();
+        let t = p - f;
+        let g = f.as_ivec3() + self.transform.origin;
+        let ch = self.channels;
+        let mut v = [0.0f32; 8];
+        if (g.x & 7) != 7 && (g.y & 7) != 7 && (g.z & 7) != 7 {
+            // All eight corners in one leaf or tile.
+            match self.lookup(g) {
+                Slot::Tile(tile) => return self.tile_values[tile as usize * ch + c],
+                Slot::Leaf(l) => {
+                    let base = l as usize * LEAF_VOXELS + leaf_offset(g);
+                    let vals = &self.leaf_values;
+                    for (k, o) in [0usize, 1, 8, 9, 64, 65, 72, 73].iter().enumerate() {
+                        v[k] = vals[(base + o) * ch + c];
+                    }
+                }
+            }
+        } else {
+            for (k, d) in [
+                IVec3::new(0, 0, 0),
+                IVec3::new(0, 0, 1),
+                IVec3::new(0, 1, 0),
+                IVec3::new(0, 1, 1),
+                IVec3::new(1, 0, 0),
+                IVec3::new(1, 0, 1),
+                IVec3::new(1, 1, 0),
+                IVec3::new(1, 1, 1),
+            ]
+            .iter()
+            .enumerate()
+            {
+                v[k] = self.voxel(g + *d, c);
+            }
+        }
+        trilinear(&v, t)
+    }
+
+    /// Trilinear RGB / vector value at a local index point (channels 0..3; a scalar grid
+    /// gives its value in all three).
+    pub fn sample_vec3(&self, p: Vec3) -> Vec3 {
+        if self.channels < 3 {
+            return Vec3::splat(self.sample_channel(p, 0));
+        }
+        Vec3::new(self.sample_channel(p, 0), self.sample_channel(p, 1), self.sample_channel(p, 2))
+    }
+
+    /// Range of channel-combined values of the node at granularity `size` (8, 128,
+    /// 4096) containing the global coordinate `g`.
+    fn own_range_at(&self, g: IVec3, size: i32) -> ValueRange {
+        let tile = |t: u32| self.tile_range(t);
+        let e = self.root.get(g >> 12);
+        if e & CHILD == 0 {
+            return tile(e);
+        }
+        let u = (e & !CHILD) as usize;
+        if size >= 4096 {
+            return self.upper_range[u];
+        }
+        let e = self.upper_slots[u * UPPER_SLOTS + upper_offset(g)];
+        if e & CHILD == 0 {
+            return tile(e);
+        }
+        let l = (e & !CHILD) as usize;
+        if size >= 128 {
+            return self.lower_range[l];
+        }
+        let e = self.lower_slots[l * LOWER_SLOTS + lower_offset(g)];
+        if e & CHILD == 0 { tile(e) } else { self.leaf_range[(e & !CHILD) as usize] }
+    }
+
+    fn tile_range(&self, t: u32) -> ValueRange {
+        let ch = self.channels;
+        let mut r = ValueRange::EMPTY;
+        for v in &self.tile_values[t as usize * ch..(t as usize + 1) * ch] {
+            r.include(*v);
+        }
+        r
+    }
+
+    /// Own range of a cell unioned with its +x/+y/+z neighbours at the same level: the
+    /// range of the trilinear reconstruction over the cell.
+    pub(super) fn stencil_range_pub(&self, own: ValueRange, origin: IVec3, size: i32) -> ValueRange {
+        let mut r = own;
+        for d in 1..8 {
+            let n = origin + IVec3::new(d & 1, (d >> 1) & 1, (d >> 2) & 1) * size;
+            r = r.union(&self.own_range_at(n, size));
+        }
+        r
+    }
+
+    fn cell_global(&self, g: IVec3) -> Cell {
+        let align = |s: i32| IVec3::new(g.x & !(s - 1), g.y & !(s - 1), g.z & !(s - 1));
+        let o = self.transform.origin;
+        let tile_cell = |t: u32, size: i32| {
+            let origin = align(size);
+            Cell { origin: origin - o, size, range: self.stencil_range_pub(self.tile_range(t), origin, size) }
+        };
+        let e = self.root.get(g >> 12);
+        if e & CHILD == 0 {
+            return tile_cell(e, 4096);
+        }
+        let u = (e & !CHILD) as usize;
+        let e = self.upper_slots[u * UPPER_SLOTS + upper_offset(g)];
+        if e & CHILD == 0 {
+            return tile_cell(e, 128);
+        }
+        let l = (e & !CHILD) as usize;
+        let e = self.lower_slots[l * LOWER_SLOTS + lower_offset(g)];
+        if e & CHILD == 0 {
+            return tile_cell(e, 8);
+        }
+        Cell { origin: align(8) - o, size: 8, range: self.leaf_stencil[(e & !CHILD) as usize] }
+    }
+}
+
+#[inline]
+pub(crate) fn trilinear(v: &[f32; 8], t: Vec3) -> f32 {
+    // v[k]: corner (k>>2 & 1, k>>1 & 1, k & 1) in (x, y, z).
+    let lerp = |a: f32, b: f32, s: f32| a + (b - a) * s;
+    let c00 = lerp(v[0], v[1], t.z);
+    let c01 = lerp(v[2], v[3], t.z);
+    let c10 = lerp(v[4], v[5], t.z);
+    let c11 = lerp(v[6], v[7], t.z);
+    lerp(lerp(c00, c01, t.y), lerp(c10, c11, t.y), t.x)
+}
+
+impl Field for VoxelGrid {
+    #[inline]
+    fn value_at_index(&self, p: Vec3) -> f32 {
+        self.sample_channel(p, 0)
+    }
+
+    fn transform(&self) -> &IndexToWorld {
+        &self.transform
+    }
+
+    fn active_bounds(&self) -> IndexBox {
+        self.bounds
+    }
+
+    fn cell_at(&self, ijk: IVec3) -> Cell {
+        let lim = 1 << 30;
+        let g = ijk.clamp(IVec3::splat(-lim), IVec3::splat(lim)) + self.transform.origin;
+        self.cell_global(g)
+    }
+
+    fn range_over(&self, b: &IndexBox) -> ValueRange {
+        let clipped = IndexBox::new(b.min.max(self.bounds.min), b.max.min(self.bounds.max));
+        let outside = if b.min.cmplt(self.bounds.min).any() || b.max.cmpgt(self.bounds.max).any() {
+            self.tile_range(0)
+        } else {
+            ValueRange::EMPTY
+        };
+        if clipped.is_empty() {
+            return self.tile_range(0);
+        }
+        // Walk the cells covering the box, coarse where the tree is coarse.
+        let lo = clipped.min.floor().as_ivec3();
+        let hi = clipped.max.floor().as_ivec3();
+        let mut r = outside;
+        let mut x = lo.x;
+        while x <= hi.x {
+            let mut step_x = i32::MAX;
+            let mut y = lo.y;
+            while y <= hi.y {
+                let mut step_y = i32::MAX;
+                let mut z = lo.z;
+                while z <= hi.z {
+                    let c = self.cell_at(IVec3::new(x, y, z));
+                    r = r.union(&c.range);
+                    step_x = step_x.min(c.origin.x + c.size - x);
+                    step_y = step_y.min(c.origin.y + c.size - y);
+                    z = c.origin.z + c.size;
+                }
+                y += step_y.max(1);
+            }
+            x += step_x.max(1);
+        }
+        r
+    }
+}

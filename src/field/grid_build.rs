@@ -1,0 +1,342 @@
+//! Builds a [`VoxelGrid`] from the tiles and leaves a VDB decoder streams into it,
+//! sanitising NaN, ±Inf and (for scalar grids) negative values to 0 and counting them.
+
+use super::grid::{CHILD, GridStats, LEAF_VOXELS, LOWER_SLOTS, RootIndex, UPPER_SLOTS, VoxelGrid, lower_offset, upper_offset};
+use super::{IndexBox, IndexToWorld, ValueRange};
+use crate::vdb::{TreeSink, VdbError, VdbFile, ValueKind};
+use glam::{DMat4, IVec3, Vec3};
+use std::collections::HashMap;
+
+/// Largest dense root table (entries) before falling back to a sorted list.
+const DENSE_ROOT_LIMIT: i64 = 1 << 18;
+
+/// Collects a grid's tree. Implements [`TreeSink`].
+#[derive(Default)]
+pub struct GridBuilder {
+    channels: usize,
+    scalar: bool,
+    root: HashMap<[i32; 3], u32>,
+    upper_origin: Vec<IVec3>,
+    upper_slots: Vec<u32>,
+    lower_origin: Vec<IVec3>,
+    lower_slots: Vec<u32>,
+    leaf_origin: Vec<IVec3>,
+    leaf_values: Vec<f32>,
+    tile_values: Vec<f32>,
+    /// Bounding box (global, inclusive) of everything that is not background.
+    content_min: IVec3,
+    content_max: IVec3,
+    active_min: IVec3,
+    active_max: IVec3,
+    stats: GridStats,
+}
+
+impl GridBuilder {
+    pub fn new() -> Self {
+        GridBuilder {
+            content_min: IVec3::MAX,
+            content_max: IVec3::MIN,
+            active_min: IVec3::MAX,
+            active_max: IVec3::MIN,
+            ..Default::default()
+        }
+    }
+
+    /// Replaces a bad value by 0, counting it `weight` times.
+    fn sanitise(&mut self, v: f32, weight: u64) -> f32 {
+        if v.is_nan() {
+            self.stats.nan += weight;
+            0.0
+        } else if v.is_infinite() {
+            self.stats.inf += weight;
+            0.0
+        } else if self.scalar && v < 0.0 {
+            self.stats.negative += weight;
+            0.0
+        } else {
+            v
+        }
+    }
+
+    fn count_active(&mut self, raw: &[f32], voxels: u64) {
+        for (c, v) in raw.iter().enumerate() {
+            if v.is_finite() {
+                self.stats.min[c] = self.stats.min[c].min(*v as f64);
+                self.stats.max[c] = self.stats.max[c].max(*v as f64);
+                self.stats.sum[c] += *v as f64 * voxels as f64;
+            }
+        }
+    }
+
+    fn add_tile_value(&mut self, raw: &[f32], voxels: u64) -> u32 {
+        let idx = (self.tile_values.len() / self.channels.max(1)) as u32;
+        for v in raw {
+            let s = self.sanitise(*v, voxels);
+            self.tile_values.push(s);
+        }
+        idx
+    }
+
+    fn upper_for(&mut self, g: IVec3) -> Result<usize, String> {
+        let key = (g >> 12_i32).to_array();
+        match self.root.get(&key) {
+            Some(e) if e & CHILD != 0 => Ok((e & !CHILD) as usize),
+            Some(_) => Err("a node overlaps a root tile".to_string()),
+            None => {
+                let u = self.upper_origin.len();
+                if u as u32 >= CHILD {
+                    return Err("too many nodes".to_string());
+                }
+                self.upper_origin.push((g >> 12_i32) << 12_i32);
+                self.upper_slots.resize(self.upper_slots.len() + UPPER_SLOTS, 0);
+                self.root.insert(key, CHILD | u as u32);
+                Ok(u)
+            }
+        }
+    }
+
+    fn lower_for(&mut self, g: IVec3) -> Result<usize, String> {
+        let u = self.upper_for(g)?;
+        let slot = u * UPPER_SLOTS + upper_offset(g);
+        let e = self.upper_slots[slot];
+        if e & CHILD != 0 {
+            return Ok((e & !CHILD) as usize);
+        }
+        let l = self.lower_origin.len();
+        self.lower_origin.push((g >> 7_i32) << 7_i32);
+        self.lower_slots.resize(self.lower_slots.len() + LOWER_SLOTS, 0);
+        self.upper_slots[slot] = CHILD | l as u32;
+        Ok(l)
+    }
+
+    fn grow_content(&mut self, origin: IVec3, size: i32, active: bool) {
+        let hi = origin + IVec3::splat(size - 1);
+        self.content_min = self.content_min.min(origin);
+        self.content_max = self.content_max.max(hi);
+        if active {
+            self.active_min = self.active_min.min(origin);
+            self.active_max = self.active_max.max(hi);
+        }
+    }
+
+    /// Finishes the structure: ranges, stencil ranges, local origin, root index.
+    pub fn finish(self, name: &str, index_to_world: DMat4) -> Result<VoxelGrid, String> {
+        let GridBuilder {
+            channels,
+            root,
+            upper_origin,
+            upper_slots,
+            lower_origin,
+            lower_slots,
+            leaf_origin,
+            leaf_values,
+            mut tile_values,
+            content_min,
+            content_max,
+            active_min,
+            active_max,
+            mut stats,
+            ..
+        } = self;
+        let channels = channels.max(1);
+        if tile_values.is_empty() {
+            tile_values = vec![0.0; channels];
+        }
+        let has_content = content_min.cmple(content_max).all();
+        let origin = if has_content { (content_min + content_max) / 2 } else { IVec3::ZERO };
+        let transform = IndexToWorld::new(index_to_world, origin)
+            .ok_or_else(|| "the transform is singular or not finite".to_string())?;
+        if active_min.cmple(active_max).all() {
+            stats.active_index_bbox = Some((active_min.to_array(), active_max.to_array()));
+        }
+        if stats.active_voxels == 0 {
+            stats.min.clear();
+            stats.max.clear();
+            stats.sum.clear();
+        }
+        let range_of = |vals: &[f32]| {
+            let mut r = ValueRange::EMPTY;
+            for v in vals {
+                r.include(*v);
+            }
+            r
+        };
+        let tile_range = |t: u32| range_of(&tile_values[t as usize * channels..(t as usize + 1) * channels]);
+        let leaf_range: Vec<ValueRange> = leaf_values.chunks_exact(LEAF_VOXELS * channels).map(range_of).collect();
+        let slot_range = |e: u32, child: &[ValueRange]| {
+            if e & CHILD != 0 { child[(e & !CHILD) as usize] } else { tile_range(e) }
+        };
+        let lower_range: Vec<ValueRange> = lower_slots
+            .chunks_exact(LOWER_SLOTS)
+            .map(|s| s.iter().fold(ValueRange::EMPTY, |r, e| r.union(&slot_range(*e, &leaf_range))))
+            .collect();
+        let upper_range: Vec<ValueRange> = upper_slots
+            .chunks_exact(UPPER_SLOTS)
+            .map(|s| s.iter().fold(ValueRange::EMPTY, |r, e| r.union(&slot_range(*e, &lower_range))))
+            .collect();
+        let root_index = build_root_index(&root);
+        let bounds = if has_content {
+            IndexBox::new((content_min - origin).as_vec3() - Vec3::ONE, (content_max - origin).as_vec3() + Vec3::ONE)
+        } else {
+            IndexBox::EMPTY
+        };
+        let mut grid = VoxelGrid {
+            name: name.to_string(),
+            channels,
+            transform,
+            root: root_index,
+            upper_slots,
+            upper_range,
+            lower_slots,
+            lower_range,
+            leaf_values,
+            leaf_stencil: Vec::new(),
+            leaf_range,
+            tile_values,
+            bounds,
+            stats,
+        };
+        let _ = (upper_origin, lower_origin);
+        grid.leaf_stencil = leaf_origin
+            .iter()
+            .enumerate()
+            .map(|(i, o)| grid.leaf_stencil_of(grid.leaf_range[i], *o))
+            .collect();
+        Ok(grid)
+    }
+}
+
+fn build_root_index(root: &HashMap<[i32; 3], u32>) -> RootIndex {
+    let mut keys: Vec<[i32; 3]> = root.keys().copied().collect();
+    keys.sort_unstable();
+    if keys.is_empty() {
+        return RootIndex::Sorted { keys: Vec::new(), entries: Vec::new() };
+    }
+    let (mut lo, mut hi) = (IVec3::MAX, IVec3::MIN);
+    for k in &keys {
+        lo = lo.min(IVec3::from_array(*k));
+        hi = hi.max(IVec3::from_array(*k));
+    }
+    let dims = (hi - lo + IVec3::ONE).as_i64vec3();
+    if dims.x * dims.y * dims.z <= DENSE_ROOT_LIMIT {
+        let dims = dims.as_ivec3();
+        let mut entries = vec![0u32; (dims.x * dims.y * dims.z) as usize];
+        for k in &keys {
+            let r = IVec3::from_array(*k) - lo;
+            entries[((r.x * dims.y + r.y) * dims.z + r.z) as usize] = root[k];
+        }
+        RootIndex::Dense { min: lo, dims, entries }
+    } else {
+        let entries = keys.iter().map(|k| root[k]).collect();
+        RootIndex::Sorted { keys, entries }
+    }
+}
+
+impl TreeSink for GridBuilder {
+    fn begin(&mut self, channels: usize, background: &[f32]) -> Result<(), String> {
+        self.channels = channels;
+        self.scalar = channels == 1;
+        self.stats.min = vec![f64::INFINITY; channels];
+        self.stats.max = vec![f64::NEG_INFINITY; channels];
+        self.stats.sum = vec![0.0; channels];
+        self.tile_values.clear();
+        self.add_tile_value(background, 0);
+        Ok(())
+    }
+
+    fn tile(&mut self, origin: IVec3, size: i32, value: &[f32], active: bool) -> Result<(), String> {
+        let voxels = (size as u64).pow(3);
+        if active {
+            self.count_active(value, voxels);
+            self.stats.active_voxels += voxels;
+            let level = match size {
+                8 => 0,
+                128 => 1,
+                _ => 2,
+            };
+            self.stats.active_tiles_by_level[level] += 1;
+        }
+        self.grow_content(origin, size, active);
+        let t = self.add_tile_value(value, voxels);
+        match size {
+            4096 => {
+                let key = (origin >> 12_i32).to_array();
+                if self.root.insert(key, t).is_some() {
+                    return Err("two root entries at the same place".to_string());
+                }
+            }
+            128 => {
+                let u = self.upper_for(origin)?;
+                self.upper_slots[u * UPPER_SLOTS + upper_offset(origin)] = t;
+            }
+            8 => {
+                let l = self.lower_for(origin)?;
+                self.lower_slots[l * LOWER_SLOTS + lower_offset(origin)] = t;
+            }
+            _ => return Err(format!("a tile of size {size}")),
+        }
+        Ok(())
+    }
+
+    fn leaf(&mut self, origin: IVec3, values: &[f32], active: &[u64; 8]) -> Result<(), String> {
+        let ch = self.channels.max(1);
+        if values.len() != LEAF_VOXELS * ch {
+            return Err("a leaf of the wrong size".to_string());
+        }
+        let l = self.lower_for(origin)?;
+        let slot = l * LOWER_SLOTS + lower_offset(origin);
+        let leaf_index = self.leaf_origin.len() as u32;
+        if leaf_index >= CHILD {
+            return Err("too many leaves".to_string());
+        }
+        self.lower_slots[slot] = CHILD | leaf_index;
+        self.leaf_origin.push(origin);
+        self.stats.leaves += 1;
+        let mut any_active = false;
+        let mut amin = IVec3::MAX;
+        let mut amax = IVec3::MIN;
+        for n in 0..LEAF_VOXELS {
+            let raw = &values[n * ch..(n + 1) * ch];
+            if active[n >> 6] >> (n & 63) & 1 == 1 {
+                any_active = true;
+                self.stats.active_voxels += 1;
+                self.count_active(raw, 1);
+                let p = origin + IVec3::new((n >> 6) as i32, ((n >> 3) & 7) as i32, (n & 7) as i32);
+                amin = amin.min(p);
+                amax = amax.max(p);
+            }
+            for v in raw {
+                let s = self.sanitise(*v, 1);
+                self.leaf_values.push(s);
+            }
+        }
+        self.grow_content(origin, 8, false);
+        if any_active {
+            self.active_min = self.active_min.min(amin);
+            self.active_max = self.active_max.max(amax);
+        }
+        Ok(())
+    }
+}
+
+impl VoxelGrid {
+    fn leaf_stencil_of(&self, own: ValueRange, origin: IVec3) -> ValueRange {
+        self.stencil_range_pub(own, origin, 8)
+    }
+
+    /// Decodes grid `name` of an opened file into a render structure.
+    pub fn load(file: &VdbFile, name: &str) -> Result<VoxelGrid, VdbError> {
+        let info = file.grid(name)?;
+        if info.kind == ValueKind::Unsupported {
+            return Err(VdbError::grid(
+                file.path(),
+                &info.unique_name,
+                format!("value type \"{}\" cannot be rendered (murk reads float, double and vec3 grids)", info.value_type),
+            ));
+        }
+        let mut b = GridBuilder::new();
+        let decoded = file.decode(name, &mut b)?;
+        let unique = info.unique_name.clone();
+        b.finish(&unique, decoded.index_to_world).map_err(|p| VdbError::grid(file.path(), &unique, p))
+    }
+}

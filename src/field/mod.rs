@@ -1,0 +1,124 @@
+//! Fields: everything that has a scalar (or colour) value at a point in space.
+//!
+//! Every density-like source — a VDB grid converted to [`VoxelGrid`], a procedural noise
+//! field, a constant box or sphere — implements [`Field`], so the traversal, the shadow
+//! baker and the integrator never know which one they are sampling.
+//!
+//! Coordinates come in two spaces:
+//! - **world** space, `DVec3` (f64), where cameras and lights live;
+//! - **local index** space, `Vec3` (f32): the grid's index space shifted by an integer
+//!   [`IndexToWorld::origin`] so that the numbers stay small (a grid stored near index 1e6
+//!   samples as precisely as one at 0). Voxel values sit at integer local-index points.
+
+pub mod grid;
+pub mod grid_build;
+pub mod procedural;
+pub mod shapes;
+pub mod transform;
+
+pub use grid::VoxelGrid;
+pub use transform::IndexToWorld;
+
+use glam::{IVec3, Vec3};
+
+/// An axis-aligned box in local index space, `min` inclusive, `max` exclusive for cells
+/// and inclusive for points (the box of the points a field can be non-zero at).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IndexBox {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl IndexBox {
+    pub const EMPTY: IndexBox = IndexBox { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+
+    pub fn new(min: Vec3, max: Vec3) -> Self {
+        IndexBox { min, max }
+    }
+    pub fn is_empty(&self) -> bool {
+        !(self.min.x <= self.max.x && self.min.y <= self.max.y && self.min.z <= self.max.z)
+    }
+    pub fn contains(&self, p: Vec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+    pub fn union(&self, o: &IndexBox) -> IndexBox {
+        IndexBox { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+    pub fn extent(&self) -> Vec3 {
+        if self.is_empty() { Vec3::ZERO } else { self.max - self.min }
+    }
+}
+
+/// The range of values a field takes over some region. `max` is a majorant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ValueRange {
+    pub min: f32,
+    pub max: f32,
+}
+
+impl ValueRange {
+    pub const EMPTY: ValueRange = ValueRange { min: f32::INFINITY, max: f32::NEG_INFINITY };
+    pub const ZERO: ValueRange = ValueRange { min: 0.0, max: 0.0 };
+
+    pub fn point(v: f32) -> Self {
+        ValueRange { min: v, max: v }
+    }
+    pub fn include(&mut self, v: f32) {
+        self.min = self.min.min(v);
+        self.max = self.max.max(v);
+    }
+    pub fn union(&self, o: &ValueRange) -> ValueRange {
+        ValueRange { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+    /// True when the field is zero everywhere in the region (nothing to integrate).
+    pub fn is_zero(&self) -> bool {
+        self.max <= 0.0 && self.min >= 0.0
+    }
+    pub fn is_constant(&self) -> bool {
+        self.min == self.max
+    }
+}
+
+/// One cell of a field's hierarchy, as the traversal sees it: an axis-aligned cube of
+/// `size` voxels starting at `origin` (local index space) over which the field's
+/// trilinear reconstruction stays within `range`. For a VDB grid this is a leaf (8), an
+/// internal node or tile (128, 4096), or a root-level gap; for an analytic field a
+/// virtual brick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    pub origin: IVec3,
+    pub size: i32,
+    /// Range of the trilinear reconstruction over the whole cell (it includes the +1
+    /// voxel layer the interpolation stencil reaches into).
+    pub range: ValueRange,
+}
+
+/// A scalar field sampled by the renderer. Implemented by [`VoxelGrid`], the procedural
+/// fields in [`procedural`] and the analytic shapes in [`shapes`].
+pub trait Field: Send + Sync {
+    /// Trilinear value at a local index point.
+    fn value_at_index(&self, p: Vec3) -> f32;
+
+    /// The map between local index space and world space.
+    fn transform(&self) -> &IndexToWorld;
+
+    /// Value at a world point.
+    fn value_at_world(&self, p: glam::DVec3) -> f32 {
+        self.value_at_index(self.transform().world_to_index(p))
+    }
+
+    /// The box (local index space) outside which the field is zero.
+    fn active_bounds(&self) -> IndexBox;
+
+    /// World-space axis-aligned bounds of [`Field::active_bounds`].
+    fn world_bounds(&self) -> (glam::DVec3, glam::DVec3) {
+        self.transform().index_box_to_world(&self.active_bounds())
+    }
+
+    /// The coarsest cell of the field's hierarchy that contains the voxel `ijk` (local
+    /// index), with the range of the field over it. The traversal steps cell by cell.
+    fn cell_at(&self, ijk: IVec3) -> Cell;
+
+    /// A majorant and minorant of the field over a local-index box.
+    fn range_over(&self, b: &IndexBox) -> ValueRange;
+}

@@ -1,0 +1,7 @@
+//! The `murk` command: a thin shell over the library.
+
+mod cli;
+
+fn main() {
+    std::process::exit(cli::run());
+}

@@ -1,0 +1,35 @@
+//! Errors from loading VDB files. Every message names the file (and the grid where
+//! there is one) so the CLI can print it as one line.
+
+use std::path::PathBuf;
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum VdbError {
+    #[error("{path}: {problem}")]
+    File { path: PathBuf, problem: String },
+    #[error("{path}: grid \"{grid}\": {problem}")]
+    Grid { path: PathBuf, grid: String, problem: String },
+    #[error("{path}: no grid named \"{grid}\" (the file has: {available})")]
+    NoSuchGrid { path: PathBuf, grid: String, available: String },
+}
+
+impl VdbError {
+    pub fn file(path: impl Into<PathBuf>, problem: impl Into<String>) -> Self {
+        VdbError::File { path: path.into(), problem: problem.into() }
+    }
+    pub fn grid(path: impl Into<PathBuf>, grid: &str, problem: impl Into<String>) -> Self {
+        VdbError::Grid { path: path.into(), grid: grid.to_string(), problem: problem.into() }
+    }
+}
+
+/// Turns a panic payload into a message (the reader is run under `catch_unwind`).
+pub(crate) fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        format!("the reader failed on malformed data ({s})")
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        format!("the reader failed on malformed data ({s})")
+    } else {
+        "the reader failed on malformed data".to_string()
+    }
+}

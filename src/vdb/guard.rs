@@ -1,0 +1,79 @@
+//! Checks made on a file's descriptors and transforms before any tree is decoded. The
+//! reader recurses through instance chains and trusts offsets; these checks turn the
+//! inputs that would crash or exhaust it into errors.
+
+/// Longest chain of instanced grids accepted (real files have chains of length 1).
+pub const MAX_INSTANCE_CHAIN: usize = 16;
+
+/// Largest index coordinate magnitude accepted: leaves a margin for node arithmetic in
+/// i32 (a root node spans 4096 voxels) and keeps local index space exact in f32 steps.
+pub const MAX_INDEX_COORD: i64 = 1 << 30;
+
+/// A grid's position in an instance chain: `Err` names the problem.
+pub fn check_instance_chains(unique_names: &[String], parents: &[String]) -> Result<(), String> {
+    for (i, start) in parents.iter().enumerate() {
+        let mut parent = start.as_str();
+        let mut steps = 0;
+        while !parent.is_empty() {
+            steps += 1;
+            if steps > MAX_INSTANCE_CHAIN {
+                return Err(format!(
+                    "grid \"{}\": instance chain longer than {MAX_INSTANCE_CHAIN} or cyclic",
+                    printable(&unique_names[i])
+                ));
+            }
+            let Some(p) = unique_names.iter().position(|n| n == parent) else {
+                return Err(format!(
+                    "grid \"{}\": instance parent \"{}\" is not in the file",
+                    printable(&unique_names[i]),
+                    printable(parent)
+                ));
+            };
+            if p == i {
+                return Err(format!("grid \"{}\": instance chain is cyclic", printable(&unique_names[i])));
+            }
+            parent = parents[p].as_str();
+        }
+    }
+    Ok(())
+}
+
+/// Grid names as they may be shown on one line (control characters escaped).
+pub fn printable(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars().take(200) {
+        if c == '\x1e' {
+            out.push('#');
+        } else if c.is_control() {
+            out.push_str(&c.escape_default().to_string());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn s(v: &[&str]) -> Vec<String> {
+        v.iter().map(|x| x.to_string()).collect()
+    }
+
+    #[test]
+    fn cycles_and_missing_parents_are_rejected() {
+        assert!(check_instance_chains(&s(&["a", "b"]), &s(&["", "a"])).is_ok());
+        assert!(check_instance_chains(&s(&["a", "b"]), &s(&["b", "a"])).unwrap_err().contains("cyclic"));
+        assert!(check_instance_chains(&s(&["a"]), &s(&["a"])).unwrap_err().contains("cyclic"));
+        assert!(check_instance_chains(&s(&["a"]), &s(&["zz"])).unwrap_err().contains("not in the file"));
+        let names: Vec<String> = (0..40).map(|i| format!("g{i}")).collect();
+        let parents: Vec<String> = (0..40).map(|i| if i == 0 { String::new() } else { format!("g{}", i - 1) }).collect();
+        assert!(check_instance_chains(&names, &parents).unwrap_err().contains("longer"));
+    }
+
+    #[test]
+    fn printable_escapes_control_characters() {
+        assert_eq!(printable("den\nsity\x1e1"), "den\\nsity#1");
+    }
+}
