@@ -1,0 +1,155 @@
+//! Atomic file replacement: write a temporary file next to the target, then
+//! rename it over the target, so readers never see a half-written file.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use super::OutputError;
+
+static COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// The temporary file used for writing `path`: `.<name>.tmp-<pid>-<n>` in the
+/// same directory (so the final rename stays on one file system).
+fn temp_path_for(path: &Path) -> Result<PathBuf, OutputError> {
+    let name = path.file_name().ok_or_else(|| OutputError::Invalid {
+        path: path.to_owned(),
+        reason: "the path does not name a file".to_owned(),
+    })?;
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let mut temp_name = std::ffi::OsString::from(".");
+    temp_name.push(name);
+    temp_name.push(format!(".tmp-{}-{n}", std::process::id()));
+    Ok(path.with_file_name(temp_name))
+}
+
+/// Write `path` atomically.
+///
+/// Creates an empty temporary file `.<name>.tmp-<pid>-<n>` in the target's
+/// directory and calls `write` with its path; `write` fills it (it may
+/// truncate or recreate it). On success the temporary file is renamed over
+/// `path`, replacing any existing file; on any error (from `write` or from the
+/// rename) the temporary file is removed and an existing target is left
+/// untouched. No fsync is done.
+///
+/// Errors produced here are [`OutputError`]s naming `path`; `write`'s own
+/// error type only needs `From<OutputError>` (so `OutputError` itself works).
+pub fn write_atomically<T, E, F>(path: &Path, write: F) -> Result<T, E>
+where
+    F: FnOnce(&Path) -> Result<T, E>,
+    E: From<OutputError>,
+{
+    let temp = temp_path_for(path)?;
+    if let Err(source) = fs::File::create(&temp) {
+        return Err(OutputError::CreateTemp {
+            path: path.to_owned(),
+            temp,
+            source,
+        }
+        .into());
+    }
+    let value = match write(&temp) {
+        Ok(value) => value,
+        Err(err) => {
+            let _ = fs::remove_file(&temp);
+            return Err(err);
+        }
+    };
+    if let Err(source) = fs::rename(&temp, path) {
+        let _ = fs::remove_file(&temp);
+        return Err(OutputError::Rename {
+            path: path.to_owned(),
+            temp,
+            source,
+        }
+        .into());
+    }
+    Ok(value)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch_dir(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("murk-atomic-{tag}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    fn entries(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn temp_name_is_hidden_in_same_directory() {
+        let t = temp_path_for(Path::new("/a/b/out.exr")).unwrap();
+        assert_eq!(t.parent(), Some(Path::new("/a/b")));
+        let name = t.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(name.starts_with(".out.exr.tmp-"), "{name}");
+        assert!(temp_path_for(Path::new("/")).is_err());
+    }
+
+    #[test]
+    fn success_replaces_target() {
+        let dir = scratch_dir("ok");
+        let target = dir.join("f.txt");
+        fs::write(&target, "old").unwrap();
+        let r: Result<u32, OutputError> = write_atomically(&target, |tmp| {
+            fs::write(tmp, "new").map_err(|source| OutputError::Io {
+                path: tmp.into(),
+                source,
+            })?;
+            Ok(7)
+        });
+        assert_eq!(r.unwrap(), 7);
+        assert_eq!(fs::read_to_string(&target).unwrap(), "new");
+        assert_eq!(entries(&dir), vec!["f.txt"]);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn failure_keeps_target_and_removes_temp() {
+        let dir = scratch_dir("fail");
+        let target = dir.join("f.txt");
+        fs::write(&target, "old").unwrap();
+        let r: Result<(), OutputError> = write_atomically(&target, |tmp| {
+            fs::write(tmp, "partial").unwrap();
+            Err(OutputError::Invalid {
+                path: target.clone(),
+                reason: "boom".into(),
+            })
+        });
+        assert!(r.unwrap_err().to_string().contains("boom"));
+        assert_eq!(fs::read_to_string(&target).unwrap(), "old");
+        assert_eq!(entries(&dir), vec!["f.txt"]);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn rename_failure_removes_temp() {
+        let dir = scratch_dir("rename");
+        let target = dir.join("sub");
+        fs::create_dir(&target).unwrap();
+        fs::write(target.join("keep"), "x").unwrap();
+        let r: Result<(), OutputError> = write_atomically(&target, |_| Ok(()));
+        let msg = r.unwrap_err().to_string();
+        assert!(msg.contains(&target.display().to_string()), "{msg}");
+        assert_eq!(entries(&dir), vec!["sub"]);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn missing_directory_names_the_path() {
+        let target = Path::new("/nonexistent-murk-dir/x/out.png");
+        let r: Result<(), OutputError> = write_atomically(target, |_| Ok(()));
+        let msg = r.unwrap_err().to_string();
+        assert!(msg.contains("/nonexistent-murk-dir/x/out.png"), "{msg}");
+    }
+}

@@ -1,0 +1,394 @@
+//! Writing a [`Frame`] as one single-part scanline OpenEXR file.
+
+use std::fmt;
+use std::path::Path;
+use std::str::FromStr;
+
+use exr::meta::attribute::{AttributeValue, Chromaticities, IntegerBounds, LineOrder, Text};
+use exr::meta::header::standard_names;
+use exr::prelude::{
+    AnyChannel, AnyChannels, Blocks, Encoding, FlatSamples, Image, ImageAttributes, Layer,
+    LayerAttributes, SmallVec, Vec2, WritableImage, f16,
+};
+
+use super::OutputError;
+use super::atomic::write_atomically;
+use super::frame::{Frame, PixelRect, is_depth_channel};
+
+/// EXR compression methods offered on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum ExrCompression {
+    /// No compression.
+    None,
+    /// Run-length encoding (lossless).
+    Rle,
+    /// Zip, one scanline per block (lossless): the usual choice for compositing.
+    #[default]
+    Zips,
+    /// Zip, 16 scanlines per block (lossless).
+    Zip,
+    /// Wavelet (lossless), good for noisy images.
+    Piz,
+    /// DreamWorks lossy DCT, 32 scanlines per block (Z and other f32 channels
+    /// stay lossless).
+    Dwaa,
+}
+
+impl ExrCompression {
+    /// Every method, in the order of the OpenEXR enum.
+    pub const ALL: [ExrCompression; 6] = [
+        Self::None,
+        Self::Rle,
+        Self::Zips,
+        Self::Zip,
+        Self::Piz,
+        Self::Dwaa,
+    ];
+
+    /// The lower-case name accepted by [`FromStr`] (`none`, `rle`, `zips`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Rle => "rle",
+            Self::Zips => "zips",
+            Self::Zip => "zip",
+            Self::Piz => "piz",
+            Self::Dwaa => "dwaa",
+        }
+    }
+
+    fn to_exr(self) -> exr::compression::Compression {
+        use exr::compression::Compression as C;
+        match self {
+            Self::None => C::Uncompressed,
+            Self::Rle => C::RLE,
+            Self::Zips => C::ZIP1,
+            Self::Zip => C::ZIP16,
+            Self::Piz => C::PIZ,
+            Self::Dwaa => C::DWAA(None),
+        }
+    }
+}
+
+impl fmt::Display for ExrCompression {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for ExrCompression {
+    type Err = OutputError;
+
+    /// Parses `none|rle|zips|zip|piz|dwaa` (case-insensitive).
+    fn from_str(s: &str) -> Result<Self, OutputError> {
+        let wanted = s.trim().to_ascii_lowercase();
+        Self::ALL
+            .into_iter()
+            .find(|c| c.name() == wanted)
+            .ok_or_else(|| OutputError::Parse {
+                what: "EXR compression",
+                value: s.to_owned(),
+                expected: "one of none, rle, zips, zip, piz, dwaa",
+            })
+    }
+}
+
+/// How [`write_exr`] stores a frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExrOptions {
+    /// The compression method (default `zips`).
+    pub compression: ExrCompression,
+    /// `false`: colour channels are stored as 16-bit half floats; `true`: as
+    /// 32-bit floats. Depth channels (`Z`) are always 32-bit floats.
+    pub float: bool,
+    /// The standard `worldToCamera` attribute (m44f). Stored row by row as
+    /// given (`m[0][0], m[0][1], ...`); OpenEXR/Imath use row vectors
+    /// (`p_cam = p_world * M`, translation in row 3), which is exactly glam's
+    /// `Mat4::to_cols_array_2d()` of a column-vector matrix.
+    pub world_to_camera: Option<[[f32; 4]; 4]>,
+    /// The standard `worldToNDC` attribute (m44f), same layout.
+    pub world_to_ndc: Option<[[f32; 4]; 4]>,
+    /// The standard `software` attribute; not written when empty.
+    pub software: String,
+    /// Written as the float attribute `renderTime` (seconds).
+    pub render_time_seconds: Option<f64>,
+    /// Written as the string attribute `inputFile`.
+    pub input_file: Option<String>,
+    /// More string attributes, e.g. `("murk/depthRule", "...")`. Names must
+    /// not be standard attribute names, nor `renderTime`, `inputFile` or
+    /// `murk/nanCount`, nor repeat.
+    pub extra_strings: Vec<(String, String)>,
+}
+
+impl Default for ExrOptions {
+    fn default() -> Self {
+        Self {
+            compression: ExrCompression::default(),
+            float: false,
+            world_to_camera: None,
+            world_to_ndc: None,
+            software: format!("murk {}", env!("CARGO_PKG_VERSION")),
+            render_time_seconds: None,
+            input_file: None,
+            extra_strings: Vec::new(),
+        }
+    }
+}
+
+/// What [`write_exr`] did besides writing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ExrWriteSummary {
+    /// The data window written (the display window is the full frame).
+    pub data_window: PixelRect,
+    /// NaN samples found in the frame (a renderer bug). They were written as
+    /// 0, or as `+inf` ("no depth") in depth channels. When non-zero the count
+    /// is also stored in the int attribute `murk/nanCount`.
+    pub nan_count: usize,
+}
+
+/// Rec.709 / sRGB primaries with a D65 white point.
+pub const REC709_CHROMATICITIES: [[f32; 2]; 4] =
+    [[0.64, 0.33], [0.30, 0.60], [0.15, 0.06], [0.3127, 0.3290]];
+
+const RENDER_TIME: &str = "renderTime";
+const INPUT_FILE: &str = "inputFile";
+const NAN_COUNT: &str = "murk/nanCount";
+
+/// Write `frame` to `path` as one single-part scanline OpenEXR image.
+///
+/// Channels are sorted by name (as EXR requires); colour channels are half or
+/// float per `opts.float`, depth channels always float. The data window is
+/// [`Frame::data_window`] (the bounding box of non-empty pixels, at least
+/// 1×1), the display window the whole frame. NaNs are sanitised and counted.
+/// The file is replaced atomically (see [`write_atomically`]).
+pub fn write_exr(
+    path: &Path,
+    frame: &Frame,
+    opts: &ExrOptions,
+) -> Result<ExrWriteSummary, OutputError> {
+    let invalid = |reason: String| OutputError::Invalid {
+        path: path.to_owned(),
+        reason,
+    };
+    let (w, h) = (frame.width, frame.height);
+    if w == 0 || h == 0 {
+        return Err(invalid(format!("the frame is empty ({w}x{h})")));
+    }
+    if i32::try_from(w).is_err() || i32::try_from(h).is_err() {
+        return Err(invalid(format!(
+            "the frame is too large for OpenEXR ({w}x{h})"
+        )));
+    }
+    if frame.channels().is_empty() {
+        return Err(invalid("the frame has no channels".to_owned()));
+    }
+    if let Some(c) = frame
+        .channels()
+        .iter()
+        .find(|c| c.data().len() != frame.pixel_count())
+    {
+        return Err(invalid(format!(
+            "channel `{}` has {} samples, but the {w}x{h} frame needs {}",
+            c.name(),
+            c.data().len(),
+            frame.pixel_count()
+        )));
+    }
+
+    let window = frame.data_window();
+    let mut nan_count = 0;
+    let mut channels = Vec::with_capacity(frame.channels().len());
+    for channel in frame.channels() {
+        let depth = is_depth_channel(channel.name());
+        let fill = if depth { f32::INFINITY } else { 0.0 };
+        nan_count += channel.data().iter().filter(|v| v.is_nan()).count();
+        let cropped = channel
+            .data()
+            .chunks_exact(w)
+            .skip(window.y)
+            .take(window.height)
+            .flat_map(|row| row.iter().skip(window.x).take(window.width))
+            .map(|&v| if v.is_nan() { fill } else { v });
+        let samples = if depth || opts.float {
+            FlatSamples::F32(cropped.collect())
+        } else {
+            FlatSamples::F16(cropped.map(f16::from_f32).collect())
+        };
+        // pLinear is a hint for lossy compressors; like Nuke, mark nothing linear.
+        channels.push(AnyChannel {
+            quantize_linearly: false,
+            ..AnyChannel::new(text(channel.name()), samples)
+        });
+    }
+
+    let mut layer_attributes = LayerAttributes {
+        layer_position: Vec2(to_i32(window.x), to_i32(window.y)),
+        world_to_camera: opts.world_to_camera.map(flatten),
+        world_to_normalized_device: opts.world_to_ndc.map(flatten),
+        software_name: (!opts.software.is_empty()).then(|| text(&opts.software)),
+        ..LayerAttributes::default()
+    };
+    let other = &mut layer_attributes.other;
+    if let Some(seconds) = opts.render_time_seconds {
+        other.insert(text(RENDER_TIME), AttributeValue::F32(seconds as f32));
+    }
+    if let Some(input) = &opts.input_file {
+        other.insert(text(INPUT_FILE), AttributeValue::Text(text(input)));
+    }
+    if nan_count > 0 {
+        let count = i32::try_from(nan_count).unwrap_or(i32::MAX);
+        other.insert(text(NAN_COUNT), AttributeValue::I32(count));
+    }
+    for (name, value) in &opts.extra_strings {
+        check_extra_name(name).map_err(|why| invalid(format!("extra attribute `{name}` {why}")))?;
+        if other
+            .insert(text(name), AttributeValue::Text(text(value)))
+            .is_some()
+        {
+            return Err(invalid(format!("extra attribute `{name}` is given twice")));
+        }
+    }
+
+    let encoding = Encoding {
+        compression: opts.compression.to_exr(),
+        blocks: Blocks::ScanLines,
+        line_order: LineOrder::Increasing,
+    };
+    let layer = Layer::new(
+        (window.width, window.height),
+        layer_attributes,
+        encoding,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
+    );
+    let [red, green, blue, white] = REC709_CHROMATICITIES.map(|[x, y]| Vec2(x, y));
+    let image_attributes = ImageAttributes {
+        chromaticities: Some(Chromaticities {
+            red,
+            green,
+            blue,
+            white,
+        }),
+        ..ImageAttributes::new(IntegerBounds::from_dimensions((w, h)))
+    };
+    let image = Image::new(image_attributes, layer);
+
+    write_atomically(path, |temp| {
+        image
+            .write()
+            .to_file(temp)
+            .map_err(|source| OutputError::Exr {
+                path: path.to_owned(),
+                source,
+            })
+    })?;
+    Ok(ExrWriteSummary {
+        data_window: window,
+        nan_count,
+    })
+}
+
+/// EXR strings are byte strings; store UTF-8 bytes as they are.
+fn text(s: &str) -> Text {
+    Text::from_slice_unchecked(s.as_bytes())
+}
+
+/// Only called on values already checked to fit (frame size < i32::MAX).
+fn to_i32(v: usize) -> i32 {
+    i32::try_from(v).unwrap_or(i32::MAX)
+}
+
+fn flatten(m: [[f32; 4]; 4]) -> [f32; 16] {
+    let mut out = [0.0; 16];
+    for (dst, src) in out.iter_mut().zip(m.iter().flatten()) {
+        *dst = *src;
+    }
+    out
+}
+
+fn check_extra_name(name: &str) -> Result<(), &'static str> {
+    if name.is_empty() {
+        Err("has an empty name")
+    } else if name.len() > 255 {
+        Err("has a name longer than 255 bytes")
+    } else if name.chars().any(char::is_control) {
+        Err("has control characters in its name")
+    } else if [RENDER_TIME, INPUT_FILE, NAN_COUNT].contains(&name)
+        || standard_names::ALL.contains(&name.as_bytes())
+    {
+        Err("would replace a standard attribute")
+    } else {
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compression_names_round_trip() {
+        for c in ExrCompression::ALL {
+            assert_eq!(c.name().parse::<ExrCompression>().unwrap(), c);
+            assert_eq!(c.to_string(), c.name());
+        }
+        assert_eq!(
+            "ZIPS".parse::<ExrCompression>().unwrap(),
+            ExrCompression::Zips
+        );
+        assert_eq!(
+            " piz ".parse::<ExrCompression>().unwrap(),
+            ExrCompression::Piz
+        );
+        assert_eq!(ExrCompression::default(), ExrCompression::Zips);
+        let err = "b44".parse::<ExrCompression>().unwrap_err().to_string();
+        assert!(err.contains("`b44`") && err.contains("zips"), "{err}");
+        assert!("".parse::<ExrCompression>().is_err());
+    }
+
+    #[test]
+    fn compression_maps_to_openexr_methods() {
+        use exr::compression::Compression as C;
+        assert_eq!(ExrCompression::Zips.to_exr(), C::ZIP1);
+        assert_eq!(ExrCompression::Zip.to_exr(), C::ZIP16);
+        assert_eq!(ExrCompression::None.to_exr(), C::Uncompressed);
+    }
+
+    #[test]
+    fn matrices_are_stored_row_by_row() {
+        let m = [
+            [1.0, 2.0, 3.0, 4.0],
+            [5.0, 6.0, 7.0, 8.0],
+            [9.0, 10.0, 11.0, 12.0],
+            [13.0, 14.0, 15.0, 16.0],
+        ];
+        let f = flatten(m);
+        assert_eq!(f[1], 2.0);
+        assert_eq!(f[4], 5.0);
+        assert_eq!(f[15], 16.0);
+    }
+
+    #[test]
+    fn extra_names_cannot_shadow_standard_attributes() {
+        assert!(check_extra_name("murk/depthRule").is_ok());
+        for bad in [
+            "",
+            "channels",
+            "dataWindow",
+            "software",
+            "renderTime",
+            "murk/nanCount",
+        ] {
+            assert!(check_extra_name(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn rejects_empty_and_channelless_frames() {
+        let p = Path::new("/tmp/never-written.exr");
+        let e = write_exr(p, &Frame::new(0, 3), &ExrOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("/tmp/never-written.exr"), "{e}");
+        let e = write_exr(p, &Frame::new(2, 2), &ExrOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("no channels"), "{e}");
+        assert!(!p.exists());
+    }
+}

@@ -1,0 +1,18 @@
+//! Output: the rendered [`Frame`] (named float channels, Nuke-style layer
+//! names), written as one single-part scanline OpenEXR file ([`write_exr`]),
+//! as an 8-bit sRGB PNG preview ([`write_preview`]), always replacing the
+//! target atomically ([`write_atomically`], also for other writers).
+
+mod atomic;
+mod error;
+mod exr;
+mod frame;
+mod preview;
+
+pub use atomic::write_atomically;
+pub use error::OutputError;
+pub use exr::{ExrCompression, ExrOptions, ExrWriteSummary, REC709_CHROMATICITIES, write_exr};
+pub use frame::{Channel, Frame, PixelRect, is_depth_channel, names};
+pub use preview::{
+    Background, CHECKER_GREYS, CHECKER_SIZE, PreviewOptions, srgb_encode, to_u8, write_preview,
+};
