@@ -1,1 +1,6 @@
-//! TODO
+//! Tree traversal: rays cross a field's hierarchy cell by cell (hierarchical DDA),
+//! skipping cells where the field is zero and reporting each non-empty cell's value range.
+
+pub mod hdda;
+
+pub use hdda::{IndexRay, Span, Spans, clip_to_box};

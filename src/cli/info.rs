@@ -21,12 +21,8 @@ pub fn run(path: &Path, stats: bool, as_json: bool) -> Result<()> {
         "metadata": file.metadata.iter().map(|(k, v)| (k.clone(), Value::String(v.clone()))).collect::<serde_json::Map<_, _>>(),
         "grids": grids,
     });
-    if as_json {
-        println!("{}", serde_json::to_string_pretty(&doc)?);
-    } else {
-        print_table(&doc);
-    }
-    Ok(())
+    let text = if as_json { serde_json::to_string_pretty(&doc)? + "\n" } else { table(&doc) };
+    super::print_stdout(&text)
 }
 
 fn world_bbox(m: DMat4, lo: IVec3, hi: IVec3) -> (DVec3, DVec3) {
@@ -119,41 +115,48 @@ fn text(v: &Value) -> String {
     }
 }
 
-fn print_table(doc: &Value) {
-    println!("file:            {}", text(&doc["file"]));
-    println!("file version:    {}   library {}", text(&doc["file_version"]), text(&doc["library_version"]));
+macro_rules! wl {
+    ($o:expr, $($t:tt)*) => {{ let _ = writeln!($o, $($t)*); }};
+}
+
+fn table(doc: &Value) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    wl!(out, "file:            {}", text(&doc["file"]));
+    wl!(out, "file version:    {}   library {}", text(&doc["file_version"]), text(&doc["library_version"]));
     if let Some(m) = doc["metadata"].as_object() {
         for (k, v) in m {
-            println!("  {k}: {}", text(v));
+            wl!(out, "  {k}: {}", text(v));
         }
     }
-    let Some(grids) = doc["grids"].as_array() else { return };
+    let Some(grids) = doc["grids"].as_array() else { return out };
     for g in grids {
-        println!();
-        println!("grid \"{}\"", text(&g["unique_name"]));
-        let row = |k: &str, v: String| println!("  {k:<18}{v}");
-        row("value type", format!("{}{}", text(&g["value_type"]), if g["renderable"] == json!(false) { " (not renderable)" } else { "" }));
-        row("class", text(&g["class"]));
-        row("storage", if g["half"] == json!(true) { "half".into() } else { "float".into() });
-        row("compression", text(&g["compression"]));
-        row("active voxels", text(&g["active_voxel_count"]));
-        row("tiles", if g["tile_count"].is_null() { "- (needs --stats)".into() } else { text(&g["tile_count"]) });
-        row("index bbox", text(&g["index_bbox"]));
-        row("world bbox", text(&g["world_bbox"]));
-        row("voxel size", text(&g["voxel_size"]));
-        row("map", text(&g["map_type"]));
+        wl!(out, "");
+        wl!(out, "grid \"{}\"", text(&g["unique_name"]));
+        let row = |out: &mut String, k: &str, v: String| wl!(out, "  {k:<18}{v}");
+        row(&mut out, "value type", format!("{}{}", text(&g["value_type"]), if g["renderable"] == json!(false) { " (not renderable)" } else { "" }));
+        row(&mut out, "class", text(&g["class"]));
+        row(&mut out, "storage", if g["half"] == json!(true) { "half".into() } else { "float".into() });
+        row(&mut out, "compression", text(&g["compression"]));
+        row(&mut out, "active voxels", text(&g["active_voxel_count"]));
+        row(&mut out, "tiles", if g["tile_count"].is_null() { "- (needs --stats)".into() } else { text(&g["tile_count"]) });
+        row(&mut out, "index bbox", text(&g["index_bbox"]));
+        row(&mut out, "world bbox", text(&g["world_bbox"]));
+        row(&mut out, "voxel size", text(&g["voxel_size"]));
+        row(&mut out, "map", text(&g["map_type"]));
         if let Some(rows) = g["index_to_world"].as_array() {
             for (i, r) in rows.iter().enumerate() {
-                row(if i == 0 { "index→world" } else { "" }, text(r));
+                row(&mut out, if i == 0 { "index→world" } else { "" }, text(r));
             }
         }
         if let Some(s) = g.get("stats") {
-            row("leaves", text(&s["leaf_count"]));
-            row("tiles by level", text(&json!([s["active_tiles_by_level"]["1"], s["active_tiles_by_level"]["2"], s["active_tiles_by_level"]["3"]])));
-            row("min / max", format!("{} / {}", text(&s["min"]), text(&s["max"])));
-            row("mean", text(&s["mean"]));
-            row("NaN/Inf/negative", format!("{} / {} / {}", text(&s["nan_count"]), text(&s["inf_count"]), text(&s["negative_count"])));
-            row("render memory", format!("{:.2} MiB", s["render_memory_bytes"].as_f64().unwrap_or(0.0) / 1048576.0));
+            row(&mut out, "leaves", text(&s["leaf_count"]));
+            row(&mut out, "tiles by level", text(&json!([s["active_tiles_by_level"]["1"], s["active_tiles_by_level"]["2"], s["active_tiles_by_level"]["3"]])));
+            row(&mut out, "min / max", format!("{} / {}", text(&s["min"]), text(&s["max"])));
+            row(&mut out, "mean", text(&s["mean"]));
+            row(&mut out, "NaN/Inf/negative", format!("{} / {} / {}", text(&s["nan_count"]), text(&s["inf_count"]), text(&s["negative_count"])));
+            row(&mut out, "render memory", format!("{:.2} MiB", s["render_memory_bytes"].as_f64().unwrap_or(0.0) / 1048576.0));
         }
     }
+    out
 }

@@ -1,6 +1,7 @@
 //! Command-line parsing and dispatch. Errors are printed as one line; exit code 2.
 
 mod info;
+mod render;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -26,6 +27,14 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Render a .vdb (or a scene .toml that names one) to a multi-layer EXR.
+    #[command(after_help = render::EXAMPLES)]
+    Render {
+        /// A .vdb file, or a scene .toml (flags override what it says).
+        input: PathBuf,
+        #[command(flatten)]
+        options: Box<murk::render::RenderOptions>,
+    },
 }
 
 /// Runs the command line; returns the process exit code.
@@ -40,6 +49,7 @@ pub fn run() -> i32 {
     };
     let result = match cli.command {
         Command::Info { file, stats, json } => info::run(&file, stats, json),
+        Command::Render { input, options } => render::run(&input, *options),
     };
     match result {
         Ok(()) => 0,
@@ -52,4 +62,14 @@ pub fn run() -> i32 {
 
 fn one_line(s: &str) -> String {
     s.replace('\n', " ")
+}
+
+/// Writes to stdout; a closed pipe (`murk info ... | head`) is not an error.
+fn print_stdout(text: &str) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
 }

@@ -9,7 +9,7 @@
 //! the traversal can use them as majorants directly.
 
 use super::{Cell, Field, IndexBox, IndexToWorld, ValueRange};
-use glam::{IVec3, Vec3};
+use glam::{DVec3, IVec3, Vec3};
 
 pub(super) const CHILD: u32 = 1 << 31;
 pub(super) const LEAF_VOXELS: usize = 512;
@@ -17,7 +17,7 @@ pub(super) const LOWER_SLOTS: usize = 4096;
 pub(super) const UPPER_SLOTS: usize = 32768;
 
 /// Largest local index magnitude looked up; beyond it everything is background.
-const LOOKUP_LIMIT: f32 = (1 << 30) as f32;
+const LOOKUP_LIMIT: f64 = (1 << 30) as f64;
 
 /// Maps a 4096³ node key (`global >> 12`) to a root slot.
 #[derive(Clone, Debug)]
@@ -187,12 +187,12 @@ impl VoxelGrid {
     /// Trilinear value of channel `c` at a local index point, as OpenVDB's BoxSampler:
     /// values sit at integer points and blend with the weights of the fractional part.
     #[inline]
-    pub fn sample_channel(&self, p: Vec3, c: usize) -> f32 {
+    pub fn sample_channel(&self, p: DVec3, c: usize) -> f32 {
         if !(p.abs().max_element() < LOOKUP_LIMIT) || c >= self.channels {
             return if c < self.channels { self.tile_values[c] } else { 0.0 };
         }
         let f = p.floor();
-        let t = p - f;
+        let t = (p - f).as_vec3();
         let g = f.as_ivec3() + self.transform.origin;
         let ch = self.channels;
         let mut v = [0.0f32; 8];
@@ -230,7 +230,7 @@ impl VoxelGrid {
 
     /// Trilinear RGB / vector value at a local index point (channels 0..3; a scalar grid
     /// gives its value in all three).
-    pub fn sample_vec3(&self, p: Vec3) -> Vec3 {
+    pub fn sample_vec3(&self, p: DVec3) -> Vec3 {
         if self.channels < 3 {
             return Vec3::splat(self.sample_channel(p, 0));
         }
@@ -319,7 +319,7 @@ pub(crate) fn trilinear(v: &[f32; 8], t: Vec3) -> f32 {
 
 impl Field for VoxelGrid {
     #[inline]
-    fn value_at_index(&self, p: Vec3) -> f32 {
+    fn value_at_index(&self, p: DVec3) -> f32 {
         self.sample_channel(p, 0)
     }
 

@@ -6,7 +6,7 @@
 //!
 //! Coordinates come in two spaces:
 //! - **world** space, `DVec3` (f64), where cameras and lights live;
-//! - **local index** space, `Vec3` (f32): the grid's index space shifted by an integer
+//! - **local index** space, `DVec3` for points (f64): the grid's index space shifted by an integer
 //!   [`IndexToWorld::origin`] so that the numbers stay small (a grid stored near index 1e6
 //!   samples as precisely as one at 0). Voxel values sit at integer local-index points.
 
@@ -15,11 +15,12 @@ pub mod grid_build;
 pub mod procedural;
 pub mod shapes;
 pub mod transform;
+pub mod union;
 
 pub use grid::VoxelGrid;
 pub use transform::IndexToWorld;
 
-use glam::{IVec3, Vec3};
+use glam::{DVec3, IVec3, Vec3};
 
 /// An axis-aligned box in local index space, `min` inclusive, `max` exclusive for cells
 /// and inclusive for points (the box of the points a field can be non-zero at).
@@ -97,13 +98,13 @@ pub struct Cell {
 /// fields in [`procedural`] and the analytic shapes in [`shapes`].
 pub trait Field: Send + Sync {
     /// Trilinear value at a local index point.
-    fn value_at_index(&self, p: Vec3) -> f32;
+    fn value_at_index(&self, p: DVec3) -> f32;
 
     /// The map between local index space and world space.
     fn transform(&self) -> &IndexToWorld;
 
     /// Value at a world point.
-    fn value_at_world(&self, p: glam::DVec3) -> f32 {
+    fn value_at_world(&self, p: DVec3) -> f32 {
         self.value_at_index(self.transform().world_to_index(p))
     }
 

@@ -74,14 +74,9 @@ impl IndexToWorld {
         self.linear * p + self.local_translation
     }
 
-    /// Local index point of a world position (f64).
-    pub fn world_to_index_f64(&self, w: DVec3) -> DVec3 {
-        self.inverse * (w - self.local_translation)
-    }
-
     /// Local index point of a world position.
-    pub fn world_to_index(&self, w: DVec3) -> Vec3 {
-        self.world_to_index_f64(w).as_vec3()
+    pub fn world_to_index(&self, w: DVec3) -> DVec3 {
+        self.inverse * (w - self.local_translation)
     }
 
     /// A world direction expressed in local index space (not normalised).
@@ -137,7 +132,7 @@ mod tests {
         let p = Vec3::new(0.25, -3.5, 7.125);
         let w = t.index_to_world(p);
         let back = t.world_to_index(w);
-        assert!((back - p).abs().max_element() < 1e-5, "{back:?}");
+        assert!((back.as_vec3() - p).abs().max_element() < 1e-5, "{back:?}");
         // The global matrix maps global index (local + origin) to the same point.
         let g = t.matrix().transform_point3(p.as_dvec3() + origin.as_dvec3());
         assert!((g - w).abs().max_element() < 1e-6 * 4e5);

@@ -1,1 +1,303 @@
-//! TODO
+//! Rendering: camera, lights, the scene's grids in their roles, and the tiled pixel loop.
+//! [`run`] does a whole render: load → build → render → write, timing every stage.
+
+pub mod camera;
+pub mod light;
+pub mod options;
+pub mod pixels;
+pub mod plan;
+pub mod stats;
+
+pub use options::RenderOptions;
+pub use plan::RenderPlan;
+
+use crate::field::union::FieldUnion;
+use crate::field::{Field, VoxelGrid};
+use crate::integrate::blackbody::BlackbodyTable;
+use crate::integrate::{Companion, Emission, Illumination, MarchSettings, Medium, Volume};
+use crate::output::{Frame, names, write_atomically, write_exr, write_preview};
+use crate::shadow::density_integral;
+use crate::vdb::{ValueKind, VdbFile};
+use anyhow::{Context, Result, anyhow};
+use camera::{Camera, Projection};
+use glam::DVec3;
+use indicatif::{ProgressBar, ProgressStyle};
+use light::Light;
+use plan::{GridChoice, ShadowMode};
+use stats::{RenderStats, Sanitised, Stage};
+use std::io::IsTerminal;
+use std::time::Instant;
+
+/// Names grids get from Houdini, Blender and EmberGen, by role, in order of preference.
+pub const DENSITY_NAMES: &[&str] = &["density", "density_grid", "smoke", "soot"];
+pub const EMISSION_NAMES: &[&str] = &["flame", "flames", "fire", "emission", "fuel"];
+pub const TEMPERATURE_NAMES: &[&str] = &["temperature", "heat", "temp"];
+
+/// Picks the grid for a role: the one named, else the first usual name that exists.
+fn choose(file: &VdbFile, choice: &GridChoice, usual: &[&str], role: &str) -> Result<Option<String>> {
+    match choice {
+        GridChoice::Off => Ok(None),
+        GridChoice::Named(n) => {
+            let g = file.grid(n)?;
+            if g.kind != ValueKind::Scalar {
+                return Err(anyhow!("{}: grid \"{}\" ({}) cannot be the {role} grid: it must hold float values", file.path().display(), g.unique_name, g.value_type));
+            }
+            Ok(Some(g.unique_name.clone()))
+        }
+        GridChoice::Detect => Ok(usual
+            .iter()
+            .find_map(|n| file.grids().iter().find(|g| g.name.eq_ignore_ascii_case(n) && g.kind == ValueKind::Scalar))
+            .map(|g| g.unique_name.clone())),
+    }
+}
+
+/// Lights with shadows computed by marching toward them.
+struct MarchedLights<'a> {
+    lights: &'a [Light],
+    density: &'a dyn Field,
+    shadows: ShadowMode,
+    shadow_step: f64,
+    /// `∫ρ ds` past which transmittance is 0 for every channel.
+    enough: f64,
+}
+
+impl Illumination for MarchedLights<'_> {
+    fn light_count(&self) -> usize {
+        self.lights.len()
+    }
+    fn incident(&self, light: usize, x: DVec3) -> (DVec3, DVec3) {
+        self.lights[light].incident(x)
+    }
+    fn density_to_light(&self, light: usize, x: DVec3) -> f64 {
+        if self.shadows == ShadowMode::None {
+            return 0.0;
+        }
+        let (dir, dist) = self.lights[light].toward(x);
+        density_integral(self.density, x, dir, dist, self.shadow_step, self.enough)
+    }
+}
+
+fn resolve_camera(plan: &RenderPlan, density: &dyn Field) -> Result<Camera> {
+    let (lo, hi) = density.world_bounds();
+    let (lo, hi) = if density.active_bounds().is_empty() { (DVec3::splat(-1.0), DVec3::splat(1.0)) } else { (lo, hi) };
+    let req = &plan.camera;
+    let framed = Camera::framing(lo, hi, plan.width, plan.height, req.projection);
+    let mut cam = framed;
+    cam.up = req.up;
+    if let Some(look) = req.look_at {
+        cam.look_at = look;
+    }
+    if let Some(eye) = req.eye {
+        cam.eye = eye;
+    } else if req.look_at.is_some() {
+        cam.eye = cam.look_at + (framed.eye - framed.look_at);
+    }
+    if let Some(Projection::Orthographic { width }) = req.projection {
+        if width > 0.0 {
+            cam.projection = Projection::Orthographic { width };
+        }
+    }
+    cam.validate().map_err(|e| anyhow!(e))?;
+    Ok(cam)
+}
+
+/// Renders a plan and writes its outputs. Returns the stats (also written with --stats).
+pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
+    let start = Instant::now();
+    let mut st = RenderStats {
+        murk_version: env!("CARGO_PKG_VERSION").into(),
+        input: plan.input.display().to_string(),
+        output: plan.output.display().to_string(),
+        width: plan.width,
+        height: plan.height,
+        spp: plan.spp,
+        ..Default::default()
+    };
+    // Load: descriptors and metadata only.
+    let t = Instant::now();
+    let file = VdbFile::open(&plan.input)?;
+    st.stages.insert("load".into(), Stage::ran(t.elapsed().as_secs_f64()));
+
+    let density_name = choose(&file, &plan.density_grid, DENSITY_NAMES, "density")?.ok_or_else(|| {
+        anyhow!("{}: no density grid found (the file has: {}); name one with --density-grid", plan.input.display(), file.grid_list())
+    })?;
+    let emission_name = choose(&file, &plan.emission_grid, EMISSION_NAMES, "emission")?;
+    let temperature_name = choose(&file, &plan.temperature_grid, TEMPERATURE_NAMES, "temperature")?;
+    let medium = Medium { sigma_a: plan.sigma_a, sigma_s: plan.sigma_s, density_scale: plan.density_scale, g: plan.g };
+    let emission_wanted = emission_name.is_some() && plan.emission_intensity > 0.0 && plan.emission_color.max_element() > 0.0;
+    let temperature_wanted = temperature_name.is_some() && plan.blackbody_intensity > 0.0;
+    let emission_name = emission_name.filter(|_| emission_wanted);
+    let temperature_name = temperature_name.filter(|_| temperature_wanted);
+
+    // Build: decode only the grids in a role.
+    let t = Instant::now();
+    let load = |name: &String| VoxelGrid::load(&file, name);
+    let density = load(&density_name)?;
+    let emission_grid = emission_name.as_ref().map(load).transpose()?;
+    let temperature_grid = temperature_name.as_ref().map(load).transpose()?;
+    st.stages.insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
+    for (role, g) in [("density", Some(&density)), ("emission", emission_grid.as_ref()), ("temperature", temperature_grid.as_ref())] {
+        if let Some(g) = g {
+            st.grid_roles.insert(role.into(), g.name().into());
+            st.grids_decoded.push(g.name().into());
+            let s = g.stats();
+            st.sanitised.insert(g.name().into(), Sanitised { nan: s.nan, inf: s.inf, negative: s.negative });
+            st.sanitised_total += s.sanitised();
+            st.grid_memory_bytes += g.memory_bytes();
+        }
+    }
+    st.grids_not_decoded =
+        file.grids().iter().map(|g| g.unique_name.clone()).filter(|n| !st.grids_decoded.contains(n)).collect();
+
+    let camera = resolve_camera(plan, &density)?;
+    let mut traversal = FieldUnion::new(&density);
+    let mut emission = None;
+    if emission_grid.is_some() || temperature_grid.is_some() {
+        let eg = emission_grid.as_ref().map(|g| Companion::new(g, &density));
+        let tg = temperature_grid.as_ref().map(|g| Companion::new(g, &density));
+        for c in [eg, tg].into_iter().flatten() {
+            match c.offset() {
+                Some(o) => traversal = traversal.with(c.field, o.as_ivec3()),
+                None => st.notes.push("an emission grid is not on the density's lattice: it is sampled only where density is non-zero".into()),
+            }
+        }
+        emission = Some(Emission {
+            grid: eg,
+            color: plan.emission_color,
+            intensity: plan.emission_intensity,
+            temperature: tg,
+            temperature_scale: plan.temperature_scale,
+            temperature_offset: plan.temperature_offset,
+            blackbody_intensity: plan.blackbody_intensity,
+            table: BlackbodyTable::new(200.0, 40000.0, 2048),
+        });
+    }
+    let emits = emission.as_ref().is_some_and(|e| e.is_active());
+    let scatters = !plan.lights.is_empty() && medium.scatters();
+    st.stages.insert(
+        "emission".into(),
+        if emits { Stage::ran(0.0) } else { Stage::skipped("no emission or temperature grid in the scene") },
+    );
+    let scatter_reason = if plan.lights.is_empty() { "no lights" } else { "sigma_s is 0" };
+    st.stages.insert("scatter".into(), if scatters { Stage::ran(0.0) } else { Stage::skipped(scatter_reason) });
+    st.shadows = match (scatters, plan.shadows) {
+        (false, _) => format!("skipped: {scatter_reason}"),
+        (true, ShadowMode::None) => "none".into(),
+        (true, ShadowMode::March) => "march".into(),
+    };
+    st.stages.insert(
+        "shadows".into(),
+        if !scatters {
+            Stage::skipped(scatter_reason)
+        } else if plan.shadows == ShadowMode::None {
+            Stage::skipped("--shadows none")
+        } else {
+            Stage { status: "ran: marched per sample (inside render)".into(), seconds: 0.0 }
+        },
+    );
+    if let Some(n) = &plan.shadows_note {
+        st.notes.push(n.clone());
+    }
+    st.lights = plan.lights.iter().map(|l| l.name.clone()).collect();
+    let volume = Volume { density: &density, medium, emission, traversal: &traversal };
+    let sigma_t_min = medium.sigma_t().min_element().max(1e-30);
+    let lights = MarchedLights {
+        lights: &plan.lights,
+        density: &density,
+        shadows: plan.shadows,
+        shadow_step: plan.shadow_step,
+        enough: 40.0 / sigma_t_min,
+    };
+    let light_count = if scatters { plan.lights.len() } else { 0 };
+    let job = pixels::PixelJob {
+        volume: &volume,
+        lights: scatters.then_some(&lights as &dyn Illumination),
+        light_count,
+        camera: &camera,
+        settings: MarchSettings { step_voxels: plan.step, termination: plan.termination },
+        spp: plan.spp,
+        seed: plan.seed,
+    };
+
+    // Render.
+    let t = Instant::now();
+    let tiles = (plan.width.div_ceil(pixels::TILE) * plan.height.div_ceil(pixels::TILE)) as u64;
+    let progress = if plan.quiet || !std::io::stderr().is_terminal() { ProgressBar::hidden() } else { ProgressBar::new(tiles) };
+    progress.set_style(
+        ProgressStyle::with_template("{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed} (eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(plan.threads.unwrap_or(0)).build().context("starting worker threads")?;
+    let passes = pool.install(|| pixels::render_pixels(&job, &progress));
+    progress.finish_and_clear();
+    let render_seconds = t.elapsed().as_secs_f64();
+    st.stages.insert("render".into(), Stage::ran(render_seconds));
+    st.rays = passes.rays;
+    st.samples = passes.samples;
+    st.samples_per_second = passes.samples as f64 / render_seconds.max(1e-9);
+
+    // Write.
+    let t = Instant::now();
+    let mut frame = Frame::new(plan.width, plan.height);
+    let n = plan.width * plan.height;
+    let sum3 = |c: usize| -> Vec<f32> { (0..n).map(|i| passes.emission[c][i] + passes.scatter[c][i]).collect() };
+    frame.add_channel(names::R, sum3(0))?;
+    frame.add_channel(names::G, sum3(1))?;
+    frame.add_channel(names::B, sum3(2))?;
+    frame.add_channel(names::A, passes.alpha.clone())?;
+    frame.add_channel(names::Z, passes.depth.clone())?;
+    let add_layer = |frame: &mut Frame, layer: &str, planes: &[Vec<f32>; 3]| -> Result<()> {
+        for (name, plane) in names::layer_rgb(layer).into_iter().zip(planes) {
+            frame.add_channel(&name, plane.clone())?;
+        }
+        Ok(())
+    };
+    if emits {
+        add_layer(&mut frame, names::EMISSION, &passes.emission)?;
+    }
+    if scatters {
+        add_layer(&mut frame, names::SCATTER, &passes.scatter)?;
+        if plan.lights.len() > 1 {
+            for (l, planes) in plan.lights.iter().zip(&passes.per_light) {
+                add_layer(&mut frame, &format!("scatter_{}", l.name), planes)?;
+            }
+        }
+    }
+    let mut exr = plan.exr.clone();
+    exr.render_time_seconds = Some(start.elapsed().as_secs_f64());
+    exr.world_to_camera = Some(camera.world_to_camera().as_mat4().to_cols_array_2d());
+    let (near, far) = depth_range(&camera, &density);
+    exr.world_to_ndc = Some(camera.world_to_ndc(near, far).as_mat4().to_cols_array_2d());
+    exr.extra_strings.push((
+        "murk/depthRule".into(),
+        "Z is the camera-space distance along the view axis where accumulated alpha first reaches 0.5; +inf where it never does".into(),
+    ));
+    write_exr(&plan.output, &frame, &exr)?;
+    if let Some((path, opts)) = &plan.preview {
+        write_preview(path, &frame, opts)?;
+    }
+    st.channels = frame.channel_names().iter().map(|s| s.to_string()).collect();
+    st.stages.insert("write".into(), Stage::ran(t.elapsed().as_secs_f64()));
+    st.total_seconds = start.elapsed().as_secs_f64();
+    if let Some(path) = &plan.stats {
+        let text = serde_json::to_string_pretty(&st)?;
+        write_atomically(path, |tmp| std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display())))?;
+    }
+    Ok(st)
+}
+
+/// Near and far planes that bracket the density (for the worldToNDC attribute).
+fn depth_range(camera: &Camera, density: &dyn Field) -> (f64, f64) {
+    let (lo, hi) = density.world_bounds();
+    let w2c = camera.world_to_camera();
+    let mut far: f64 = 1e-3;
+    for c in 0..8 {
+        let p = DVec3::new(
+            if c & 1 == 0 { lo.x } else { hi.x },
+            if c & 2 == 0 { lo.y } else { hi.y },
+            if c & 4 == 0 { lo.z } else { hi.z },
+        );
+        far = far.max(-w2c.transform_point3(p).z);
+    }
+    ((far * 1e-4).max(1e-4), far * 1.01 + 1e-3)
+}

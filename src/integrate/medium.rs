@@ -1,0 +1,111 @@
+//! What the volume is made of: coefficients, and the fields that feed the integral.
+
+use crate::field::Field;
+use crate::integrate::blackbody::BlackbodyTable;
+use glam::DVec3;
+
+/// Absorption and scattering per world unit at density 1 (RGB), a density scale and the
+/// Henyey–Greenstein anisotropy.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Medium {
+    pub sigma_a: DVec3,
+    pub sigma_s: DVec3,
+    pub density_scale: f64,
+    pub g: f64,
+}
+
+impl Medium {
+    /// Extinction per world unit at density 1 (scale applied).
+    pub fn sigma_t(&self) -> DVec3 {
+        (self.sigma_a + self.sigma_s) * self.density_scale
+    }
+    /// Scattering per world unit at density 1 (scale applied).
+    pub fn sigma_s_scaled(&self) -> DVec3 {
+        self.sigma_s * self.density_scale
+    }
+    pub fn scatters(&self) -> bool {
+        self.sigma_s_scaled().max_element() > 0.0
+    }
+}
+
+/// A field sampled at the density's sample points. When the field shares the density
+/// grid's lattice (same index→world map), the density's local index point is shifted by
+/// an integer offset; otherwise the world point is mapped.
+#[derive(Clone, Copy)]
+pub struct Companion<'a> {
+    pub field: &'a dyn Field,
+    offset: Option<DVec3>,
+}
+
+impl<'a> Companion<'a> {
+    pub fn new(field: &'a dyn Field, density: &dyn Field) -> Self {
+        let (a, b) = (field.transform(), density.transform());
+        let offset = (a.linear() == b.linear() && a.matrix().w_axis == b.matrix().w_axis)
+            .then(|| (b.origin - a.origin).as_dvec3());
+        Companion { field, offset }
+    }
+
+    /// True if the companion is on the density's lattice (its cells line up).
+    pub fn same_lattice(&self) -> bool {
+        self.offset.is_some()
+    }
+
+    pub fn offset(&self) -> Option<DVec3> {
+        self.offset
+    }
+
+    #[inline]
+    pub fn value(&self, p_density_index: DVec3, p_world: DVec3) -> f32 {
+        match self.offset {
+            Some(o) => self.field.value_at_index(p_density_index + o),
+            None => self.field.value_at_world(p_world),
+        }
+    }
+}
+
+/// Light emitted by the volume, per world unit (an emission coefficient, as Cycles
+/// defines it: it glows whether or not there is density).
+#[derive(Clone)]
+pub struct Emission<'a> {
+    /// `emission_grid × color × intensity`.
+    pub grid: Option<Companion<'a>>,
+    pub color: DVec3,
+    pub intensity: f64,
+    /// Blackbody emission from a temperature grid: Kelvin = value × scale + offset; the
+    /// colour is the luminance-normalised blackbody colour times `blackbody_intensity`
+    /// times (K / 1000)^4, so hotter is brighter as in Cycles' Principled Volume.
+    pub temperature: Option<Companion<'a>>,
+    pub temperature_scale: f64,
+    pub temperature_offset: f64,
+    pub blackbody_intensity: f64,
+    pub table: BlackbodyTable,
+}
+
+impl Emission<'_> {
+    pub fn is_active(&self) -> bool {
+        (self.grid.is_some() && self.intensity > 0.0 && self.color.max_element() > 0.0)
+            || (self.temperature.is_some() && self.blackbody_intensity > 0.0)
+    }
+
+    /// Emission coefficient (RGB per world unit) at a sample point.
+    #[inline]
+    pub fn at(&self, p: DVec3, w: DVec3) -> DVec3 {
+        let mut e = DVec3::ZERO;
+        if let Some(c) = &self.grid {
+            let v = c.value(p, w) as f64;
+            if v > 0.0 {
+                e += self.color * (v * self.intensity);
+            }
+        }
+        if let Some(c) = &self.temperature {
+            let v = c.value(p, w) as f64;
+            let k = v * self.temperature_scale + self.temperature_offset;
+            if k > 0.0 && k.is_finite() {
+                let rgb = DVec3::from_array(self.table.rgb_normalized(k));
+                let brightness = (k / 1000.0).powi(4) * self.blackbody_intensity;
+                e += rgb * brightness;
+            }
+        }
+        e
+    }
+}

@@ -1,0 +1,146 @@
+//! The pixel loop: 16×16 tiles in parallel (rayon), each pixel integrated by the march.
+
+use super::camera::Camera;
+use crate::integrate::{Illumination, MarchSettings, Scratch, Volume, march};
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+pub const TILE: usize = 16;
+
+/// Per-pixel results, one flat array per quantity.
+#[derive(Clone, Debug, Default)]
+pub struct PixelPasses {
+    pub width: usize,
+    pub height: usize,
+    pub alpha: Vec<f32>,
+    pub emission: [Vec<f32>; 3],
+    pub scatter: [Vec<f32>; 3],
+    /// Per light, RGB.
+    pub per_light: Vec<[Vec<f32>; 3]>,
+    /// Camera-space depth where opacity crosses 0.5, +inf where it never does.
+    pub depth: Vec<f32>,
+    pub rays: u64,
+    pub samples: u64,
+}
+
+/// A deterministic hash of a pixel sample to [0, 1) (splitmix64).
+pub fn unit_random(seed: u64, x: usize, y: usize, s: u32, k: u32) -> f64 {
+    let mut z = seed
+        .wrapping_add((x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+        .wrapping_add((y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F))
+        .wrapping_add(((s as u64) << 32 | k as u64).wrapping_mul(0x1656_67B1_9E37_79F9));
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64
+}
+
+pub struct PixelJob<'a> {
+    pub volume: &'a Volume<'a>,
+    pub lights: Option<&'a dyn Illumination>,
+    pub light_count: usize,
+    pub camera: &'a Camera,
+    pub settings: MarchSettings,
+    pub spp: u32,
+    pub seed: u64,
+}
+
+/// Renders every pixel.
+pub fn render_pixels(job: &PixelJob, progress: &ProgressBar) -> PixelPasses {
+    let (w, h) = (job.camera.width, job.camera.height);
+    let nl = job.light_count;
+    let stride = 1 + 3 + 3 + 3 * nl + 1;
+    let tiles_x = w.div_ceil(TILE);
+    let tiles = tiles_x * h.div_ceil(TILE);
+    let frame = job.camera.frame();
+    let samples = AtomicU64::new(0);
+    let results: Vec<(usize, Vec<f32>)> = (0..tiles)
+        .into_par_iter()
+        .map_init(
+            || Scratch::new(nl),
+            |scratch, tile| {
+                let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
+                let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+                let mut out = vec![0f32; (x1 - x0) * (y1 - y0) * stride];
+                let mut tile_samples = 0;
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let px = &mut out[((y - y0) * (x1 - x0) + (x - x0)) * stride..][..stride];
+                        let mut acc = vec![0f64; stride - 1];
+                        let (mut depth_sum, mut depth_n) = (0.0, 0u32);
+                        for s in 0..job.spp {
+                            let (jx, jy) = if job.spp == 1 {
+                                (0.5, 0.5)
+                            } else {
+                                (unit_random(job.seed, x, y, s, 1), unit_random(job.seed, x, y, s, 2))
+                            };
+                            let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
+                            let u = unit_random(job.seed, x, y, s, 0);
+                            let r = march(job.volume, job.lights, o, d, (0.0, f64::INFINITY), &job.settings, u, scratch);
+                            tile_samples += r.samples;
+                            acc[0] += r.alpha();
+                            for c in 0..3 {
+                                acc[1 + c] += r.emission[c];
+                                acc[4 + c] += r.scatter[c];
+                            }
+                            for (l, v) in scratch.per_light.iter().enumerate().take(nl) {
+                                for c in 0..3 {
+                                    acc[7 + 3 * l + c] += v[c];
+                                }
+                            }
+                            if let Some(t) = r.half_opacity_t {
+                                depth_sum += t * d.dot(frame.forward);
+                                depth_n += 1;
+                            }
+                        }
+                        let inv = 1.0 / job.spp as f64;
+                        for (dst, a) in px.iter_mut().zip(&acc) {
+                            let v = (a * inv) as f32;
+                            *dst = if v.is_finite() { v } else { 0.0 };
+                        }
+                        px[stride - 1] = if depth_n > 0 { (depth_sum / depth_n as f64) as f32 } else { f32::INFINITY };
+                    }
+                }
+                samples.fetch_add(tile_samples, Ordering::Relaxed);
+                progress.inc(1);
+                (tile, out)
+            },
+        )
+        .collect();
+    let n = w * h;
+    let plane = || vec![0f32; n];
+    let mut p = PixelPasses {
+        width: w,
+        height: h,
+        alpha: plane(),
+        emission: [plane(), plane(), plane()],
+        scatter: [plane(), plane(), plane()],
+        per_light: (0..nl).map(|_| [plane(), plane(), plane()]).collect(),
+        depth: vec![f32::INFINITY; n],
+        rays: (n as u64) * job.spp as u64,
+        samples: samples.load(Ordering::Relaxed),
+    };
+    for (tile, out) in results {
+        let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
+        let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let px = &out[((y - y0) * (x1 - x0) + (x - x0)) * stride..][..stride];
+                let i = y * w + x;
+                p.alpha[i] = px[0];
+                for c in 0..3 {
+                    p.emission[c][i] = px[1 + c];
+                    p.scatter[c][i] = px[4 + c];
+                }
+                for l in 0..nl {
+                    for c in 0..3 {
+                        p.per_light[l][c][i] = px[7 + 3 * l + c];
+                    }
+                }
+                p.depth[i] = px[stride - 1];
+            }
+        }
+    }
+    p
+}

@@ -1,0 +1,240 @@
+//! Turns [`RenderOptions`] into a validated [`RenderPlan`]: every number checked, every
+//! default filled in, before anything is loaded.
+
+use super::camera::Projection;
+use super::light::{DEFAULT_LIGHT, Light, parse_vec3};
+use super::options::RenderOptions;
+use crate::output::{Background, ExrCompression, ExrOptions, PreviewOptions};
+use glam::DVec3;
+use std::path::PathBuf;
+
+/// How light transmittance is found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadowMode {
+    /// A shadow ray per sample and light.
+    March,
+    /// No shadows (lights reach every point unattenuated).
+    None,
+}
+
+/// A grid role as requested: detect it, use this grid, or leave it out.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum GridChoice {
+    Detect,
+    Named(String),
+    Off,
+}
+
+impl GridChoice {
+    fn from(v: &Option<String>) -> GridChoice {
+        match v.as_deref() {
+            None => GridChoice::Detect,
+            Some("none") | Some("") => GridChoice::Off,
+            Some(n) => GridChoice::Named(n.to_string()),
+        }
+    }
+}
+
+/// The camera as far as it can be known before the grid's bounds are.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraRequest {
+    pub projection: Option<Projection>,
+    pub eye: Option<DVec3>,
+    pub look_at: Option<DVec3>,
+    pub up: DVec3,
+}
+
+#[derive(Clone, Debug)]
+pub struct RenderPlan {
+    pub input: PathBuf,
+    pub output: PathBuf,
+    pub width: usize,
+    pub height: usize,
+    pub camera: CameraRequest,
+    pub density_grid: GridChoice,
+    pub emission_grid: GridChoice,
+    pub temperature_grid: GridChoice,
+    pub sigma_a: DVec3,
+    pub sigma_s: DVec3,
+    pub density_scale: f64,
+    pub g: f64,
+    pub emission_color: DVec3,
+    pub emission_intensity: f64,
+    pub temperature_scale: f64,
+    pub temperature_offset: f64,
+    pub blackbody_intensity: f64,
+    pub lights: Vec<Light>,
+    pub shadows: ShadowMode,
+    /// What the user asked for, when it differs from what runs (e.g. dsm → march).
+    pub shadows_note: Option<String>,
+    pub step: f64,
+    pub shadow_step: f64,
+    pub termination: f64,
+    pub spp: u32,
+    pub seed: u64,
+    pub threads: Option<usize>,
+    pub exr: ExrOptions,
+    pub preview: Option<(PathBuf, PreviewOptions)>,
+    pub stats: Option<PathBuf>,
+    pub quiet: bool,
+}
+
+fn positive(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
+    let v = v.unwrap_or(default);
+    if v > 0.0 && v.is_finite() { Ok(v) } else { Err(format!("{what} must be a positive number, not {v}")) }
+}
+
+fn non_negative(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
+    let v = v.unwrap_or(default);
+    if v >= 0.0 && v.is_finite() { Ok(v) } else { Err(format!("{what} must be a non-negative number, not {v}")) }
+}
+
+fn colour(v: &Option<String>, default: DVec3, what: &str) -> Result<DVec3, String> {
+    let c = match v {
+        Some(s) => parse_vec3(s, what)?,
+        None => default,
+    };
+    if c.min_element() < 0.0 {
+        return Err(format!("{what} must not be negative"));
+    }
+    Ok(c)
+}
+
+fn resolution(v: &Option<String>) -> Result<(usize, usize), String> {
+    let Some(s) = v else { return Ok((640, 360)) };
+    let bad = || format!("--res \"{s}\" is not WxH with sizes from 1 to 16384");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: usize = w.trim().parse().map_err(|_| bad())?;
+    let h: usize = h.trim().parse().map_err(|_| bad())?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
+impl RenderPlan {
+    /// Validates options; `input` is the VDB file (from the command line or the scene).
+    pub fn new(o: &RenderOptions, input: PathBuf) -> Result<RenderPlan, String> {
+        let output = o.output.clone().ok_or("no output file: give -o OUT.exr (or `output` in the scene file)")?;
+        let (width, height) = resolution(&o.res)?;
+        let projection = match o.camera.as_deref() {
+            None if o.ortho_width.is_some() => Some(Projection::Orthographic { width: positive(o.ortho_width, 1.0, "--ortho-width")? }),
+            None => o.fov.map(|f| Projection::Perspective { fov_deg: f }),
+            Some("persp") | Some("perspective") => Some(Projection::Perspective { fov_deg: o.fov.unwrap_or(40.0) }),
+            Some("ortho") | Some("orthographic") => match o.ortho_width {
+                Some(w) => Some(Projection::Orthographic { width: positive(Some(w), 1.0, "--ortho-width")? }),
+                None => Some(Projection::Orthographic { width: 0.0 }),
+            },
+            Some(other) => return Err(format!("--camera \"{other}\": expected persp or ortho")),
+        };
+        if let Some(Projection::Perspective { fov_deg }) = projection {
+            if !(fov_deg > 0.0 && fov_deg < 180.0) {
+                return Err(format!("--fov {fov_deg} is outside (0, 180) degrees"));
+            }
+        }
+        let vec = |v: &Option<String>, what: &str| v.as_ref().map(|s| parse_vec3(s, what)).transpose();
+        let camera = CameraRequest {
+            projection,
+            eye: vec(&o.eye, "--eye")?,
+            look_at: vec(&o.look_at, "--look-at")?,
+            up: vec(&o.up, "--up")?.unwrap_or(DVec3::Y),
+        };
+        let g = o.g.unwrap_or(0.0);
+        if !(g > -1.0 && g < 1.0) {
+            return Err(format!("--g {g} must lie in (-1, 1)"));
+        }
+        let mut lights = Vec::new();
+        if !o.no_lights {
+            if !o.lights.is_empty() {
+                for l in &o.lights {
+                    lights.push(Light::parse(&l.spec, l.name.clone())?);
+                }
+            } else {
+                let specs = if o.light.is_empty() { vec![DEFAULT_LIGHT.to_string()] } else { o.light.clone() };
+                let (mut suns, mut points) = (0, 0);
+                for s in &specs {
+                    let name = if s.starts_with("point") {
+                        points += 1;
+                        format!("point{}", points - 1)
+                    } else {
+                        suns += 1;
+                        format!("sun{}", suns - 1)
+                    };
+                    lights.push(Light::parse(s, name)?);
+                }
+            }
+        }
+        let (shadows, shadows_note) = match o.shadows.as_deref().unwrap_or("march") {
+            "march" => (ShadowMode::March, None),
+            "none" => (ShadowMode::None, None),
+            "dsm" => (ShadowMode::March, Some("dsm requested: the deep shadow map is not built yet, shadows were marched".to_string())),
+            other => return Err(format!("--shadows \"{other}\": expected march, dsm or none")),
+        };
+        let termination = o.termination.unwrap_or(1e-4);
+        if !(0.0..1.0).contains(&termination) {
+            return Err(format!("--termination {termination} must lie in [0, 1)"));
+        }
+        let spp = o.spp.unwrap_or(1);
+        if spp == 0 || spp > 4096 {
+            return Err(format!("--spp {spp} must be from 1 to 4096"));
+        }
+        if o.threads == Some(0) {
+            return Err("--threads must be at least 1".into());
+        }
+        let compression = match &o.compression {
+            Some(c) => c.parse::<ExrCompression>().map_err(|e| e.to_string())?,
+            None => ExrCompression::default(),
+        };
+        let preview = match &o.preview {
+            Some(p) => {
+                let background = match &o.background {
+                    Some(b) => b.parse::<Background>().map_err(|e| e.to_string())?,
+                    None => Background::Checker,
+                };
+                let exposure = o.exposure.unwrap_or(0.0);
+                if !exposure.is_finite() {
+                    return Err("--exposure must be a finite number".into());
+                }
+                Some((p.clone(), PreviewOptions { exposure, background }))
+            }
+            None => None,
+        };
+        Ok(RenderPlan {
+            input: input.clone(),
+            output,
+            width,
+            height,
+            camera,
+            density_grid: GridChoice::from(&o.density_grid),
+            emission_grid: GridChoice::from(&o.emission_grid),
+            temperature_grid: GridChoice::from(&o.temperature_grid),
+            sigma_a: colour(&o.sigma_a, DVec3::splat(0.1), "--sigma-a")?,
+            sigma_s: colour(&o.sigma_s, DVec3::splat(2.0), "--sigma-s")?,
+            density_scale: non_negative(o.density_scale, 1.0, "--density-scale")?,
+            g,
+            emission_color: colour(&o.emission_color, DVec3::new(1.0, 0.45, 0.12), "--emission-color")?,
+            emission_intensity: non_negative(o.emission_intensity, 4.0, "--emission-intensity")?,
+            temperature_scale: non_negative(o.temperature_scale, 1.0, "--temperature-scale")?,
+            temperature_offset: o.temperature_offset.filter(|v| v.is_finite()).unwrap_or(0.0),
+            blackbody_intensity: non_negative(o.blackbody_intensity, 0.05, "--blackbody-intensity")?,
+            lights,
+            shadows,
+            shadows_note,
+            step: positive(o.step, 0.5, "--step")?,
+            shadow_step: positive(o.shadow_step, 1.0, "--shadow-step")?,
+            termination,
+            spp,
+            seed: o.seed.unwrap_or(0),
+            threads: o.threads,
+            exr: ExrOptions {
+                compression,
+                float: o.float,
+                input_file: Some(input.display().to_string()),
+                ..ExrOptions::default()
+            },
+            preview,
+            stats: o.stats.clone(),
+            quiet: o.quiet,
+        })
+    }
+}

@@ -1,0 +1,61 @@
+//! What a render did, written with `--stats FILE.json`. Keys are stable (see README).
+
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// A pipeline stage: whether it ran, and how long it took.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Stage {
+    /// `ran`, or `skipped: <reason>`.
+    pub status: String,
+    pub seconds: f64,
+}
+
+impl Stage {
+    pub fn ran(seconds: f64) -> Stage {
+        Stage { status: "ran".into(), seconds }
+    }
+    pub fn skipped(reason: &str) -> Stage {
+        Stage { status: format!("skipped: {reason}"), seconds: 0.0 }
+    }
+}
+
+/// Bad voxels replaced by 0 in one grid.
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct Sanitised {
+    pub nan: u64,
+    pub inf: u64,
+    pub negative: u64,
+}
+
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct RenderStats {
+    pub murk_version: String,
+    pub input: String,
+    pub output: String,
+    pub width: usize,
+    pub height: usize,
+    pub spp: u32,
+    /// Stage name → status and time: load, build, shadows, emission, scatter, render, write.
+    pub stages: BTreeMap<String, Stage>,
+    /// Role → grid name (`density`, `emission`, `temperature`), for the roles filled.
+    pub grid_roles: BTreeMap<String, String>,
+    /// Grids decoded from the file.
+    pub grids_decoded: Vec<String>,
+    /// Grids in the file never decoded (nobody referenced them).
+    pub grids_not_decoded: Vec<String>,
+    /// Grid → voxels sanitised at load.
+    pub sanitised: BTreeMap<String, Sanitised>,
+    pub sanitised_total: u64,
+    /// Render-structure memory of the decoded grids, bytes.
+    pub grid_memory_bytes: usize,
+    pub lights: Vec<String>,
+    pub shadows: String,
+    /// EXR channels written.
+    pub channels: Vec<String>,
+    pub rays: u64,
+    pub samples: u64,
+    pub samples_per_second: f64,
+    pub total_seconds: f64,
+    pub notes: Vec<String>,
+}
