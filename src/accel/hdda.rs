@@ -6,35 +6,8 @@
 //! the coarsest cell containing the current point (a 4096³ root gap, a 128³ or 8³ tile,
 //! or an 8³ leaf) and jumps to that cell's exit: empty cells are skipped at every level.
 
-use crate::field::{Field, IndexBox, ValueRange};
-use glam::{DVec3, IVec3};
-
-/// A ray in a field's local index space, parameterised by world distance.
-#[derive(Clone, Copy, Debug)]
-pub struct IndexRay {
-    /// Local index point at `t = 0`.
-    pub origin: DVec3,
-    /// Index units per world unit along the ray.
-    pub dir: DVec3,
-}
-
-impl IndexRay {
-    /// The ray `world_origin + t · world_dir` (world_dir unit length) in `field`'s index space.
-    pub fn new(field: &dyn Field, world_origin: DVec3, world_dir: DVec3) -> Self {
-        let tr = field.transform();
-        IndexRay { origin: tr.world_to_index(world_origin), dir: tr.world_dir_to_index(world_dir) }
-    }
-
-    #[inline]
-    pub fn at(&self, t: f64) -> DVec3 {
-        self.origin + self.dir * t
-    }
-
-    /// Index units travelled per world unit.
-    pub fn index_speed(&self) -> f64 {
-        self.dir.length()
-    }
-}
+use crate::field::{Field, IndexBox, IndexRay, ValueRange};
+use glam::IVec3;
 
 /// The parameter interval `[t0, t1]` (within `[t_min, t_max]`) where the ray is inside
 /// `b`, or `None`. Direction components of +0 and −0 are handled: the ray is then inside
@@ -95,10 +68,18 @@ const MAX_CELLS: u32 = 1 << 20;
 impl<'a> Spans<'a> {
     /// Spans of `ray` within `[t_min, t_max]` and the field's active bounds.
     pub fn new(field: &'a dyn Field, ray: IndexRay, t_min: f64, t_max: f64) -> Self {
-        let (t, t_end) = clip_to_box(&ray, &field.active_bounds(), t_min, t_max).unwrap_or((0.0, 0.0));
+        let (t, t_end) =
+            clip_to_box(&ray, &field.active_bounds(), t_min, t_max).unwrap_or((0.0, 0.0));
         let speed = ray.index_speed().max(1e-300);
         let scale = ray.origin.abs().max_element().max(1.0);
-        Spans { field, ray, t, t_end, min_step: 1e-9 * scale / speed, budget: MAX_CELLS }
+        Spans {
+            field,
+            ray,
+            t,
+            t_end,
+            min_step: 1e-9 * scale / speed,
+            budget: MAX_CELLS,
+        }
     }
 
     /// The voxel containing the ray just after `t`: on a face, the cell the ray is
@@ -108,7 +89,11 @@ impl<'a> Spans<'a> {
         let pick = |p: f64, d: f64| if d < 0.0 { p.ceil() - 1.0 } else { p.floor() };
         let lim = (1i64 << 30) as f64;
         let c = |p: f64, d: f64| pick(p, d).clamp(-lim, lim) as i32;
-        IVec3::new(c(p.x, self.ray.dir.x), c(p.y, self.ray.dir.y), c(p.z, self.ray.dir.z))
+        IVec3::new(
+            c(p.x, self.ray.dir.x),
+            c(p.y, self.ray.dir.y),
+            c(p.z, self.ray.dir.z),
+        )
     }
 
     fn cell_exit(&self, origin: IVec3, size: i32) -> f64 {
@@ -118,7 +103,11 @@ impl<'a> Spans<'a> {
             if d == 0.0 {
                 continue;
             }
-            let face = if d > 0.0 { (origin[a] as f64) + size as f64 } else { origin[a] as f64 };
+            let face = if d > 0.0 {
+                (origin[a] as f64) + size as f64
+            } else {
+                origin[a] as f64
+            };
             t_exit = t_exit.min((face - self.ray.origin[a]) / d);
         }
         t_exit
@@ -133,11 +122,20 @@ impl Iterator for Spans<'_> {
             self.budget -= 1;
             let cell = self.field.cell_at(self.voxel_ahead(self.t));
             let exit = self.cell_exit(cell.origin, cell.size);
-            let t1 = if exit.is_nan() { self.t_end } else { exit.max(self.t + self.min_step).min(self.t_end) };
+            let t1 = if exit.is_nan() {
+                self.t_end
+            } else {
+                exit.max(self.t + self.min_step).min(self.t_end)
+            };
             let t0 = self.t;
             self.t = t1;
             if !cell.range.is_zero() {
-                return Some(Span { t0, t1, range: cell.range, cell_size: cell.size });
+                return Some(Span {
+                    t0,
+                    t1,
+                    range: cell.range,
+                    cell_size: cell.size,
+                });
             }
         }
         None

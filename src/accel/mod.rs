@@ -3,4 +3,5 @@
 
 pub mod hdda;
 
-pub use hdda::{IndexRay, Span, Spans, clip_to_box};
+pub use crate::field::IndexRay;
+pub use hdda::{Span, Spans, clip_to_box};

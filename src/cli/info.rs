@@ -11,7 +11,11 @@ pub fn run(path: &Path, stats: bool, as_json: bool) -> Result<()> {
     let file = VdbFile::open(path)?;
     let mut grids = Vec::new();
     for g in file.grids() {
-        let built = if stats && g.kind != ValueKind::Unsupported { Some(VoxelGrid::load(&file, &g.unique_name)?) } else { None };
+        let built = if stats && g.kind != ValueKind::Unsupported {
+            Some(VoxelGrid::load(&file, &g.unique_name)?)
+        } else {
+            None
+        };
         grids.push(grid_json(g, built.as_ref()));
     }
     let doc = json!({
@@ -21,7 +25,11 @@ pub fn run(path: &Path, stats: bool, as_json: bool) -> Result<()> {
         "metadata": file.metadata.iter().map(|(k, v)| (k.clone(), Value::String(v.clone()))).collect::<serde_json::Map<_, _>>(),
         "grids": grids,
     });
-    let text = if as_json { serde_json::to_string_pretty(&doc)? + "\n" } else { table(&doc) };
+    let text = if as_json {
+        serde_json::to_string_pretty(&doc)? + "\n"
+    } else {
+        table(&doc)
+    };
     super::print_stdout(&text)
 }
 
@@ -53,7 +61,9 @@ fn grid_json(g: &GridInfo, built: Option<&VoxelGrid>) -> Value {
     let (count, bbox) = match built {
         Some(b) => (
             Some(b.stats().active_voxels),
-            b.stats().active_index_bbox.map(|(a, c)| (IVec3::from_array(a), IVec3::from_array(c))),
+            b.stats()
+                .active_index_bbox
+                .map(|(a, c)| (IVec3::from_array(a), IVec3::from_array(c))),
         ),
         None => (g.file_voxel_count, g.file_bbox),
     };
@@ -123,23 +133,58 @@ fn table(doc: &Value) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     wl!(out, "file:            {}", text(&doc["file"]));
-    wl!(out, "file version:    {}   library {}", text(&doc["file_version"]), text(&doc["library_version"]));
+    wl!(
+        out,
+        "file version:    {}   library {}",
+        text(&doc["file_version"]),
+        text(&doc["library_version"])
+    );
     if let Some(m) = doc["metadata"].as_object() {
         for (k, v) in m {
             wl!(out, "  {k}: {}", text(v));
         }
     }
-    let Some(grids) = doc["grids"].as_array() else { return out };
+    let Some(grids) = doc["grids"].as_array() else {
+        return out;
+    };
     for g in grids {
         wl!(out, "");
         wl!(out, "grid \"{}\"", text(&g["unique_name"]));
         let row = |out: &mut String, k: &str, v: String| wl!(out, "  {k:<18}{v}");
-        row(&mut out, "value type", format!("{}{}", text(&g["value_type"]), if g["renderable"] == json!(false) { " (not renderable)" } else { "" }));
+        row(
+            &mut out,
+            "value type",
+            format!(
+                "{}{}",
+                text(&g["value_type"]),
+                if g["renderable"] == json!(false) {
+                    " (not renderable)"
+                } else {
+                    ""
+                }
+            ),
+        );
         row(&mut out, "class", text(&g["class"]));
-        row(&mut out, "storage", if g["half"] == json!(true) { "half".into() } else { "float".into() });
+        row(
+            &mut out,
+            "storage",
+            if g["half"] == json!(true) {
+                "half".into()
+            } else {
+                "float".into()
+            },
+        );
         row(&mut out, "compression", text(&g["compression"]));
         row(&mut out, "active voxels", text(&g["active_voxel_count"]));
-        row(&mut out, "tiles", if g["tile_count"].is_null() { "- (needs --stats)".into() } else { text(&g["tile_count"]) });
+        row(
+            &mut out,
+            "tiles",
+            if g["tile_count"].is_null() {
+                "- (needs --stats)".into()
+            } else {
+                text(&g["tile_count"])
+            },
+        );
         row(&mut out, "index bbox", text(&g["index_bbox"]));
         row(&mut out, "world bbox", text(&g["world_bbox"]));
         row(&mut out, "voxel size", text(&g["voxel_size"]));
@@ -151,11 +196,39 @@ fn table(doc: &Value) -> String {
         }
         if let Some(s) = g.get("stats") {
             row(&mut out, "leaves", text(&s["leaf_count"]));
-            row(&mut out, "tiles by level", text(&json!([s["active_tiles_by_level"]["1"], s["active_tiles_by_level"]["2"], s["active_tiles_by_level"]["3"]])));
-            row(&mut out, "min / max", format!("{} / {}", text(&s["min"]), text(&s["max"])));
+            row(
+                &mut out,
+                "tiles by level",
+                text(&json!([
+                    s["active_tiles_by_level"]["1"],
+                    s["active_tiles_by_level"]["2"],
+                    s["active_tiles_by_level"]["3"]
+                ])),
+            );
+            row(
+                &mut out,
+                "min / max",
+                format!("{} / {}", text(&s["min"]), text(&s["max"])),
+            );
             row(&mut out, "mean", text(&s["mean"]));
-            row(&mut out, "NaN/Inf/negative", format!("{} / {} / {}", text(&s["nan_count"]), text(&s["inf_count"]), text(&s["negative_count"])));
-            row(&mut out, "render memory", format!("{:.2} MiB", s["render_memory_bytes"].as_f64().unwrap_or(0.0) / 1048576.0));
+            row(
+                &mut out,
+                "NaN/Inf/negative",
+                format!(
+                    "{} / {} / {}",
+                    text(&s["nan_count"]),
+                    text(&s["inf_count"]),
+                    text(&s["negative_count"])
+                ),
+            );
+            row(
+                &mut out,
+                "render memory",
+                format!(
+                    "{:.2} MiB",
+                    s["render_memory_bytes"].as_f64().unwrap_or(0.0) / 1048576.0
+                ),
+            );
         }
     }
     out

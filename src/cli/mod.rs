@@ -7,7 +7,11 @@ use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
-#[command(name = "murk", version, about = "Render OpenVDB volume caches to multi-layer OpenEXR images")]
+#[command(
+    name = "murk",
+    version,
+    about = "Render OpenVDB volume caches to multi-layer OpenEXR images"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -16,7 +20,9 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Describe a .vdb file: its metadata and every grid (no trees are decoded without --stats).
-    #[command(after_help = "Examples:\n  murk info fixtures/cloud.vdb\n  murk info fixtures/pyro.vdb --stats --json")]
+    #[command(
+        after_help = "Examples:\n  murk info fixtures/cloud.vdb\n  murk info fixtures/pyro.vdb --stats --json"
+    )]
     Info {
         /// The .vdb file.
         file: PathBuf,

@@ -14,11 +14,16 @@ With no --light the scene is lit by the default sun, sun:0.6,1,0.5:1,1,1:6 (from
 With no camera flags the camera frames the density's world bounds.";
 
 pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
-    let is_scene = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    let is_scene = input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
     let (options, vdb) = if is_scene {
         let scene = RenderOptions::from_scene_file(input).map_err(|e| anyhow!(e))?;
         let merged = options.over(scene);
-        let vdb = merged.input.clone().ok_or_else(|| anyhow!("{}: the scene names no `input` .vdb file", input.display()))?;
+        let vdb = merged
+            .input
+            .clone()
+            .ok_or_else(|| anyhow!("{}: the scene names no `input` .vdb file", input.display()))?;
         (merged, vdb)
     } else {
         (options, input.to_path_buf())

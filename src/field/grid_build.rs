@@ -1,9 +1,12 @@
 //! Builds a [`VoxelGrid`] from the tiles and leaves a VDB decoder streams into it,
 //! sanitising NaN, ±Inf and (for scalar grids) negative values to 0 and counting them.
 
-use super::grid::{CHILD, GridStats, LEAF_VOXELS, LOWER_SLOTS, RootIndex, UPPER_SLOTS, VoxelGrid, lower_offset, upper_offset};
+use super::grid::{
+    CHILD, GridStats, LEAF_VOXELS, LOWER_SLOTS, RootIndex, UPPER_SLOTS, VoxelGrid, lower_offset,
+    upper_offset,
+};
 use super::{IndexBox, IndexToWorld, ValueRange};
-use crate::vdb::{TreeSink, VdbError, VdbFile, ValueKind};
+use crate::vdb::{TreeSink, ValueKind, VdbError, VdbFile};
 use glam::{DMat4, IVec3, Vec3};
 use std::collections::HashMap;
 
@@ -88,7 +91,8 @@ impl GridBuilder {
                     return Err("too many nodes".to_string());
                 }
                 self.upper_origin.push((g >> 12_i32) << 12_i32);
-                self.upper_slots.resize(self.upper_slots.len() + UPPER_SLOTS, 0);
+                self.upper_slots
+                    .resize(self.upper_slots.len() + UPPER_SLOTS, 0);
                 self.root.insert(key, CHILD | u as u32);
                 Ok(u)
             }
@@ -104,7 +108,8 @@ impl GridBuilder {
         }
         let l = self.lower_origin.len();
         self.lower_origin.push((g >> 7_i32) << 7_i32);
-        self.lower_slots.resize(self.lower_slots.len() + LOWER_SLOTS, 0);
+        self.lower_slots
+            .resize(self.lower_slots.len() + LOWER_SLOTS, 0);
         self.upper_slots[slot] = CHILD | l as u32;
         Ok(l)
     }
@@ -143,7 +148,11 @@ impl GridBuilder {
             tile_values = vec![0.0; channels];
         }
         let has_content = content_min.cmple(content_max).all();
-        let origin = if has_content { (content_min + content_max) / 2 } else { IVec3::ZERO };
+        let origin = if has_content {
+            (content_min + content_max) / 2
+        } else {
+            IVec3::ZERO
+        };
         let transform = IndexToWorld::new(index_to_world, origin)
             .ok_or_else(|| "the transform is singular or not finite".to_string())?;
         if active_min.cmple(active_max).all() {
@@ -161,22 +170,41 @@ impl GridBuilder {
             }
             r
         };
-        let tile_range = |t: u32| range_of(&tile_values[t as usize * channels..(t as usize + 1) * channels]);
-        let leaf_range: Vec<ValueRange> = leaf_values.chunks_exact(LEAF_VOXELS * channels).map(range_of).collect();
+        let tile_range =
+            |t: u32| range_of(&tile_values[t as usize * channels..(t as usize + 1) * channels]);
+        let leaf_range: Vec<ValueRange> = leaf_values
+            .chunks_exact(LEAF_VOXELS * channels)
+            .map(range_of)
+            .collect();
         let slot_range = |e: u32, child: &[ValueRange]| {
-            if e & CHILD != 0 { child[(e & !CHILD) as usize] } else { tile_range(e) }
+            if e & CHILD != 0 {
+                child[(e & !CHILD) as usize]
+            } else {
+                tile_range(e)
+            }
         };
         let lower_range: Vec<ValueRange> = lower_slots
             .chunks_exact(LOWER_SLOTS)
-            .map(|s| s.iter().fold(ValueRange::EMPTY, |r, e| r.union(&slot_range(*e, &leaf_range))))
+            .map(|s| {
+                s.iter().fold(ValueRange::EMPTY, |r, e| {
+                    r.union(&slot_range(*e, &leaf_range))
+                })
+            })
             .collect();
         let upper_range: Vec<ValueRange> = upper_slots
             .chunks_exact(UPPER_SLOTS)
-            .map(|s| s.iter().fold(ValueRange::EMPTY, |r, e| r.union(&slot_range(*e, &lower_range))))
+            .map(|s| {
+                s.iter().fold(ValueRange::EMPTY, |r, e| {
+                    r.union(&slot_range(*e, &lower_range))
+                })
+            })
             .collect();
         let root_index = build_root_index(&root);
         let bounds = if has_content {
-            IndexBox::new((content_min - origin).as_vec3() - Vec3::ONE, (content_max - origin).as_vec3() + Vec3::ONE)
+            IndexBox::new(
+                (content_min - origin).as_vec3() - Vec3::ONE,
+                (content_max - origin).as_vec3() + Vec3::ONE,
+            )
         } else {
             IndexBox::EMPTY
         };
@@ -210,7 +238,10 @@ fn build_root_index(root: &HashMap<[i32; 3], u32>) -> RootIndex {
     let mut keys: Vec<[i32; 3]> = root.keys().copied().collect();
     keys.sort_unstable();
     if keys.is_empty() {
-        return RootIndex::Sorted { keys: Vec::new(), entries: Vec::new() };
+        return RootIndex::Sorted {
+            keys: Vec::new(),
+            entries: Vec::new(),
+        };
     }
     let (mut lo, mut hi) = (IVec3::MAX, IVec3::MIN);
     for k in &keys {
@@ -225,7 +256,11 @@ fn build_root_index(root: &HashMap<[i32; 3], u32>) -> RootIndex {
             let r = IVec3::from_array(*k) - lo;
             entries[((r.x * dims.y + r.y) * dims.z + r.z) as usize] = root[k];
         }
-        RootIndex::Dense { min: lo, dims, entries }
+        RootIndex::Dense {
+            min: lo,
+            dims,
+            entries,
+        }
     } else {
         let entries = keys.iter().map(|k| root[k]).collect();
         RootIndex::Sorted { keys, entries }
@@ -244,7 +279,13 @@ impl TreeSink for GridBuilder {
         Ok(())
     }
 
-    fn tile(&mut self, origin: IVec3, size: i32, value: &[f32], active: bool) -> Result<(), String> {
+    fn tile(
+        &mut self,
+        origin: IVec3,
+        size: i32,
+        value: &[f32],
+        active: bool,
+    ) -> Result<(), String> {
         let voxels = (size as u64).pow(3);
         if active {
             self.count_active(value, voxels);
@@ -331,12 +372,16 @@ impl VoxelGrid {
             return Err(VdbError::grid(
                 file.path(),
                 &info.unique_name,
-                format!("value type \"{}\" cannot be rendered (murk reads float, double and vec3 grids)", info.value_type),
+                format!(
+                    "value type \"{}\" cannot be rendered (murk reads float, double and vec3 grids)",
+                    info.value_type
+                ),
             ));
         }
         let mut b = GridBuilder::new();
         let decoded = file.decode(name, &mut b)?;
         let unique = info.unique_name.clone();
-        b.finish(&unique, decoded.index_to_world).map_err(|p| VdbError::grid(file.path(), &unique, p))
+        b.finish(&unique, decoded.index_to_world)
+            .map_err(|p| VdbError::grid(file.path(), &unique, p))
     }
 }

@@ -31,7 +31,10 @@ pub struct IndexBox {
 }
 
 impl IndexBox {
-    pub const EMPTY: IndexBox = IndexBox { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+    pub const EMPTY: IndexBox = IndexBox {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
 
     pub fn new(min: Vec3, max: Vec3) -> Self {
         IndexBox { min, max }
@@ -43,10 +46,17 @@ impl IndexBox {
         p.cmpge(self.min).all() && p.cmple(self.max).all()
     }
     pub fn union(&self, o: &IndexBox) -> IndexBox {
-        IndexBox { min: self.min.min(o.min), max: self.max.max(o.max) }
+        IndexBox {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
     pub fn extent(&self) -> Vec3 {
-        if self.is_empty() { Vec3::ZERO } else { self.max - self.min }
+        if self.is_empty() {
+            Vec3::ZERO
+        } else {
+            self.max - self.min
+        }
     }
 }
 
@@ -58,7 +68,10 @@ pub struct ValueRange {
 }
 
 impl ValueRange {
-    pub const EMPTY: ValueRange = ValueRange { min: f32::INFINITY, max: f32::NEG_INFINITY };
+    pub const EMPTY: ValueRange = ValueRange {
+        min: f32::INFINITY,
+        max: f32::NEG_INFINITY,
+    };
     pub const ZERO: ValueRange = ValueRange { min: 0.0, max: 0.0 };
 
     pub fn point(v: f32) -> Self {
@@ -69,7 +82,10 @@ impl ValueRange {
         self.max = self.max.max(v);
     }
     pub fn union(&self, o: &ValueRange) -> ValueRange {
-        ValueRange { min: self.min.min(o.min), max: self.max.max(o.max) }
+        ValueRange {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
     /// True when the field is zero everywhere in the region (nothing to integrate).
     pub fn is_zero(&self) -> bool {
@@ -78,6 +94,45 @@ impl ValueRange {
     pub fn is_constant(&self) -> bool {
         self.min == self.max
     }
+}
+
+/// A ray in a field's local index space, parameterised by world distance.
+#[derive(Clone, Copy, Debug)]
+pub struct IndexRay {
+    /// Local index point at `t = 0`.
+    pub origin: DVec3,
+    /// Index units per world unit along the ray.
+    pub dir: DVec3,
+}
+
+impl IndexRay {
+    /// The ray `world_origin + t · world_dir` (world_dir unit length) in `field`'s index space.
+    pub fn new(field: &(impl Field + ?Sized), world_origin: DVec3, world_dir: DVec3) -> Self {
+        let tr = field.transform();
+        IndexRay {
+            origin: tr.world_to_index(world_origin),
+            dir: tr.world_dir_to_index(world_dir),
+        }
+    }
+
+    #[inline]
+    pub fn at(&self, t: f64) -> DVec3 {
+        self.origin + self.dir * t
+    }
+
+    /// Index units travelled per world unit.
+    pub fn index_speed(&self) -> f64 {
+        self.dir.length()
+    }
+}
+
+/// Two-point Gauss–Legendre: `∫ f dt` over `[t0, t1]`, exact for cubics in `t` (the
+/// trilinear reconstruction along a ray inside one voxel is one).
+#[inline]
+pub fn gauss_legendre_2(f: impl Fn(f64) -> f64, t0: f64, t1: f64) -> f64 {
+    const G: f64 = 0.211_324_865_405_187_1; // (1 − 1/√3)/2
+    let ds = t1 - t0;
+    0.5 * ds * (f(t0 + G * ds) + f(t1 - G * ds))
 }
 
 /// One cell of a field's hierarchy, as the traversal sees it: an axis-aligned cube of
@@ -122,4 +177,18 @@ pub trait Field: Send + Sync {
 
     /// A majorant and minorant of the field over a local-index box.
     fn range_over(&self, b: &IndexBox) -> ValueRange;
+
+    /// `∫ value dt` along `ray` over `[t0, t1]` (t in world units). Fields that can do it
+    /// exactly do (a voxel grid voxel by voxel, the analytic shapes by chord length);
+    /// the default is two-point Gauss–Legendre over the interval, and the caller keeps
+    /// intervals short.
+    fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
+        gauss_legendre_2(|t| self.value_at_index(ray.at(t)) as f64, t0, t1)
+    }
+
+    /// True if [`Field::integral`] is exact over any interval (callers then need not
+    /// subdivide it).
+    fn integral_is_exact(&self) -> bool {
+        false
+    }
 }

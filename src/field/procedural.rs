@@ -376,7 +376,7 @@ impl NoiseCloud {
         if w <= 0.0 || w.is_nan() {
             return 0.0;
         }
-        let f = self.fbm_at_world(self.transform.index_to_world_f64(p));
+        let f = self.fbm_at_world(self.transform.index_to_world(p));
         self.params.scale * (f + self.params.bias).max(0.0) * w
     }
 

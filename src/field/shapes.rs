@@ -17,7 +17,7 @@
 //! world origin (index coordinates beyond ~1e6) lose f32 precision in
 //! [`Field::value_at_index`].
 
-use super::{Cell, Field, IndexBox, IndexToWorld, ValueRange};
+use super::{Cell, Field, IndexBox, IndexRay, IndexToWorld, ValueRange};
 use glam::{DVec3, IVec3, Vec3};
 
 /// Cell sizes (in voxels) of the virtual hierarchy of the analytic fields, coarsest
@@ -228,6 +228,17 @@ impl Field for ConstantBox {
         index_box_outward(self.index_min, self.index_max)
     }
 
+    /// Exact: ρ × the length of the chord inside the box.
+    fn integral_is_exact(&self) -> bool {
+        true
+    }
+
+    fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
+        let t = &self.transform;
+        let (o, d) = (t.index_to_world(ray.origin), t.linear() * ray.dir);
+        self.density as f64 * self.chord_length(o, d, t0, t1) / d.length().max(f64::MIN_POSITIVE)
+    }
+
     fn cell_at(&self, ijk: IVec3) -> Cell {
         virtual_cell(ijk, |lo, hi| self.range_of_box(lo, hi))
     }
@@ -374,6 +385,17 @@ impl Field for ConstantSphere {
         index_box_outward(self.index_center - r, self.index_center + r)
     }
 
+    /// Exact: ρ × the length of the chord inside the ball.
+    fn integral_is_exact(&self) -> bool {
+        true
+    }
+
+    fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
+        let t = &self.transform;
+        let (o, d) = (t.index_to_world(ray.origin), t.linear() * ray.dir);
+        self.density as f64 * self.chord_length(o, d, t0, t1) / d.length().max(f64::MIN_POSITIVE)
+    }
+
     fn cell_at(&self, ijk: IVec3) -> Cell {
         virtual_cell(ijk, |lo, hi| self.range_of_box(lo, hi))
     }
@@ -457,8 +479,14 @@ mod tests {
         // Hard edge in index space: just inside / just outside a face.
         let face = (0.75f64 * 32.0) as f32; // index x of the +x face = 24
         assert_eq!(b.value_at_index(Vec3::new(face, 0.0, 10.0).as_dvec3()), 2.5);
-        assert_eq!(b.value_at_index(Vec3::new(face.next_up(), 0.0, 10.0).as_dvec3()), 0.0);
-        assert_eq!(b.value_at_index(Vec3::new(f32::NAN, 0.0, 10.0).as_dvec3()), 0.0);
+        assert_eq!(
+            b.value_at_index(Vec3::new(face.next_up(), 0.0, 10.0).as_dvec3()),
+            0.0
+        );
+        assert_eq!(
+            b.value_at_index(Vec3::new(f32::NAN, 0.0, 10.0).as_dvec3()),
+            0.0
+        );
     }
 
     #[test]

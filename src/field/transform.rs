@@ -34,16 +34,27 @@ impl IndexToWorld {
         if !inverse.is_finite() {
             return None;
         }
-        Some(IndexToWorld { origin, linear, inverse, local_translation: linear * origin.as_dvec3() + translation })
+        Some(IndexToWorld {
+            origin,
+            linear,
+            inverse,
+            local_translation: linear * origin.as_dvec3() + translation,
+        })
     }
 
     /// A uniform scale `voxel_size` with the given origin of local index space.
     pub fn uniform(voxel_size: f64, origin: IVec3) -> Self {
-        Self::new(DMat4::from_scale(DVec3::splat(voxel_size)), origin).unwrap_or_else(|| Self::identity())
+        Self::new(DMat4::from_scale(DVec3::splat(voxel_size)), origin)
+            .unwrap_or_else(|| Self::identity())
     }
 
     pub fn identity() -> Self {
-        IndexToWorld { origin: IVec3::ZERO, linear: DMat3::IDENTITY, inverse: DMat3::IDENTITY, local_translation: DVec3::ZERO }
+        IndexToWorld {
+            origin: IVec3::ZERO,
+            linear: DMat3::IDENTITY,
+            inverse: DMat3::IDENTITY,
+            local_translation: DVec3::ZERO,
+        }
     }
 
     /// The file's index→world matrix (global index space).
@@ -65,12 +76,7 @@ impl IndexToWorld {
     }
 
     /// World position of a local index point.
-    pub fn index_to_world(&self, p: Vec3) -> DVec3 {
-        self.linear * p.as_dvec3() + self.local_translation
-    }
-
-    /// World position of a local index point given in f64.
-    pub fn index_to_world_f64(&self, p: DVec3) -> DVec3 {
+    pub fn index_to_world(&self, p: DVec3) -> DVec3 {
         self.linear * p + self.local_translation
     }
 
@@ -91,7 +97,11 @@ impl IndexToWorld {
 
     /// Length of each index axis in world units.
     pub fn voxel_size(&self) -> DVec3 {
-        DVec3::new(self.linear.x_axis.length(), self.linear.y_axis.length(), self.linear.z_axis.length())
+        DVec3::new(
+            self.linear.x_axis.length(),
+            self.linear.y_axis.length(),
+            self.linear.z_axis.length(),
+        )
     }
 
     /// World-space axis-aligned bounds of a local-index box (its eight corners mapped).
@@ -107,7 +117,7 @@ impl IndexToWorld {
                 if c & 2 == 0 { b.min.y } else { b.max.y },
                 if c & 4 == 0 { b.min.z } else { b.max.z },
             );
-            let w = self.index_to_world(p);
+            let w = self.index_to_world(p.as_dvec3());
             lo = lo.min(w);
             hi = hi.max(w);
         }
@@ -130,17 +140,23 @@ mod tests {
         let origin = IVec3::new(1_000_000, -1_000_000, 7);
         let t = IndexToWorld::new(m, origin).unwrap();
         let p = Vec3::new(0.25, -3.5, 7.125);
-        let w = t.index_to_world(p);
+        let w = t.index_to_world(p.as_dvec3());
         let back = t.world_to_index(w);
         assert!((back.as_vec3() - p).abs().max_element() < 1e-5, "{back:?}");
         // The global matrix maps global index (local + origin) to the same point.
-        let g = t.matrix().transform_point3(p.as_dvec3() + origin.as_dvec3());
+        let g = t
+            .matrix()
+            .transform_point3(p.as_dvec3() + origin.as_dvec3());
         assert!((g - w).abs().max_element() < 1e-6 * 4e5);
     }
 
     #[test]
     fn singular_matrix_is_rejected() {
-        assert!(IndexToWorld::new(DMat4::from_scale(DVec3::new(1.0, 0.0, 1.0)), IVec3::ZERO).is_none());
-        assert!(IndexToWorld::new(DMat4::from_scale(DVec3::splat(f64::NAN)), IVec3::ZERO).is_none());
+        assert!(
+            IndexToWorld::new(DMat4::from_scale(DVec3::new(1.0, 0.0, 1.0)), IVec3::ZERO).is_none()
+        );
+        assert!(
+            IndexToWorld::new(DMat4::from_scale(DVec3::splat(f64::NAN)), IVec3::ZERO).is_none()
+        );
     }
 }

@@ -13,7 +13,10 @@ pub struct FieldUnion<'a> {
 
 impl<'a> FieldUnion<'a> {
     pub fn new(primary: &'a dyn Field) -> Self {
-        FieldUnion { primary, others: Vec::new() }
+        FieldUnion {
+            primary,
+            others: Vec::new(),
+        }
     }
 
     /// Adds a field on the primary's lattice; `offset` maps primary local index → its own.

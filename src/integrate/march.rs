@@ -2,8 +2,10 @@
 //!
 //! The ray is cut into segments (at most `step` voxels long, restarted in every cell the
 //! traversal reports, the first one shortened by a per-pixel random offset so there is
-//! no banding). On a segment of length `ds` with midpoint density ρ, extinction
-//! `σt·ρ` is taken as constant and everything is integrated exactly:
+//! no banding). On a segment of length `ds`, ρ is the density's mean over the segment
+//! from its exact integral (voxel by voxel, two-point Gauss–Legendre: exact for
+//! trilinear grids, so opacity does not depend on the step), extinction `σt·ρ` is
+//! taken as constant and everything is integrated exactly:
 //!
 //! ```text
 //! τ   += σt·ρ·ds                                   (optical depth, summed)
@@ -175,11 +177,12 @@ pub fn march(
             let ds = b - a;
             let mid = 0.5 * (a + b);
             let p = ray.at(mid);
-            let rho = (if constant {
-                span.range.max
+            // Mean density over the segment, from its exact integral where the field has one.
+            let rho = if constant {
+                span.range.max as f64
             } else {
-                vol.density.value_at_index(p)
-            }) as f64;
+                vol.density.integral(&ray, a, b) / ds
+            };
             out.samples += 1;
             let st = sigma_t * rho;
             let w = DVec3::new(
@@ -189,7 +192,7 @@ pub fn march(
             );
             let xw = origin + dir * mid;
             if let Some(e) = emission {
-                let eps = e.at(p, xw);
+                let eps = e.mean(&ray, a, b, p, xw);
                 if eps.max_element() > 0.0 {
                     out.emission += t_now * eps * w;
                 }

@@ -1,6 +1,6 @@
 //! What the volume is made of: coefficients, and the fields that feed the integral.
 
-use crate::field::Field;
+use crate::field::{Field, IndexRay};
 use crate::integrate::blackbody::BlackbodyTable;
 use glam::DVec3;
 
@@ -54,6 +54,21 @@ impl<'a> Companion<'a> {
         self.offset
     }
 
+    /// Mean value over `[a, b]` of a ray in the density's local index space (`w`: the
+    /// world midpoint, used when the lattices differ).
+    pub fn mean(&self, ray: &IndexRay, a: f64, b: f64, w: DVec3) -> f64 {
+        match self.offset {
+            Some(o) if b > a => {
+                let shifted = IndexRay {
+                    origin: ray.origin + o,
+                    dir: ray.dir,
+                };
+                self.field.integral(&shifted, a, b) / (b - a)
+            }
+            _ => self.field.value_at_world(w) as f64,
+        }
+    }
+
     #[inline]
     pub fn value(&self, p_density_index: DVec3, p_world: DVec3) -> f32 {
         match self.offset {
@@ -87,12 +102,16 @@ impl Emission<'_> {
             || (self.temperature.is_some() && self.blackbody_intensity > 0.0)
     }
 
-    /// Emission coefficient (RGB per world unit) at a sample point.
+    /// Mean emission coefficient (RGB per world unit) over the segment `[a, b]` of a ray
+    /// (local index space of the density grid). The emission grid's term is linear in
+    /// its value, so its exact mean over the segment is used: emission proportional to
+    /// extinction then integrates exactly. The blackbody term is evaluated at the
+    /// segment's midpoint `p` (world `w`).
     #[inline]
-    pub fn at(&self, p: DVec3, w: DVec3) -> DVec3 {
+    pub fn mean(&self, ray: &IndexRay, a: f64, b: f64, p: DVec3, w: DVec3) -> DVec3 {
         let mut e = DVec3::ZERO;
         if let Some(c) = &self.grid {
-            let v = c.value(p, w) as f64;
+            let v = c.mean(ray, a, b, w);
             if v > 0.0 {
                 e += self.color * (v * self.intensity);
             }

@@ -54,7 +54,11 @@ impl Camera {
     pub fn frame(&self) -> CameraFrame {
         let forward = (self.look_at - self.eye).normalize();
         let right = forward.cross(self.up).normalize();
-        CameraFrame { forward, right, up: right.cross(forward) }
+        CameraFrame {
+            forward,
+            right,
+            up: right.cross(forward),
+        }
     }
 
     fn aspect(&self) -> f64 {
@@ -69,12 +73,14 @@ impl Camera {
         match self.projection {
             Projection::Perspective { fov_deg } => {
                 let t = (fov_deg.to_radians() * 0.5).tan();
-                let d = frame.forward + frame.right * (sx * t) + frame.up * (sy * t * self.aspect());
+                let d =
+                    frame.forward + frame.right * (sx * t) + frame.up * (sy * t * self.aspect());
                 (self.eye, d.normalize())
             }
             Projection::Orthographic { width } => {
                 let half = width * 0.5;
-                let o = self.eye + frame.right * (sx * half) + frame.up * (sy * half * self.aspect());
+                let o =
+                    self.eye + frame.right * (sx * half) + frame.up * (sy * half * self.aspect());
                 (o, frame.forward)
             }
         }
@@ -102,7 +108,13 @@ impl Camera {
 
     /// A camera that frames the world box `(lo, hi)` whole, looking from the front and a
     /// little above (−z view direction, y up).
-    pub fn framing(lo: DVec3, hi: DVec3, width: usize, height: usize, projection: Option<Projection>) -> Camera {
+    pub fn framing(
+        lo: DVec3,
+        hi: DVec3,
+        width: usize,
+        height: usize,
+        projection: Option<Projection>,
+    ) -> Camera {
         let centre = (lo + hi) * 0.5;
         let radius = ((hi - lo).length() * 0.5).max(1e-6);
         let view = DVec3::new(0.0, 0.3, 1.0).normalize();
@@ -117,10 +129,20 @@ impl Camera {
             }
             Projection::Orthographic { .. } => {
                 let width = 2.0 * radius * (1.0f64).max(1.0 / aspect) * 1.02;
-                (centre + view * (radius * 4.0), Projection::Orthographic { width })
+                (
+                    centre + view * (radius * 4.0),
+                    Projection::Orthographic { width },
+                )
             }
         };
-        Camera { projection, eye, look_at: centre, up: DVec3::Y, width, height }
+        Camera {
+            projection,
+            eye,
+            look_at: centre,
+            up: DVec3::Y,
+            width,
+            height,
+        }
     }
 }
 

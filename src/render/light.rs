@@ -22,7 +22,11 @@ pub struct Light {
 pub const DEFAULT_LIGHT: &str = "sun:0.6,1,0.5:1,1,1:6";
 
 fn parse_triple(s: &str, what: &str) -> Result<DVec3, String> {
-    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| format!("{what} \"{s}\" is not three numbers x,y,z"))?;
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("{what} \"{s}\" is not three numbers x,y,z"))?;
     match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(DVec3::new(*x, *y, *z)),
         _ => Err(format!("{what} \"{s}\" is not three finite numbers x,y,z")),
@@ -39,7 +43,9 @@ impl Light {
     pub fn parse(spec: &str, name: String) -> Result<Light, String> {
         let parts: Vec<&str> = spec.split(':').collect();
         if parts.len() < 2 || parts.len() > 4 {
-            return Err(format!("--light \"{spec}\": expected sun:DX,DY,DZ[:R,G,B[:INTENSITY]] or point:X,Y,Z[:R,G,B[:INTENSITY]]"));
+            return Err(format!(
+                "--light \"{spec}\": expected sun:DX,DY,DZ[:R,G,B[:INTENSITY]] or point:X,Y,Z[:R,G,B[:INTENSITY]]"
+            ));
         }
         let v = parse_triple(parts[1], "light vector")?;
         let kind = match parts[0] {
@@ -47,23 +53,39 @@ impl Light {
                 if !(v.length() > 0.0) {
                     return Err(format!("--light \"{spec}\": the sun direction is zero"));
                 }
-                LightKind::Sun { toward: v.normalize() }
+                LightKind::Sun {
+                    toward: v.normalize(),
+                }
             }
             "point" => LightKind::Point { position: v },
-            other => return Err(format!("--light \"{spec}\": unknown light type \"{other}\" (sun or point)")),
+            other => {
+                return Err(format!(
+                    "--light \"{spec}\": unknown light type \"{other}\" (sun or point)"
+                ));
+            }
         };
         let color = match parts.get(2) {
             Some(c) => parse_triple(c, "light colour")?,
             None => DVec3::ONE,
         };
         let intensity = match parts.get(3) {
-            Some(i) => i.trim().parse::<f64>().map_err(|_| format!("--light \"{spec}\": intensity \"{i}\" is not a number"))?,
+            Some(i) => i
+                .trim()
+                .parse::<f64>()
+                .map_err(|_| format!("--light \"{spec}\": intensity \"{i}\" is not a number"))?,
             None => 1.0,
         };
         if color.min_element() < 0.0 || !(intensity >= 0.0) || !intensity.is_finite() {
-            return Err(format!("--light \"{spec}\": colour and intensity must be non-negative"));
+            return Err(format!(
+                "--light \"{spec}\": colour and intensity must be non-negative"
+            ));
         }
-        Ok(Light { name, kind, color, intensity })
+        Ok(Light {
+            name,
+            kind,
+            color,
+            intensity,
+        })
     }
 
     /// Unshadowed irradiance at `x` and the unit direction the light travels there.
@@ -99,11 +121,22 @@ mod tests {
     fn parses_suns_and_points() {
         let l = Light::parse("sun:0,2,0:1,0.5,0.25:3", "sun0".into()).unwrap();
         assert_eq!(l.kind, LightKind::Sun { toward: DVec3::Y });
-        assert_eq!(l.incident(DVec3::ZERO), (DVec3::new(3.0, 1.5, 0.75), DVec3::NEG_Y));
+        assert_eq!(
+            l.incident(DVec3::ZERO),
+            (DVec3::new(3.0, 1.5, 0.75), DVec3::NEG_Y)
+        );
         let p = Light::parse("point:0,0,2", "point0".into()).unwrap();
         let (e, dir) = p.incident(DVec3::ZERO);
         assert!((e - DVec3::splat(0.25)).length() < 1e-15 && (dir - DVec3::NEG_Z).length() < 1e-15);
-        for bad in ["sun", "sun:0,0,0", "spot:1,2,3", "sun:1,2", "sun:1,2,3:1,1", "point:1,2,3:1,1,1:-1", "sun:nan,1,1"] {
+        for bad in [
+            "sun",
+            "sun:0,0,0",
+            "spot:1,2,3",
+            "sun:1,2",
+            "sun:1,2,3:1,1",
+            "point:1,2,3:1,1,1:-1",
+            "sun:nan,1,1",
+        ] {
             assert!(Light::parse(bad, "x".into()).is_err(), "{bad}");
         }
     }

@@ -34,19 +34,33 @@ pub const EMISSION_NAMES: &[&str] = &["flame", "flames", "fire", "emission", "fu
 pub const TEMPERATURE_NAMES: &[&str] = &["temperature", "heat", "temp"];
 
 /// Picks the grid for a role: the one named, else the first usual name that exists.
-fn choose(file: &VdbFile, choice: &GridChoice, usual: &[&str], role: &str) -> Result<Option<String>> {
+fn choose(
+    file: &VdbFile,
+    choice: &GridChoice,
+    usual: &[&str],
+    role: &str,
+) -> Result<Option<String>> {
     match choice {
         GridChoice::Off => Ok(None),
         GridChoice::Named(n) => {
             let g = file.grid(n)?;
             if g.kind != ValueKind::Scalar {
-                return Err(anyhow!("{}: grid \"{}\" ({}) cannot be the {role} grid: it must hold float values", file.path().display(), g.unique_name, g.value_type));
+                return Err(anyhow!(
+                    "{}: grid \"{}\" ({}) cannot be the {role} grid: it must hold float values",
+                    file.path().display(),
+                    g.unique_name,
+                    g.value_type
+                ));
             }
             Ok(Some(g.unique_name.clone()))
         }
         GridChoice::Detect => Ok(usual
             .iter()
-            .find_map(|n| file.grids().iter().find(|g| g.name.eq_ignore_ascii_case(n) && g.kind == ValueKind::Scalar))
+            .find_map(|n| {
+                file.grids()
+                    .iter()
+                    .find(|g| g.name.eq_ignore_ascii_case(n) && g.kind == ValueKind::Scalar)
+            })
             .map(|g| g.unique_name.clone())),
     }
 }
@@ -79,7 +93,11 @@ impl Illumination for MarchedLights<'_> {
 
 fn resolve_camera(plan: &RenderPlan, density: &dyn Field) -> Result<Camera> {
     let (lo, hi) = density.world_bounds();
-    let (lo, hi) = if density.active_bounds().is_empty() { (DVec3::splat(-1.0), DVec3::splat(1.0)) } else { (lo, hi) };
+    let (lo, hi) = if density.active_bounds().is_empty() {
+        (DVec3::splat(-1.0), DVec3::splat(1.0))
+    } else {
+        (lo, hi)
+    };
     let req = &plan.camera;
     let framed = Camera::framing(lo, hi, plan.width, plan.height, req.projection);
     let mut cam = framed;
@@ -116,15 +134,33 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
     // Load: descriptors and metadata only.
     let t = Instant::now();
     let file = VdbFile::open(&plan.input)?;
-    st.stages.insert("load".into(), Stage::ran(t.elapsed().as_secs_f64()));
+    st.stages
+        .insert("load".into(), Stage::ran(t.elapsed().as_secs_f64()));
 
-    let density_name = choose(&file, &plan.density_grid, DENSITY_NAMES, "density")?.ok_or_else(|| {
-        anyhow!("{}: no density grid found (the file has: {}); name one with --density-grid", plan.input.display(), file.grid_list())
-    })?;
+    let density_name =
+        choose(&file, &plan.density_grid, DENSITY_NAMES, "density")?.ok_or_else(|| {
+            anyhow!(
+                "{}: no density grid found (the file has: {}); name one with --density-grid",
+                plan.input.display(),
+                file.grid_list()
+            )
+        })?;
     let emission_name = choose(&file, &plan.emission_grid, EMISSION_NAMES, "emission")?;
-    let temperature_name = choose(&file, &plan.temperature_grid, TEMPERATURE_NAMES, "temperature")?;
-    let medium = Medium { sigma_a: plan.sigma_a, sigma_s: plan.sigma_s, density_scale: plan.density_scale, g: plan.g };
-    let emission_wanted = emission_name.is_some() && plan.emission_intensity > 0.0 && plan.emission_color.max_element() > 0.0;
+    let temperature_name = choose(
+        &file,
+        &plan.temperature_grid,
+        TEMPERATURE_NAMES,
+        "temperature",
+    )?;
+    let medium = Medium {
+        sigma_a: plan.sigma_a,
+        sigma_s: plan.sigma_s,
+        density_scale: plan.density_scale,
+        g: plan.g,
+    };
+    let emission_wanted = emission_name.is_some()
+        && plan.emission_intensity > 0.0
+        && plan.emission_color.max_element() > 0.0;
     let temperature_wanted = temperature_name.is_some() && plan.blackbody_intensity > 0.0;
     let emission_name = emission_name.filter(|_| emission_wanted);
     let temperature_name = temperature_name.filter(|_| temperature_wanted);
@@ -135,26 +171,44 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
     let density = load(&density_name)?;
     let emission_grid = emission_name.as_ref().map(load).transpose()?;
     let temperature_grid = temperature_name.as_ref().map(load).transpose()?;
-    st.stages.insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
-    for (role, g) in [("density", Some(&density)), ("emission", emission_grid.as_ref()), ("temperature", temperature_grid.as_ref())] {
+    st.stages
+        .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
+    for (role, g) in [
+        ("density", Some(&density)),
+        ("emission", emission_grid.as_ref()),
+        ("temperature", temperature_grid.as_ref()),
+    ] {
         if let Some(g) = g {
             st.grid_roles.insert(role.into(), g.name().into());
             st.grids_decoded.push(g.name().into());
             let s = g.stats();
-            st.sanitised.insert(g.name().into(), Sanitised { nan: s.nan, inf: s.inf, negative: s.negative });
+            st.sanitised.insert(
+                g.name().into(),
+                Sanitised {
+                    nan: s.nan,
+                    inf: s.inf,
+                    negative: s.negative,
+                },
+            );
             st.sanitised_total += s.sanitised();
             st.grid_memory_bytes += g.memory_bytes();
         }
     }
-    st.grids_not_decoded =
-        file.grids().iter().map(|g| g.unique_name.clone()).filter(|n| !st.grids_decoded.contains(n)).collect();
+    st.grids_not_decoded = file
+        .grids()
+        .iter()
+        .map(|g| g.unique_name.clone())
+        .filter(|n| !st.grids_decoded.contains(n))
+        .collect();
 
     let camera = resolve_camera(plan, &density)?;
     let mut traversal = FieldUnion::new(&density);
     let mut emission = None;
     if emission_grid.is_some() || temperature_grid.is_some() {
         let eg = emission_grid.as_ref().map(|g| Companion::new(g, &density));
-        let tg = temperature_grid.as_ref().map(|g| Companion::new(g, &density));
+        let tg = temperature_grid
+            .as_ref()
+            .map(|g| Companion::new(g, &density));
         for c in [eg, tg].into_iter().flatten() {
             match c.offset() {
                 Some(o) => traversal = traversal.with(c.field, o.as_ivec3()),
@@ -176,10 +230,25 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
     let scatters = !plan.lights.is_empty() && medium.scatters();
     st.stages.insert(
         "emission".into(),
-        if emits { Stage::ran(0.0) } else { Stage::skipped("no emission or temperature grid in the scene") },
+        if emits {
+            Stage::ran(0.0)
+        } else {
+            Stage::skipped("no emission or temperature grid in the scene")
+        },
     );
-    let scatter_reason = if plan.lights.is_empty() { "no lights" } else { "sigma_s is 0" };
-    st.stages.insert("scatter".into(), if scatters { Stage::ran(0.0) } else { Stage::skipped(scatter_reason) });
+    let scatter_reason = if plan.lights.is_empty() {
+        "no lights"
+    } else {
+        "sigma_s is 0"
+    };
+    st.stages.insert(
+        "scatter".into(),
+        if scatters {
+            Stage::ran(0.0)
+        } else {
+            Stage::skipped(scatter_reason)
+        },
+    );
     st.shadows = match (scatters, plan.shadows) {
         (false, _) => format!("skipped: {scatter_reason}"),
         (true, ShadowMode::None) => "none".into(),
@@ -192,14 +261,22 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         } else if plan.shadows == ShadowMode::None {
             Stage::skipped("--shadows none")
         } else {
-            Stage { status: "ran: marched per sample (inside render)".into(), seconds: 0.0 }
+            Stage {
+                status: "ran: marched per sample (inside render)".into(),
+                seconds: 0.0,
+            }
         },
     );
     if let Some(n) = &plan.shadows_note {
         st.notes.push(n.clone());
     }
     st.lights = plan.lights.iter().map(|l| l.name.clone()).collect();
-    let volume = Volume { density: &density, medium, emission, traversal: &traversal };
+    let volume = Volume {
+        density: &density,
+        medium,
+        emission,
+        traversal: &traversal,
+    };
     let sigma_t_min = medium.sigma_t().min_element().max(1e-30);
     let lights = MarchedLights {
         lights: &plan.lights,
@@ -214,7 +291,10 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         lights: scatters.then_some(&lights as &dyn Illumination),
         light_count,
         camera: &camera,
-        settings: MarchSettings { step_voxels: plan.step, termination: plan.termination },
+        settings: MarchSettings {
+            step_voxels: plan.step,
+            termination: plan.termination,
+        },
         spp: plan.spp,
         seed: plan.seed,
     };
@@ -222,16 +302,26 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
     // Render.
     let t = Instant::now();
     let tiles = (plan.width.div_ceil(pixels::TILE) * plan.height.div_ceil(pixels::TILE)) as u64;
-    let progress = if plan.quiet || !std::io::stderr().is_terminal() { ProgressBar::hidden() } else { ProgressBar::new(tiles) };
+    let progress = if plan.quiet || !std::io::stderr().is_terminal() {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(tiles)
+    };
     progress.set_style(
-        ProgressStyle::with_template("{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed} (eta {eta})")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template(
+            "{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed} (eta {eta})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(plan.threads.unwrap_or(0)).build().context("starting worker threads")?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(plan.threads.unwrap_or(0))
+        .build()
+        .context("starting worker threads")?;
     let passes = pool.install(|| pixels::render_pixels(&job, &progress));
     progress.finish_and_clear();
     let render_seconds = t.elapsed().as_secs_f64();
-    st.stages.insert("render".into(), Stage::ran(render_seconds));
+    st.stages
+        .insert("render".into(), Stage::ran(render_seconds));
     st.rays = passes.rays;
     st.samples = passes.samples;
     st.samples_per_second = passes.samples as f64 / render_seconds.max(1e-9);
@@ -240,7 +330,11 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
     let t = Instant::now();
     let mut frame = Frame::new(plan.width, plan.height);
     let n = plan.width * plan.height;
-    let sum3 = |c: usize| -> Vec<f32> { (0..n).map(|i| passes.emission[c][i] + passes.scatter[c][i]).collect() };
+    let sum3 = |c: usize| -> Vec<f32> {
+        (0..n)
+            .map(|i| passes.emission[c][i] + passes.scatter[c][i])
+            .collect()
+    };
     frame.add_channel(names::R, sum3(0))?;
     frame.add_channel(names::G, sum3(1))?;
     frame.add_channel(names::B, sum3(2))?;
@@ -276,12 +370,19 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
     if let Some((path, opts)) = &plan.preview {
         write_preview(path, &frame, opts)?;
     }
-    st.channels = frame.channel_names().iter().map(|s| s.to_string()).collect();
-    st.stages.insert("write".into(), Stage::ran(t.elapsed().as_secs_f64()));
+    st.channels = frame
+        .channel_names()
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    st.stages
+        .insert("write".into(), Stage::ran(t.elapsed().as_secs_f64()));
     st.total_seconds = start.elapsed().as_secs_f64();
     if let Some(path) = &plan.stats {
         let text = serde_json::to_string_pretty(&st)?;
-        write_atomically(path, |tmp| std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display())))?;
+        write_atomically(path, |tmp| {
+            std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display()))
+        })?;
     }
     Ok(st)
 }

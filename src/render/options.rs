@@ -73,7 +73,11 @@ pub struct RenderOptions {
     #[arg(long = "temperature-scale", value_name = "F")]
     pub temperature_scale: Option<f64>,
     /// Kelvin = temperature value × scale + offset (default offset 0).
-    #[arg(long = "temperature-offset", value_name = "K", allow_hyphen_values = true)]
+    #[arg(
+        long = "temperature-offset",
+        value_name = "K",
+        allow_hyphen_values = true
+    )]
     pub temperature_offset: Option<f64>,
     /// Blackbody brightness: emission = colour(K) × intensity × (K/1000)^4 (default 0.05).
     #[arg(long = "blackbody-intensity", value_name = "F")]
@@ -146,10 +150,13 @@ impl RenderOptions {
     /// Reads a scene file; relative paths in it are made relative to its folder.
     pub fn from_scene_file(path: &std::path::Path) -> Result<RenderOptions, String> {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let mut o: RenderOptions =
-            toml::from_str(&text).map_err(|e| format!("{}: {}", path.display(), e.to_string().replace('\n', " ")))?;
+        let mut o: RenderOptions = toml::from_str(&text)
+            .map_err(|e| format!("{}: {}", path.display(), e.to_string().replace('\n', " ")))?;
         let dir = path.parent().unwrap_or(std::path::Path::new("."));
-        for p in [&mut o.input, &mut o.output, &mut o.stats, &mut o.preview].into_iter().flatten() {
+        for p in [&mut o.input, &mut o.output, &mut o.stats, &mut o.preview]
+            .into_iter()
+            .flatten()
+        {
             if p.is_relative() {
                 *p = dir.join(&*p);
             }
@@ -175,10 +182,38 @@ impl RenderOptions {
             } };
         }
         pick!(
-            output, res, camera, eye, look_at, up, fov, ortho_width, density_grid, emission_grid, temperature_grid,
-            sigma_a, sigma_s, density_scale, g, emission_color, emission_intensity, temperature_scale,
-            temperature_offset, blackbody_intensity, step, shadow_step, shadows, termination, spp, seed, threads,
-            compression, stats, preview, exposure, background
+            output,
+            res,
+            camera,
+            eye,
+            look_at,
+            up,
+            fov,
+            ortho_width,
+            density_grid,
+            emission_grid,
+            temperature_grid,
+            sigma_a,
+            sigma_s,
+            density_scale,
+            g,
+            emission_color,
+            emission_intensity,
+            temperature_scale,
+            temperature_offset,
+            blackbody_intensity,
+            step,
+            shadow_step,
+            shadows,
+            termination,
+            spp,
+            seed,
+            threads,
+            compression,
+            stats,
+            preview,
+            exposure,
+            background
         )
     }
 }

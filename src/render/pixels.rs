@@ -73,11 +73,23 @@ pub fn render_pixels(job: &PixelJob, progress: &ProgressBar) -> PixelPasses {
                             let (jx, jy) = if job.spp == 1 {
                                 (0.5, 0.5)
                             } else {
-                                (unit_random(job.seed, x, y, s, 1), unit_random(job.seed, x, y, s, 2))
+                                (
+                                    unit_random(job.seed, x, y, s, 1),
+                                    unit_random(job.seed, x, y, s, 2),
+                                )
                             };
                             let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
                             let u = unit_random(job.seed, x, y, s, 0);
-                            let r = march(job.volume, job.lights, o, d, (0.0, f64::INFINITY), &job.settings, u, scratch);
+                            let r = march(
+                                job.volume,
+                                job.lights,
+                                o,
+                                d,
+                                (0.0, f64::INFINITY),
+                                &job.settings,
+                                u,
+                                scratch,
+                            );
                             tile_samples += r.samples;
                             acc[0] += r.alpha();
                             for c in 0..3 {
@@ -99,7 +111,11 @@ pub fn render_pixels(job: &PixelJob, progress: &ProgressBar) -> PixelPasses {
                             let v = (a * inv) as f32;
                             *dst = if v.is_finite() { v } else { 0.0 };
                         }
-                        px[stride - 1] = if depth_n > 0 { (depth_sum / depth_n as f64) as f32 } else { f32::INFINITY };
+                        px[stride - 1] = if depth_n > 0 {
+                            (depth_sum / depth_n as f64) as f32
+                        } else {
+                            f32::INFINITY
+                        };
                     }
                 }
                 samples.fetch_add(tile_samples, Ordering::Relaxed);

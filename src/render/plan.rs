@@ -81,12 +81,20 @@ pub struct RenderPlan {
 
 fn positive(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
     let v = v.unwrap_or(default);
-    if v > 0.0 && v.is_finite() { Ok(v) } else { Err(format!("{what} must be a positive number, not {v}")) }
+    if v > 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{what} must be a positive number, not {v}"))
+    }
 }
 
 fn non_negative(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
     let v = v.unwrap_or(default);
-    if v >= 0.0 && v.is_finite() { Ok(v) } else { Err(format!("{what} must be a non-negative number, not {v}")) }
+    if v >= 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{what} must be a non-negative number, not {v}"))
+    }
 }
 
 fn colour(v: &Option<String>, default: DVec3, what: &str) -> Result<DVec3, String> {
@@ -115,14 +123,23 @@ fn resolution(v: &Option<String>) -> Result<(usize, usize), String> {
 impl RenderPlan {
     /// Validates options; `input` is the VDB file (from the command line or the scene).
     pub fn new(o: &RenderOptions, input: PathBuf) -> Result<RenderPlan, String> {
-        let output = o.output.clone().ok_or("no output file: give -o OUT.exr (or `output` in the scene file)")?;
+        let output = o
+            .output
+            .clone()
+            .ok_or("no output file: give -o OUT.exr (or `output` in the scene file)")?;
         let (width, height) = resolution(&o.res)?;
         let projection = match o.camera.as_deref() {
-            None if o.ortho_width.is_some() => Some(Projection::Orthographic { width: positive(o.ortho_width, 1.0, "--ortho-width")? }),
+            None if o.ortho_width.is_some() => Some(Projection::Orthographic {
+                width: positive(o.ortho_width, 1.0, "--ortho-width")?,
+            }),
             None => o.fov.map(|f| Projection::Perspective { fov_deg: f }),
-            Some("persp") | Some("perspective") => Some(Projection::Perspective { fov_deg: o.fov.unwrap_or(40.0) }),
+            Some("persp") | Some("perspective") => Some(Projection::Perspective {
+                fov_deg: o.fov.unwrap_or(40.0),
+            }),
             Some("ortho") | Some("orthographic") => match o.ortho_width {
-                Some(w) => Some(Projection::Orthographic { width: positive(Some(w), 1.0, "--ortho-width")? }),
+                Some(w) => Some(Projection::Orthographic {
+                    width: positive(Some(w), 1.0, "--ortho-width")?,
+                }),
                 None => Some(Projection::Orthographic { width: 0.0 }),
             },
             Some(other) => return Err(format!("--camera \"{other}\": expected persp or ortho")),
@@ -132,7 +149,8 @@ impl RenderPlan {
                 return Err(format!("--fov {fov_deg} is outside (0, 180) degrees"));
             }
         }
-        let vec = |v: &Option<String>, what: &str| v.as_ref().map(|s| parse_vec3(s, what)).transpose();
+        let vec =
+            |v: &Option<String>, what: &str| v.as_ref().map(|s| parse_vec3(s, what)).transpose();
         let camera = CameraRequest {
             projection,
             eye: vec(&o.eye, "--eye")?,
@@ -150,7 +168,11 @@ impl RenderPlan {
                     lights.push(Light::parse(&l.spec, l.name.clone())?);
                 }
             } else {
-                let specs = if o.light.is_empty() { vec![DEFAULT_LIGHT.to_string()] } else { o.light.clone() };
+                let specs = if o.light.is_empty() {
+                    vec![DEFAULT_LIGHT.to_string()]
+                } else {
+                    o.light.clone()
+                };
                 let (mut suns, mut points) = (0, 0);
                 for s in &specs {
                     let name = if s.starts_with("point") {
@@ -167,8 +189,18 @@ impl RenderPlan {
         let (shadows, shadows_note) = match o.shadows.as_deref().unwrap_or("march") {
             "march" => (ShadowMode::March, None),
             "none" => (ShadowMode::None, None),
-            "dsm" => (ShadowMode::March, Some("dsm requested: the deep shadow map is not built yet, shadows were marched".to_string())),
-            other => return Err(format!("--shadows \"{other}\": expected march, dsm or none")),
+            "dsm" => (
+                ShadowMode::March,
+                Some(
+                    "dsm requested: the deep shadow map is not built yet, shadows were marched"
+                        .to_string(),
+                ),
+            ),
+            other => {
+                return Err(format!(
+                    "--shadows \"{other}\": expected march, dsm or none"
+                ));
+            }
         };
         let termination = o.termination.unwrap_or(1e-4);
         if !(0.0..1.0).contains(&termination) {
@@ -195,7 +227,13 @@ impl RenderPlan {
                 if !exposure.is_finite() {
                     return Err("--exposure must be a finite number".into());
                 }
-                Some((p.clone(), PreviewOptions { exposure, background }))
+                Some((
+                    p.clone(),
+                    PreviewOptions {
+                        exposure,
+                        background,
+                    },
+                ))
             }
             None => None,
         };
@@ -212,11 +250,22 @@ impl RenderPlan {
             sigma_s: colour(&o.sigma_s, DVec3::splat(2.0), "--sigma-s")?,
             density_scale: non_negative(o.density_scale, 1.0, "--density-scale")?,
             g,
-            emission_color: colour(&o.emission_color, DVec3::new(1.0, 0.45, 0.12), "--emission-color")?,
+            emission_color: colour(
+                &o.emission_color,
+                DVec3::new(1.0, 0.45, 0.12),
+                "--emission-color",
+            )?,
             emission_intensity: non_negative(o.emission_intensity, 4.0, "--emission-intensity")?,
             temperature_scale: non_negative(o.temperature_scale, 1.0, "--temperature-scale")?,
-            temperature_offset: o.temperature_offset.filter(|v| v.is_finite()).unwrap_or(0.0),
-            blackbody_intensity: non_negative(o.blackbody_intensity, 0.05, "--blackbody-intensity")?,
+            temperature_offset: o
+                .temperature_offset
+                .filter(|v| v.is_finite())
+                .unwrap_or(0.0),
+            blackbody_intensity: non_negative(
+                o.blackbody_intensity,
+                0.05,
+                "--blackbody-intensity",
+            )?,
             lights,
             shadows,
             shadows_note,

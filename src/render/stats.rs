@@ -13,10 +13,16 @@ pub struct Stage {
 
 impl Stage {
     pub fn ran(seconds: f64) -> Stage {
-        Stage { status: "ran".into(), seconds }
+        Stage {
+            status: "ran".into(),
+            seconds,
+        }
     }
     pub fn skipped(reason: &str) -> Stage {
-        Stage { status: format!("skipped: {reason}"), seconds: 0.0 }
+        Stage {
+            status: format!("skipped: {reason}"),
+            seconds: 0.0,
+        }
     }
 }
 

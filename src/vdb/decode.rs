@@ -15,7 +15,8 @@ pub trait TreeSink {
     /// Called once, first: number of channels (1 or 3) and the background value.
     fn begin(&mut self, channels: usize, background: &[f32]) -> Result<(), String>;
     /// A constant cube of `size` voxels (8, 128 or 4096) at `origin` (file index space).
-    fn tile(&mut self, origin: IVec3, size: i32, value: &[f32], active: bool) -> Result<(), String>;
+    fn tile(&mut self, origin: IVec3, size: i32, value: &[f32], active: bool)
+    -> Result<(), String>;
     /// An 8³ leaf at `origin`: 512 voxels in OpenVDB's order (offset `x<<6 | y<<3 | z`),
     /// channels interleaved; `active` is the leaf's value mask.
     fn leaf(&mut self, origin: IVec3, values: &[f32], active: &[u64; 8]) -> Result<(), String>;
@@ -61,7 +62,12 @@ impl Channels for Vec3<f64> {
     }
 }
 
-pub(super) fn walk(grid: &AnyGrid, kind: ValueKind, m: DMat4, sink: &mut dyn TreeSink) -> Result<DecodedValues, String> {
+pub(super) fn walk(
+    grid: &AnyGrid,
+    kind: ValueKind,
+    m: DMat4,
+    sink: &mut dyn TreeSink,
+) -> Result<DecodedValues, String> {
     let channels = match (grid, kind) {
         (AnyGrid::Float(g), ValueKind::Scalar) => walk_typed(g, sink)?,
         (AnyGrid::Double(g), ValueKind::Scalar) => walk_typed(g, sink)?,
@@ -69,13 +75,22 @@ pub(super) fn walk(grid: &AnyGrid, kind: ValueKind, m: DMat4, sink: &mut dyn Tre
         (AnyGrid::Vec3D(g), ValueKind::Vector) => walk_typed(g, sink)?,
         _ => return Err("the decoded grid's type does not match its descriptor".to_string()),
     };
-    Ok(DecodedValues { channels, index_to_world: m })
+    Ok(DecodedValues {
+        channels,
+        index_to_world: m,
+    })
 }
 
 fn origin_of(c: &Coord) -> Result<IVec3, String> {
     let o = IVec3::new(c[0], c[1], c[2]);
-    if o.to_array().iter().any(|v| (*v as i64).abs() > MAX_INDEX_COORD) {
-        return Err(format!("index coordinate ({}, {}, {}) is out of the supported range ±2^30", o.x, o.y, o.z));
+    if o.to_array()
+        .iter()
+        .any(|v| (*v as i64).abs() > MAX_INDEX_COORD)
+    {
+        return Err(format!(
+            "index coordinate ({}, {}, {}) is out of the supported range ±2^30",
+            o.x, o.y, o.z
+        ));
     }
     Ok(o)
 }
@@ -101,6 +116,12 @@ fn walk_typed<T: Channels>(grid: &Grid<T>, sink: &mut dyn TreeSink) -> Result<us
     };
     for (key, entry) in root.table() {
         let key_origin = origin_of(key)?;
+        if key_origin & IVec3::splat(4095) != IVec3::ZERO {
+            return Err(format!(
+                "root entry at ({}, {}, {}) is not aligned to a 4096-voxel node",
+                key_origin.x, key_origin.y, key_origin.z
+            ));
+        }
         let upper = match entry {
             RootEntry::Tile { value, active } => {
                 emit_tile(sink, key_origin, 4096, value, *active)?;
@@ -111,15 +132,42 @@ fn walk_typed<T: Channels>(grid: &Grid<T>, sink: &mut dyn TreeSink) -> Result<us
         for n1 in 0..32768usize {
             let origin1 = origin_of(&upper.offset_to_global_coord(n1))?;
             let Some(lower) = upper.child(n1) else {
-                emit_tile(sink, origin1, 128, &upper.values()[n1], upper.value_mask().is_on(n1))?;
+                emit_tile(
+                    sink,
+                    origin1,
+                    128,
+                    &upper.values()[n1],
+                    upper.value_mask().is_on(n1),
+                )?;
                 continue;
             };
             for n2 in 0..4096usize {
                 let origin2 = origin_of(&lower.offset_to_global_coord(n2))?;
                 let Some(leaf) = lower.child(n2) else {
-                    emit_tile(sink, origin2, 8, &lower.values()[n2], lower.value_mask().is_on(n2))?;
+                    emit_tile(
+                        sink,
+                        origin2,
+                        8,
+                        &lower.values()[n2],
+                        lower.value_mask().is_on(n2),
+                    )?;
                     continue;
                 };
+                // Files before format 222 store each leaf's origin; it must be the leaf's
+                // place in the tree (a stray origin would make the builder grow nodes
+                // elsewhere, out of proportion to the data).
+                let leaf_origin = origin_of(&leaf.origin())?;
+                if leaf_origin != origin2 {
+                    return Err(format!(
+                        "a leaf's stored origin ({}, {}, {}) is not its place in the tree ({}, {}, {})",
+                        leaf_origin.x,
+                        leaf_origin.y,
+                        leaf_origin.z,
+                        origin2.x,
+                        origin2.y,
+                        origin2.z
+                    ));
+                }
                 let buf = leaf.buffer();
                 if buf.len() != 512 {
                     return Err(format!("a leaf holds {} values instead of 512", buf.len()));
@@ -131,7 +179,7 @@ fn walk_typed<T: Channels>(grid: &Grid<T>, sink: &mut dyn TreeSink) -> Result<us
                 for (m, w) in mask.iter_mut().zip(leaf.value_mask().words()) {
                     *m = *w;
                 }
-                sink.leaf(origin_of(&leaf.origin())?, &leaf_values, &mask)?;
+                sink.leaf(leaf_origin, &leaf_values, &mask)?;
             }
         }
     }

@@ -9,17 +9,32 @@ pub enum VdbError {
     #[error("{path}: {problem}")]
     File { path: PathBuf, problem: String },
     #[error("{path}: grid \"{grid}\": {problem}")]
-    Grid { path: PathBuf, grid: String, problem: String },
+    Grid {
+        path: PathBuf,
+        grid: String,
+        problem: String,
+    },
     #[error("{path}: no grid named \"{grid}\" (the file has: {available})")]
-    NoSuchGrid { path: PathBuf, grid: String, available: String },
+    NoSuchGrid {
+        path: PathBuf,
+        grid: String,
+        available: String,
+    },
 }
 
 impl VdbError {
     pub fn file(path: impl Into<PathBuf>, problem: impl Into<String>) -> Self {
-        VdbError::File { path: path.into(), problem: problem.into() }
+        VdbError::File {
+            path: path.into(),
+            problem: problem.into(),
+        }
     }
     pub fn grid(path: impl Into<PathBuf>, grid: &str, problem: impl Into<String>) -> Self {
-        VdbError::Grid { path: path.into(), grid: grid.to_string(), problem: problem.into() }
+        VdbError::Grid {
+            path: path.into(),
+            grid: grid.to_string(),
+            problem: problem.into(),
+        }
     }
 }
 

@@ -2,6 +2,8 @@
 //! reader recurses through instance chains and trusts offsets; these checks turn the
 //! inputs that would crash or exhaust it into errors.
 
+use std::collections::HashMap;
+
 /// Longest chain of instanced grids accepted (real files have chains of length 1).
 pub const MAX_INSTANCE_CHAIN: usize = 16;
 
@@ -9,8 +11,13 @@ pub const MAX_INSTANCE_CHAIN: usize = 16;
 /// i32 (a root node spans 4096 voxels) and keeps local index space exact in f32 steps.
 pub const MAX_INDEX_COORD: i64 = 1 << 30;
 
-/// A grid's position in an instance chain: `Err` names the problem.
+/// Instance parents must exist and chains must end: `Err` names the problem. Names are
+/// looked up as the reader does (the first grid with that unique name).
 pub fn check_instance_chains(unique_names: &[String], parents: &[String]) -> Result<(), String> {
+    let mut index: HashMap<&str, usize> = HashMap::with_capacity(unique_names.len());
+    for (i, n) in unique_names.iter().enumerate() {
+        index.entry(n.as_str()).or_insert(i);
+    }
     for (i, start) in parents.iter().enumerate() {
         let mut parent = start.as_str();
         let mut steps = 0;
@@ -22,7 +29,7 @@ pub fn check_instance_chains(unique_names: &[String], parents: &[String]) -> Res
                     printable(&unique_names[i])
                 ));
             }
-            let Some(p) = unique_names.iter().position(|n| n == parent) else {
+            let Some(&p) = index.get(parent) else {
                 return Err(format!(
                     "grid \"{}\": instance parent \"{}\" is not in the file",
                     printable(&unique_names[i]),
@@ -30,7 +37,10 @@ pub fn check_instance_chains(unique_names: &[String], parents: &[String]) -> Res
                 ));
             };
             if p == i {
-                return Err(format!("grid \"{}\": instance chain is cyclic", printable(&unique_names[i])));
+                return Err(format!(
+                    "grid \"{}\": instance chain is cyclic",
+                    printable(&unique_names[i])
+                ));
             }
             parent = parents[p].as_str();
         }
@@ -64,12 +74,36 @@ mod tests {
     #[test]
     fn cycles_and_missing_parents_are_rejected() {
         assert!(check_instance_chains(&s(&["a", "b"]), &s(&["", "a"])).is_ok());
-        assert!(check_instance_chains(&s(&["a", "b"]), &s(&["b", "a"])).unwrap_err().contains("cyclic"));
-        assert!(check_instance_chains(&s(&["a"]), &s(&["a"])).unwrap_err().contains("cyclic"));
-        assert!(check_instance_chains(&s(&["a"]), &s(&["zz"])).unwrap_err().contains("not in the file"));
+        assert!(
+            check_instance_chains(&s(&["a", "b"]), &s(&["b", "a"]))
+                .unwrap_err()
+                .contains("cyclic")
+        );
+        assert!(
+            check_instance_chains(&s(&["a"]), &s(&["a"]))
+                .unwrap_err()
+                .contains("cyclic")
+        );
+        assert!(
+            check_instance_chains(&s(&["a"]), &s(&["zz"]))
+                .unwrap_err()
+                .contains("not in the file")
+        );
         let names: Vec<String> = (0..40).map(|i| format!("g{i}")).collect();
-        let parents: Vec<String> = (0..40).map(|i| if i == 0 { String::new() } else { format!("g{}", i - 1) }).collect();
-        assert!(check_instance_chains(&names, &parents).unwrap_err().contains("longer"));
+        let parents: Vec<String> = (0..40)
+            .map(|i| {
+                if i == 0 {
+                    String::new()
+                } else {
+                    format!("g{}", i - 1)
+                }
+            })
+            .collect();
+        assert!(
+            check_instance_chains(&names, &parents)
+                .unwrap_err()
+                .contains("longer")
+        );
     }
 
     #[test]

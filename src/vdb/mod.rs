@@ -8,6 +8,7 @@
 mod decode;
 mod error;
 pub mod guard;
+mod scan;
 
 pub use decode::{DecodedValues, TreeSink};
 pub use error::VdbError;
@@ -16,8 +17,10 @@ use error::panic_message;
 use glam::{DMat4, DVec3, IVec3};
 use openvdb::io::{File, GridMetadata};
 use openvdb::math::Vec3d;
+use std::cell::Cell;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
+use std::sync::Once;
 
 /// What a grid's values are, as far as rendering is concerned.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -63,7 +66,11 @@ pub struct GridInfo {
 impl GridInfo {
     pub fn voxel_size(&self) -> Option<DVec3> {
         self.index_to_world.map(|m| {
-            DVec3::new(m.x_axis.truncate().length(), m.y_axis.truncate().length(), m.z_axis.truncate().length())
+            DVec3::new(
+                m.x_axis.truncate().length(),
+                m.y_axis.truncate().length(),
+                m.z_axis.truncate().length(),
+            )
         })
     }
 }
@@ -72,6 +79,8 @@ impl GridInfo {
 pub struct VdbFile {
     path: PathBuf,
     file: File,
+    /// The structure scan made before the reader opened the file (same grid order).
+    scanned: scan::ScannedFile,
     /// File format version (e.g. 224).
     pub file_version: u32,
     /// Version of the library that wrote the file, `major.minor`.
@@ -83,13 +92,56 @@ pub struct VdbFile {
 
 impl std::fmt::Debug for VdbFile {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("VdbFile").field("path", &self.path).field("grids", &self.grids.len()).finish()
+        f.debug_struct("VdbFile")
+            .field("path", &self.path)
+            .field("grids", &self.grids.len())
+            .finish()
     }
 }
 
-/// Runs the reader under `catch_unwind`, so a panic on malformed data becomes an error.
+thread_local! {
+    /// Set while this thread runs the reader under [`guarded`]: its panics are errors, not
+    /// messages.
+    static QUIET_PANICS: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Installs (once) a panic hook that stays silent for panics inside [`guarded`] and
+/// passes all others to the previous hook.
+fn install_quiet_panic_hook() {
+    static HOOK: Once = Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET_PANICS.with(Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+}
+
+/// Resets [`QUIET_PANICS`] when dropped, also while unwinding.
+struct QuietPanics(bool);
+
+impl QuietPanics {
+    fn on() -> Self {
+        QuietPanics(QUIET_PANICS.with(|q| q.replace(true)))
+    }
+}
+
+impl Drop for QuietPanics {
+    fn drop(&mut self) {
+        QUIET_PANICS.with(|q| q.set(self.0));
+    }
+}
+
+/// Runs the reader under `catch_unwind`, so a panic on malformed data becomes an error
+/// (and prints nothing: the caller reports the error on one line).
 fn guarded<T>(path: &Path, f: impl FnOnce() -> Result<T, VdbError>) -> Result<T, VdbError> {
-    match catch_unwind(AssertUnwindSafe(f)) {
+    install_quiet_panic_hook();
+    let quiet = QuietPanics::on();
+    let result = catch_unwind(AssertUnwindSafe(f));
+    drop(quiet);
+    match result {
         Ok(r) => r,
         Err(payload) => Err(VdbError::file(path, panic_message(payload))),
     }
@@ -106,10 +158,14 @@ impl VdbFile {
         if meta.len() == 0 {
             return Err(VdbError::file(path, "file is empty"));
         }
-        guarded(path, || Self::open_unguarded(path))
+        // Structure checks first: what would abort the reader must not reach it.
+        let scanned = guarded(path, || {
+            scan::scan_file(path).map_err(|p| VdbError::file(path, p))
+        })?;
+        guarded(path, || Self::open_unguarded(path, scanned))
     }
 
-    fn open_unguarded(path: &Path) -> Result<VdbFile, VdbError> {
+    fn open_unguarded(path: &Path, scanned: scan::ScannedFile) -> Result<VdbFile, VdbError> {
         let file = File::open(path).map_err(|e| VdbError::file(path, reader_problem(&e)))?;
         let descs = file.descriptors();
         if descs.is_empty() {
@@ -118,22 +174,48 @@ impl VdbFile {
         let unique: Vec<String> = descs.iter().map(|d| d.unique_name.clone()).collect();
         let parents: Vec<String> = descs.iter().map(|d| d.instance_parent.clone()).collect();
         guard::check_instance_chains(&unique, &parents).map_err(|p| VdbError::file(path, p))?;
-        let metas = file.read_all_grid_metadata().map_err(|e| VdbError::file(path, reader_problem(&e)))?;
+        if scanned.grids.len() != descs.len()
+            || scanned
+                .grids
+                .iter()
+                .zip(descs)
+                .any(|(s, d)| s.unique_name != d.unique_name)
+        {
+            return Err(VdbError::file(
+                path,
+                "the grid descriptors could not be read consistently",
+            ));
+        }
+        let metas = file
+            .read_all_grid_metadata()
+            .map_err(|e| VdbError::file(path, reader_problem(&e)))?;
         if metas.len() != descs.len() {
             return Err(VdbError::file(
                 path,
-                format!("{} grid descriptors but {} grids could be read", descs.len(), metas.len()),
+                format!(
+                    "{} grid descriptors but {} grids could be read",
+                    descs.len(),
+                    metas.len()
+                ),
             ));
         }
-        let grids = metas.iter().map(|m| grid_info(path, m)).collect::<Result<Vec<_>, _>>()?;
+        let grids = metas
+            .iter()
+            .map(|m| grid_info(path, m))
+            .collect::<Result<Vec<_>, _>>()?;
         let header = file.header();
         Ok(VdbFile {
             path: path.to_path_buf(),
             file_version: header.file_version,
             library_version: format!("{}.{}", header.library_version.0, header.library_version.1),
-            metadata: file.metadata().iter().map(|(k, v)| (guard::printable(k), meta_text(v))).collect(),
+            metadata: file
+                .metadata()
+                .iter()
+                .map(|(k, v)| (guard::printable(k), meta_text(v)))
+                .collect(),
             grids,
             file,
+            scanned,
         })
     }
 
@@ -148,18 +230,28 @@ impl VdbFile {
 
     /// Names of all grids, comma separated (for error messages).
     pub fn grid_list(&self) -> String {
-        self.grids.iter().map(|g| g.unique_name.clone()).collect::<Vec<_>>().join(", ")
+        self.grids
+            .iter()
+            .map(|g| g.unique_name.clone())
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 
     /// Looks up a grid by name or unique name (`name[1]`).
     pub fn grid(&self, name: &str) -> Result<&GridInfo, VdbError> {
-        self.grids.iter().find(|g| g.unique_name == name).or_else(|| self.grids.iter().find(|g| g.name == name)).ok_or_else(
-            || VdbError::NoSuchGrid {
+        Ok(&self.grids[self.grid_index(name)?])
+    }
+
+    fn grid_index(&self, name: &str) -> Result<usize, VdbError> {
+        self.grids
+            .iter()
+            .position(|g| g.unique_name == name)
+            .or_else(|| self.grids.iter().position(|g| g.name == name))
+            .ok_or_else(|| VdbError::NoSuchGrid {
                 path: self.path.clone(),
                 grid: guard::printable(name),
                 available: self.grid_list(),
-            },
-        )
+            })
     }
 
     /// True if the file has a grid of that name.
@@ -170,7 +262,8 @@ impl VdbFile {
     /// Decodes one grid and streams its tree into `sink`. Returns the grid's transform
     /// and what was decoded.
     pub fn decode(&self, name: &str, sink: &mut dyn TreeSink) -> Result<DecodedValues, VdbError> {
-        let info = self.grid(name)?;
+        let index = self.grid_index(name)?;
+        let info = &self.grids[index];
         let gerr = |p: String| VdbError::grid(&self.path, &info.unique_name, p);
         if info.kind == ValueKind::Unsupported {
             return Err(gerr(format!(
@@ -179,19 +272,22 @@ impl VdbFile {
             )));
         }
         let Some(m) = info.index_to_world else {
-            return Err(gerr(format!("the transform ({}) is not a linear map", info.map_type)));
+            return Err(gerr(format!(
+                "the transform ({}) is not a linear map",
+                info.map_type
+            )));
         };
-        let unique = to_unique_name(info);
+        // The raw unique name, as in the file (the printable one may have been escaped).
+        let unique = &self.scanned.grids[index].unique_name;
         guarded(&self.path, || {
-            let grid = self.file.read_grid(&unique).map_err(|e| gerr(reader_problem(&e)))?;
+            self.scanned.check_tree(&self.path, unique).map_err(gerr)?;
+            let grid = self
+                .file
+                .read_grid(unique)
+                .map_err(|e| gerr(reader_problem(&e)))?;
             decode::walk(&grid, info.kind, m, sink).map_err(gerr)
         })
     }
-}
-
-/// The reader's unique-name form (`name\x1e<n>`) of a printable `name[n]`.
-fn to_unique_name(info: &GridInfo) -> String {
-    openvdb::io::string_as_unique_name(&info.unique_name)
 }
 
 fn grid_info(path: &Path, m: &GridMetadata) -> Result<GridInfo, VdbError> {
@@ -212,29 +308,59 @@ fn grid_info(path: &Path, m: &GridMetadata) -> Result<GridInfo, VdbError> {
                 let w = t.index_to_world(Vec3d::new(e[0], e[1], e[2]));
                 DVec3::new(w[0] - o[0], w[1] - o[1], w[2] - o[2]).extend(0.0)
             };
-            Some(DMat4::from_cols(col(0), col(1), col(2), DVec3::new(o[0], o[1], o[2]).extend(1.0)))
+            Some(DMat4::from_cols(
+                col(0),
+                col(1),
+                col(2),
+                DVec3::new(o[0], o[1], o[2]).extend(1.0),
+            ))
         }
         _ => None,
     };
     if let Some(mat) = index_to_world {
         let lin = glam::DMat3::from_mat4(mat);
         let det = lin.determinant();
-        let sizes = [lin.x_axis.length(), lin.y_axis.length(), lin.z_axis.length()];
-        if !mat.is_finite() || !det.is_finite() || det.abs() < 1e-300 || sizes.iter().any(|s| *s <= 0.0 || *s > 1e15) {
-            return Err(VdbError::grid(path, &unique_name, "the transform has a zero, non-finite or absurd voxel size"));
+        let sizes = [
+            lin.x_axis.length(),
+            lin.y_axis.length(),
+            lin.z_axis.length(),
+        ];
+        if !mat.is_finite()
+            || !det.is_finite()
+            || det.abs() < 1e-300
+            || sizes.iter().any(|s| *s <= 0.0 || *s > 1e15)
+        {
+            return Err(VdbError::grid(
+                path,
+                &unique_name,
+                "the transform has a zero, non-finite or absurd voxel size",
+            ));
         }
     }
-    let file_voxel_count = m.metadata.get("file_voxel_count").and_then(|v| v.as_i64()).map(|v| v.max(0) as u64);
-    let file_bbox = match (m.metadata.get("file_bbox_min"), m.metadata.get("file_bbox_max")) {
+    let file_voxel_count = m
+        .metadata
+        .get("file_voxel_count")
+        .and_then(|v| v.as_i64())
+        .map(|v| v.max(0) as u64);
+    let file_bbox = match (
+        m.metadata.get("file_bbox_min"),
+        m.metadata.get("file_bbox_max"),
+    ) {
         (Some(a), Some(b)) => match (a.as_vec3i(), b.as_vec3i()) {
-            (Some(a), Some(b)) => Some((IVec3::new(a[0], a[1], a[2]), IVec3::new(b[0], b[1], b[2]))),
+            (Some(a), Some(b)) => {
+                Some((IVec3::new(a[0], a[1], a[2]), IVec3::new(b[0], b[1], b[2])))
+            }
             _ => None,
         },
         _ => None,
     };
     let compression = compression_name(m.compression);
     let class = m.metadata.get_str("class").unwrap_or("unknown").to_string();
-    let metadata = m.metadata.iter().map(|(k, v)| (guard::printable(k), meta_text(v))).collect();
+    let metadata = m
+        .metadata
+        .iter()
+        .map(|(k, v)| (guard::printable(k), meta_text(v)))
+        .collect();
     Ok(GridInfo {
         name: guard::printable(&d.grid_name),
         unique_name,
@@ -261,7 +387,11 @@ fn compression_name(c: openvdb::io::Compression) -> String {
     } else {
         "none"
     };
-    if c.contains(C::ACTIVE_MASK) { format!("{codec}+mask") } else { codec.to_string() }
+    if c.contains(C::ACTIVE_MASK) {
+        format!("{codec}+mask")
+    } else {
+        codec.to_string()
+    }
 }
 
 fn meta_text(v: &openvdb::metadata::MetaValue) -> String {
@@ -276,13 +406,15 @@ fn meta_text(v: &openvdb::metadata::MetaValue) -> String {
         M::Vec3i(v) => format!("({}, {}, {})", v[0], v[1], v[2]),
         M::Vec3s(v) => format!("({}, {}, {})", v[0], v[1], v[2]),
         M::Vec3d(v) => format!("({}, {}, {})", v[0], v[1], v[2]),
-        M::Unknown { type_name, data } => format!("<{} bytes of {}>", data.len(), guard::printable(type_name)),
+        M::Unknown { type_name, data } => {
+            format!("<{} bytes of {}>", data.len(), guard::printable(type_name))
+        }
         other => format!("<{}>", other.type_name()),
     };
     text
 }
 
-fn io_problem(e: &std::io::Error) -> String {
+pub(super) fn io_problem(e: &std::io::Error) -> String {
     match e.kind() {
         std::io::ErrorKind::NotFound => "no such file".to_string(),
         std::io::ErrorKind::PermissionDenied => "permission denied".to_string(),
