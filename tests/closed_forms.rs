@@ -9,7 +9,7 @@ use murk::integrate::phase::hg;
 use murk::integrate::{
     Companion, Emission, Illumination, MarchSettings, Medium, RayResult, Scratch, Volume, march,
 };
-use murk::shadow::density_integral;
+use murk::shadow::{ShadowQuadrature, density_integral};
 use murk::vdb::VdbFile;
 
 const STEPS: [f64; 4] = [0.25, 0.5, 1.0, 2.0];
@@ -47,7 +47,7 @@ impl Illumination for Sun<'_> {
         (grey(self.irradiance), -self.toward)
     }
     fn density_to_light(&self, _: usize, x: DVec3) -> f64 {
-        density_integral(self.field, x, self.toward, f64::INFINITY, 1.0, 1e30)
+        density_integral(self.field, x, self.toward, f64::INFINITY, ShadowQuadrature::Exact, 1e30)
     }
 }
 

@@ -141,3 +141,89 @@ impl Iterator for Spans<'_> {
         None
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::grid_build::GridBuilder;
+    use crate::field::{Field, VoxelGrid};
+    use crate::vdb::TreeSink;
+    use glam::{DMat4, DVec3, IVec3};
+
+    /// A grid with leaves, an 8³ tile, a 128³ tile and empty space between, far from
+    /// the index origin.
+    fn test_grid() -> VoxelGrid {
+        let mut b = GridBuilder::new();
+        b.begin(1, &[0.0]).unwrap();
+        let base = IVec3::new(100_096, -50_048, 256);
+        let mut vals = vec![0f32; 512];
+        for (i, v) in vals.iter_mut().enumerate() {
+            *v = ((i * 37) % 11) as f32 * 0.1;
+        }
+        let mask = [u64::MAX; 8];
+        for o in [IVec3::ZERO, IVec3::new(8, 0, 0), IVec3::new(40, 16, 8), IVec3::new(0, 64, 120)] {
+            b.leaf(base + o, &vals, &mask).unwrap();
+        }
+        b.tile(base + IVec3::new(16, 0, 0), 8, &[0.5], true).unwrap();
+        b.tile(base + IVec3::new(128, 0, 0), 128, &[0.25], true).unwrap();
+        b.finish("t", DMat4::from_scale(DVec3::new(0.1, 0.2, 0.1))).unwrap()
+    }
+
+    fn rng(state: &mut u64) -> f64 {
+        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (*state >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Every point where the field is non-zero lies in a span, and the span's range
+    /// bounds the value there: for random rays, including axis-parallel ones (±0
+    /// direction components) and rays along voxel faces.
+    #[test]
+    fn spans_cover_the_field_and_bound_it() {
+        let g = test_grid();
+        let b = g.active_bounds();
+        let mut s = 7u64;
+        let mut dirs: Vec<DVec3> = vec![DVec3::X, DVec3::NEG_X, DVec3::Y, DVec3::NEG_Z, DVec3::new(-0.0, 0.0, 1.0)];
+        for _ in 0..200 {
+            dirs.push(DVec3::new(rng(&mut s) - 0.5, rng(&mut s) - 0.5, rng(&mut s) - 0.5).normalize());
+        }
+        let mut nonzero_checked = 0;
+        for (k, d) in dirs.iter().enumerate() {
+            // Origins inside the bounds (on voxel faces for the first rays), and outside.
+            let lo = b.min.as_dvec3();
+            let ext = b.extent().as_dvec3();
+            let mut oi = lo + ext * DVec3::new(rng(&mut s), rng(&mut s), rng(&mut s));
+            if k < 5 {
+                oi = oi.round();
+            }
+            let o = g.transform().index_to_world(oi) - *d * 50.0 * (k % 2) as f64;
+            let ray = IndexRay::new(&g, o, *d);
+            let spans: Vec<Span> = Spans::new(&g, ray, 0.0, 1e3).collect();
+            for w in spans.windows(2) {
+                assert!(w[0].t1 <= w[1].t0 + 1e-12, "spans out of order");
+            }
+            for i in 0..4000 {
+                let t = i as f64 * 0.25 * 0.05;
+                let v = g.value_at_index(ray.at(t));
+                let inside = spans.iter().find(|sp| sp.t0 - 1e-9 <= t && t <= sp.t1 + 1e-9);
+                if v > 0.0 {
+                    nonzero_checked += 1;
+                    let sp = inside.unwrap_or_else(|| panic!("ray {k}: value {v} at t {t} outside every span"));
+                    assert!(v <= sp.range.max + 1e-6 && v >= sp.range.min - 1e-6, "ray {k}: {v} outside {:?}", sp.range);
+                }
+            }
+        }
+        assert!(nonzero_checked > 10_000, "{nonzero_checked}");
+    }
+
+    /// A ray that misses the bounds yields nothing; one parallel to an axis outside the
+    /// slab of the bounds too (a ±0 component must not produce NaN intervals).
+    #[test]
+    fn misses_and_parallel_rays() {
+        let g = test_grid();
+        let far = g.transform().index_to_world(g.active_bounds().max.as_dvec3() + DVec3::splat(10.0));
+        assert_eq!(Spans::new(&g, IndexRay::new(&g, far, DVec3::X), 0.0, 1e9).count(), 0);
+        assert_eq!(Spans::new(&g, IndexRay::new(&g, far, DVec3::new(0.0, -0.0, 1.0)), 0.0, 1e9).count(), 0);
+        let inside = g.transform().index_to_world(DVec3::ZERO);
+        assert!(clip_to_box(&IndexRay::new(&g, inside, DVec3::new(-0.0, 0.0, 1.0)), &g.active_bounds(), 0.0, 1e9).is_some());
+    }
+}

@@ -215,20 +215,17 @@ impl VoxelGrid {
     #[inline]
     pub fn sample_channel(&self, p: DVec3, c: usize) -> f32 {
         if !(p.abs().max_element() < LOOKUP_LIMIT) || c >= self.channels {
-            return if c < self.channels {
-                self.tile_values[c]
-            } else {
-                0.0
-            };
+            return if c < self.channels { self.tile_values[c] } else { 0.0 };
         }
-        let f = p.floor();
-        let t = (p - f).as_vec3();
-        let g = f.as_ivec3() + self.transform.origin;
+        let i = IVec3::new(floor_i32(p.x), floor_i32(p.y), floor_i32(p.z));
+        let t = (p - i.as_dvec3()).as_vec3();
+        let g = i + self.transform.origin;
         let ch = self.channels;
         let mut v = [0.0f32; 8];
+        let base_slot = self.lookup(g);
         if (g.x & 7) != 7 && (g.y & 7) != 7 && (g.z & 7) != 7 {
             // All eight corners in one leaf or tile.
-            match self.lookup(g) {
+            match base_slot {
                 Slot::Tile(tile) => return self.tile_values[tile as usize * ch + c],
                 Slot::Leaf(l) => {
                     let base = l as usize * LEAF_VOXELS + leaf_offset(g);
@@ -239,20 +236,25 @@ impl VoxelGrid {
                 }
             }
         } else {
-            for (k, d) in [
-                IVec3::new(0, 0, 0),
-                IVec3::new(0, 0, 1),
-                IVec3::new(0, 1, 0),
-                IVec3::new(0, 1, 1),
-                IVec3::new(1, 0, 0),
-                IVec3::new(1, 0, 1),
-                IVec3::new(1, 1, 0),
-                IVec3::new(1, 1, 1),
-            ]
-            .iter()
-            .enumerate()
-            {
-                v[k] = self.voxel(g + *d, c);
+            // Corners spread over up to eight leaves: look each leaf up once.
+            let mut seen: [(IVec3, Slot); 8] = [(g >> 3_i32, base_slot); 8];
+            let mut n_seen = 1;
+            for (k, value) in v.iter_mut().enumerate() {
+                let corner = g + IVec3::new((k >> 2) as i32 & 1, (k >> 1) as i32 & 1, k as i32 & 1);
+                let key = corner >> 3_i32;
+                let slot = match seen[..n_seen].iter().find(|(sk, _)| *sk == key) {
+                    Some((_, s)) => *s,
+                    None => {
+                        let s = self.lookup(corner);
+                        seen[n_seen] = (key, s);
+                        n_seen += 1;
+                        s
+                    }
+                };
+                *value = match slot {
+                    Slot::Tile(tile) => self.tile_values[tile as usize * ch + c],
+                    Slot::Leaf(l) => self.leaf_values[(l as usize * LEAF_VOXELS + leaf_offset(corner)) * ch + c],
+                };
             }
         }
         trilinear(&v, t)
@@ -357,6 +359,14 @@ impl VoxelGrid {
     }
 }
 
+/// `floor` as an integer without a libm call (the baseline x86-64 target has no SSE4.1
+/// rounding instruction). For |x| < 2^30; NaN gives 0.
+#[inline]
+fn floor_i32(x: f64) -> i32 {
+    let i = x as i32;
+    i - ((x < i as f64) as i32)
+}
+
 #[inline]
 pub(crate) fn trilinear(v: &[f32; 8], t: Vec3) -> f32 {
     // v[k]: corner (k>>2 & 1, k>>1 & 1, k & 1) in (x, y, z).
@@ -391,8 +401,8 @@ impl Field for VoxelGrid {
     /// Exact: the ray is cut at every voxel face (Amanatides–Woo), and inside a voxel the
     /// trilinear reconstruction along the ray is a cubic, which two-point Gauss–Legendre
     /// integrates exactly.
-    fn integral_is_exact(&self) -> bool {
-        true
+    fn quadrature(&self) -> super::Quadrature {
+        super::Quadrature::ExactPerVoxel
     }
 
     fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {

@@ -286,6 +286,9 @@ impl TreeSink for GridBuilder {
         value: &[f32],
         active: bool,
     ) -> Result<(), String> {
+        if !matches!(size, 8 | 128 | 4096) || (origin & IVec3::splat(size - 1)) != IVec3::ZERO {
+            return Err(format!("a tile of size {size} at a misaligned origin ({}, {}, {})", origin.x, origin.y, origin.z));
+        }
         let voxels = (size as u64).pow(3);
         if active {
             self.count_active(value, voxels);
@@ -320,6 +323,9 @@ impl TreeSink for GridBuilder {
     }
 
     fn leaf(&mut self, origin: IVec3, values: &[f32], active: &[u64; 8]) -> Result<(), String> {
+        if (origin & IVec3::splat(7)) != IVec3::ZERO {
+            return Err(format!("a leaf at a misaligned origin ({}, {}, {})", origin.x, origin.y, origin.z));
+        }
         let ch = self.channels.max(1);
         if values.len() != LEAF_VOXELS * ch {
             return Err("a leaf of the wrong size".to_string());
@@ -383,5 +389,43 @@ impl VoxelGrid {
         let unique = info.unique_name.clone();
         b.finish(&unique, decoded.index_to_world)
             .map_err(|p| VdbError::grid(file.path(), &unique, p))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn misaligned_nodes_are_rejected() {
+        let mut b = GridBuilder::new();
+        b.begin(1, &[0.0]).unwrap();
+        assert!(b.leaf(IVec3::new(8, 3, 0), &[0.0; 512], &[0; 8]).unwrap_err().contains("misaligned"));
+        assert!(b.tile(IVec3::new(8, 0, 0), 128, &[1.0], true).unwrap_err().contains("misaligned"));
+        assert!(b.tile(IVec3::ZERO, 16, &[1.0], true).is_err());
+        assert!(b.tile(IVec3::new(4096, 0, -4096), 4096, &[1.0], true).is_ok());
+    }
+
+    /// NaN, ±Inf and negative values become 0 and are counted; stats keep the finite raw values.
+    #[test]
+    fn bad_values_are_sanitised_and_counted() {
+        let mut b = GridBuilder::new();
+        b.begin(1, &[0.0]).unwrap();
+        let mut vals = [1.0f32; 512];
+        vals[0] = f32::NAN;
+        vals[1] = f32::INFINITY;
+        vals[2] = f32::NEG_INFINITY;
+        vals[3] = -2.0;
+        b.leaf(IVec3::ZERO, &vals, &[u64::MAX; 8]).unwrap();
+        b.tile(IVec3::new(8, 0, 0), 8, &[f32::NAN], false).unwrap();
+        let g = b.finish("d", glam::DMat4::IDENTITY).unwrap();
+        let s = g.stats();
+        assert_eq!((s.nan, s.inf, s.negative), (1 + 512, 2, 1));
+        assert_eq!(s.min, vec![-2.0]);
+        assert_eq!(s.max, vec![1.0]);
+        for k in 0..4 {
+            assert_eq!(g.voxel_value(IVec3::new(0, 0, k), 0), 0.0);
+        }
+        assert_eq!(g.voxel_value(IVec3::new(9, 1, 1), 0), 0.0);
     }
 }

@@ -135,6 +135,17 @@ pub fn gauss_legendre_2(f: impl Fn(f64) -> f64, t0: f64, t1: f64) -> f64 {
     0.5 * ds * (f(t0 + G * ds) + f(t1 - G * ds))
 }
 
+/// What [`Field::integral`] gives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quadrature {
+    /// Gauss–Legendre over the interval: callers keep intervals short.
+    Approximate,
+    /// Exact over any interval, at a cost proportional to the voxels crossed.
+    ExactPerVoxel,
+    /// Exact over any interval at constant cost (a closed form).
+    ClosedForm,
+}
+
 /// One cell of a field's hierarchy, as the traversal sees it: an axis-aligned cube of
 /// `size` voxels starting at `origin` (local index space) over which the field's
 /// trilinear reconstruction stays within `range`. For a VDB grid this is a leaf (8), an
@@ -186,9 +197,8 @@ pub trait Field: Send + Sync {
         gauss_legendre_2(|t| self.value_at_index(ray.at(t)) as f64, t0, t1)
     }
 
-    /// True if [`Field::integral`] is exact over any interval (callers then need not
-    /// subdivide it).
-    fn integral_is_exact(&self) -> bool {
-        false
+    /// How exact and how costly [`Field::integral`] is.
+    fn quadrature(&self) -> Quadrature {
+        Quadrature::Approximate
     }
 }

@@ -229,8 +229,8 @@ impl Field for ConstantBox {
     }
 
     /// Exact: ρ × the length of the chord inside the box.
-    fn integral_is_exact(&self) -> bool {
-        true
+    fn quadrature(&self) -> super::Quadrature {
+        super::Quadrature::ClosedForm
     }
 
     fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
@@ -386,8 +386,8 @@ impl Field for ConstantSphere {
     }
 
     /// Exact: ρ × the length of the chord inside the ball.
-    fn integral_is_exact(&self) -> bool {
-        true
+    fn quadrature(&self) -> super::Quadrature {
+        super::Quadrature::ClosedForm
     }
 
     fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {

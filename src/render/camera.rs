@@ -107,42 +107,50 @@ impl Camera {
     }
 
     /// A camera that frames the world box `(lo, hi)` whole, looking from the front and a
-    /// little above (−z view direction, y up).
-    pub fn framing(
-        lo: DVec3,
-        hi: DVec3,
-        width: usize,
-        height: usize,
-        projection: Option<Projection>,
-    ) -> Camera {
+    /// little above (−z view direction, y up): every corner of the box is inside the
+    /// frame with a 4 % margin.
+    pub fn framing(lo: DVec3, hi: DVec3, width: usize, height: usize, projection: Option<Projection>) -> Camera {
         let centre = (lo + hi) * 0.5;
-        let radius = ((hi - lo).length() * 0.5).max(1e-6);
-        let view = DVec3::new(0.0, 0.3, 1.0).normalize();
+        let back = DVec3::new(0.0, 0.3, 1.0).normalize();
         let aspect = height as f64 / width as f64;
-        let projection = projection.unwrap_or(Projection::Perspective { fov_deg: 40.0 });
-        let (eye, projection) = match projection {
-            Projection::Perspective { fov_deg } => {
-                let half_h = (fov_deg.to_radians() * 0.5).tan();
-                let half = half_h.min(half_h * aspect);
-                let dist = radius * (1.0 + half * half).sqrt() / half * 1.02;
-                (centre + view * dist, projection)
-            }
-            Projection::Orthographic { .. } => {
-                let width = 2.0 * radius * (1.0f64).max(1.0 / aspect) * 1.02;
-                (
-                    centre + view * (radius * 4.0),
-                    Projection::Orthographic { width },
-                )
-            }
-        };
-        Camera {
-            projection,
-            eye,
+        let mut cam = Camera {
+            projection: projection.unwrap_or(Projection::Perspective { fov_deg: 40.0 }),
+            eye: centre + back,
             look_at: centre,
             up: DVec3::Y,
             width,
             height,
+        };
+        let f = cam.frame();
+        let corners = (0..8).map(|c| {
+            let p = DVec3::new(
+                if c & 1 == 0 { lo.x } else { hi.x },
+                if c & 2 == 0 { lo.y } else { hi.y },
+                if c & 4 == 0 { lo.z } else { hi.z },
+            ) - centre;
+            (p.dot(f.right).abs(), p.dot(f.up).abs(), p.dot(back))
+        });
+        let margin = 1.04;
+        match cam.projection {
+            Projection::Perspective { fov_deg } => {
+                let tan_x = (fov_deg.to_radians() * 0.5).tan();
+                let tan_y = tan_x * aspect;
+                // Distance from the centre so that x/(d − z) ≤ tan for every corner.
+                let dist = corners.fold(1e-6f64, |d, (x, y, z)| d.max(z + x * margin / tan_x).max(z + y * margin / tan_y));
+                cam.eye = centre + back * dist;
+            }
+            Projection::Orthographic { width: w } => {
+                let (mut half_w, mut depth) = (1e-6f64, 1e-6f64);
+                for (x, y, z) in corners {
+                    half_w = half_w.max(x).max(y / aspect);
+                    depth = depth.max(z);
+                }
+                let width = if w > 0.0 { w } else { 2.0 * half_w * margin };
+                cam.projection = Projection::Orthographic { width };
+                cam.eye = centre + back * (depth * 2.0 + 1e-3);
+            }
         }
+        cam
     }
 }
 

@@ -16,7 +16,7 @@ use crate::field::{Field, VoxelGrid};
 use crate::integrate::blackbody::BlackbodyTable;
 use crate::integrate::{Companion, Emission, Illumination, MarchSettings, Medium, Volume};
 use crate::output::{Frame, names, write_atomically, write_exr, write_preview};
-use crate::shadow::density_integral;
+use crate::shadow::{ShadowQuadrature, density_integral};
 use crate::vdb::{ValueKind, VdbFile};
 use anyhow::{Context, Result, anyhow};
 use camera::{Camera, Projection};
@@ -87,7 +87,7 @@ impl Illumination for MarchedLights<'_> {
             return 0.0;
         }
         let (dir, dist) = self.lights[light].toward(x);
-        density_integral(self.density, x, dir, dist, self.shadow_step, self.enough)
+        density_integral(self.density, x, dir, dist, ShadowQuadrature::Step(self.shadow_step), self.enough)
     }
 }
 
@@ -283,7 +283,7 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         density: &density,
         shadows: plan.shadows,
         shadow_step: plan.shadow_step,
-        enough: 40.0 / sigma_t_min,
+        enough: 20.0 / sigma_t_min,
     };
     let light_count = if scatters { plan.lights.len() } else { 0 };
     let job = pixels::PixelJob {

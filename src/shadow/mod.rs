@@ -6,4 +6,4 @@
 
 pub mod march;
 
-pub use march::density_integral;
+pub use march::{ShadowQuadrature, density_integral};
