@@ -7,7 +7,7 @@ use murk::field::{Field, VoxelGrid};
 use murk::integrate::blackbody::BlackbodyTable;
 use murk::integrate::phase::hg;
 use murk::integrate::{
-    Companion, Emission, Illumination, MarchSettings, Medium, RayResult, Scratch, Volume, march,
+    Companion, Emission, Illumination, MarchSettings, Medium, RayResult, Scratch, Volume, WorldRay, march,
 };
 use murk::shadow::{ShadowQuadrature, density_integral};
 use murk::vdb::VdbFile;
@@ -60,9 +60,7 @@ fn ray(vol: &Volume, sun: Option<&Sun>, o: DVec3, d: DVec3, step: f64, jitter: f
     march(
         vol,
         sun.map(|s| s as &dyn Illumination),
-        o,
-        d.normalize(),
-        (0.0, f64::INFINITY),
+        &WorldRay::new(o, d),
         &settings,
         jitter,
         &mut scratch,

@@ -45,7 +45,7 @@ impl IndexToWorld {
     /// A uniform scale `voxel_size` with the given origin of local index space.
     pub fn uniform(voxel_size: f64, origin: IVec3) -> Self {
         Self::new(DMat4::from_scale(DVec3::splat(voxel_size)), origin)
-            .unwrap_or_else(|| Self::identity())
+            .unwrap_or_else(Self::identity)
     }
 
     pub fn identity() -> Self {

@@ -121,19 +121,34 @@ fn exp_source_weight(sigma_t: f64, tau0: f64, tau1: f64, ds: f64) -> f64 {
     }
 }
 
-/// Integrates one ray `origin + t·dir` (dir unit length, world space) over `[t_min, t_max]`.
+/// A world-space ray `origin + t·dir` (dir of unit length) over `[t_min, t_max]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorldRay {
+    pub origin: DVec3,
+    pub dir: DVec3,
+    pub t_min: f64,
+    pub t_max: f64,
+}
+
+impl WorldRay {
+    /// The ray from `origin` along `dir` (normalised here), unbounded.
+    pub fn new(origin: DVec3, dir: DVec3) -> Self {
+        WorldRay { origin, dir: dir.normalize_or_zero(), t_min: 0.0, t_max: f64::INFINITY }
+    }
+}
+
+/// Integrates one ray.
 /// `jitter` in [0, 1) shortens the first segment of every cell; 0.5 gives midpoints of a
 /// regular grid of segments.
 pub fn march(
     vol: &Volume,
     lights: Option<&dyn Illumination>,
-    origin: DVec3,
-    dir: DVec3,
-    t_range: (f64, f64),
+    ray_w: &WorldRay,
     settings: &MarchSettings,
     jitter: f64,
     scratch: &mut Scratch,
 ) -> RayResult {
+    let (origin, dir) = (ray_w.origin, ray_w.dir);
     let ray = IndexRay::new(vol.density, origin, dir);
     let speed = ray.index_speed();
     let mut out = RayResult {
@@ -156,7 +171,7 @@ pub fn march(
     let mut last_end = f64::NAN;
     let u = jitter.clamp(0.0, 1.0);
 
-    'spans: for span in Spans::new(vol.traversal, ray, t_range.0, t_range.1) {
+    'spans: for span in Spans::new(vol.traversal, ray, ray_w.t_min, ray_w.t_max) {
         let constant = span.range.is_constant()
             && std::ptr::eq(
                 vol.traversal as *const _ as *const u8,

@@ -7,5 +7,5 @@ pub mod medium;
 pub mod optics;
 pub mod phase;
 
-pub use march::{Illumination, MarchSettings, RayResult, Scratch, Volume, march};
+pub use march::{Illumination, MarchSettings, RayResult, Scratch, Volume, WorldRay, march};
 pub use medium::{Companion, Emission, Medium};

@@ -110,10 +110,10 @@ fn resolve_camera(plan: &RenderPlan, density: &dyn Field) -> Result<Camera> {
     } else if req.look_at.is_some() {
         cam.eye = cam.look_at + (framed.eye - framed.look_at);
     }
-    if let Some(Projection::Orthographic { width }) = req.projection {
-        if width > 0.0 {
-            cam.projection = Projection::Orthographic { width };
-        }
+    if let Some(Projection::Orthographic { width }) = req.projection
+        && width > 0.0
+    {
+        cam.projection = Projection::Orthographic { width };
     }
     cam.validate().map_err(|e| anyhow!(e))?;
     Ok(cam)

@@ -1,7 +1,7 @@
 //! The pixel loop: 16×16 tiles in parallel (rayon), each pixel integrated by the march.
 
 use super::camera::Camera;
-use crate::integrate::{Illumination, MarchSettings, Scratch, Volume, march};
+use crate::integrate::{Illumination, MarchSettings, Scratch, Volume, WorldRay, march};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -83,9 +83,7 @@ pub fn render_pixels(job: &PixelJob, progress: &ProgressBar) -> PixelPasses {
                             let r = march(
                                 job.volume,
                                 job.lights,
-                                o,
-                                d,
-                                (0.0, f64::INFINITY),
+                                &WorldRay::new(o, d),
                                 &job.settings,
                                 u,
                                 scratch,

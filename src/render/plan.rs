@@ -144,10 +144,10 @@ impl RenderPlan {
             },
             Some(other) => return Err(format!("--camera \"{other}\": expected persp or ortho")),
         };
-        if let Some(Projection::Perspective { fov_deg }) = projection {
-            if !(fov_deg > 0.0 && fov_deg < 180.0) {
-                return Err(format!("--fov {fov_deg} is outside (0, 180) degrees"));
-            }
+        if let Some(Projection::Perspective { fov_deg }) = projection
+            && !(fov_deg > 0.0 && fov_deg < 180.0)
+        {
+            return Err(format!("--fov {fov_deg} is outside (0, 180) degrees"));
         }
         let vec =
             |v: &Option<String>, what: &str| v.as_ref().map(|s| parse_vec3(s, what)).transpose();
