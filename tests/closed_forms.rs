@@ -83,6 +83,7 @@ fn slab_alpha_is_exact_at_every_step() {
             density: &slab,
             medium: medium(sigma_t, 0.0, 0.0),
             emission: None,
+            color: None,
             traversal: &slab,
         };
         for mu in [1.0, 0.8, 0.5] {
@@ -117,6 +118,7 @@ fn sphere_alpha_is_exact_along_every_chord() {
         density: &sphere,
         medium: medium(sigma_t, 0.0, 0.0),
         emission: None,
+        color: None,
         traversal: &sphere,
     };
     for b in [0.0, 0.3, 0.7, 0.95, 0.999] {
@@ -153,6 +155,7 @@ fn emission_absorption_slab() {
             density: &slab,
             medium: medium(sigma, 0.0, 0.0),
             emission: Some(emission),
+            color: None,
             traversal: &slab,
         };
         let mu: f64 = 0.6;
@@ -187,6 +190,7 @@ fn single_scattering_on_a_sphere() {
         density: &sphere,
         medium: medium(sigma_a, sigma_s, g),
         emission: None,
+        color: None,
         traversal: &sphere,
     };
     let behind_camera = Sun {
@@ -260,6 +264,7 @@ fn extreme_optical_thickness_stays_finite_and_bounded() {
             density: &cube,
             medium: medium(sigma_t * 0.2, sigma_t * 0.8, 0.0),
             emission: None,
+            color: None,
             traversal: &cube,
         };
         let sun = Sun {

@@ -24,7 +24,7 @@
 //! source behind that point)` — below 1e-4 of the light's contribution for scattering
 //! with albedo ≤ 1.
 
-use super::medium::{Emission, Medium};
+use super::medium::{ColorTint, Emission, Medium};
 use super::optics::phi;
 use super::phase::hg;
 use crate::accel::{IndexRay, Spans};
@@ -86,6 +86,8 @@ pub struct Volume<'a> {
     pub density: &'a dyn Field,
     pub medium: Medium,
     pub emission: Option<Emission<'a>>,
+    /// Tints scattering per voxel.
+    pub color: Option<ColorTint<'a>>,
     /// Fields whose non-zero cells must be visited even where density is zero (emission
     /// and temperature grids on the density's lattice).
     pub traversal: &'a dyn Field,
@@ -213,6 +215,10 @@ pub fn march(
                 }
             }
             if let (Some(ls), true) = (scatter_lights, rho > 0.0) {
+                let sigma_s_here = match &vol.color {
+                    Some(c) => sigma_s * c.at(p, xw),
+                    None => sigma_s,
+                };
                 for l in 0..n_lights {
                     let tau0 = match scratch.light_tau[l] {
                         Some(t) if last_end == a => t,
@@ -227,7 +233,7 @@ pub fn march(
                         exp_source_weight(st.y, tau0.y, tau1.y, ds),
                         exp_source_weight(st.z, tau0.z, tau1.z, ds),
                     );
-                    scratch.per_light[l] += t_now * sigma_s * rho * phase * irradiance * weight;
+                    scratch.per_light[l] += t_now * sigma_s_here * rho * phase * irradiance * weight;
                 }
                 last_end = b;
             }

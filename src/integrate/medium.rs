@@ -1,6 +1,6 @@
 //! What the volume is made of: coefficients, and the fields that feed the integral.
 
-use crate::field::{Field, IndexRay};
+use crate::field::{Field, IndexRay, VoxelGrid};
 use crate::integrate::blackbody::BlackbodyTable;
 use glam::DVec3;
 
@@ -75,6 +75,30 @@ impl<'a> Companion<'a> {
             Some(o) => self.field.value_at_index(p_density_index + o),
             None => self.field.value_at_world(p_world),
         }
+    }
+}
+
+/// A colour grid (Houdini's `Cd`, Blender's `color`) that tints the scattering
+/// coefficient: σs(x) = σs · ρ(x) · Cd(x), each channel clamped to [0, 1].
+#[derive(Clone, Copy)]
+pub struct ColorTint<'a> {
+    grid: &'a VoxelGrid,
+    offset: Option<DVec3>,
+}
+
+impl<'a> ColorTint<'a> {
+    pub fn new(grid: &'a VoxelGrid, density: &dyn Field) -> Self {
+        let c = Companion::new(grid, density);
+        ColorTint { grid, offset: c.offset() }
+    }
+
+    #[inline]
+    pub fn at(&self, p: DVec3, w: DVec3) -> DVec3 {
+        let q = match self.offset {
+            Some(o) => p + o,
+            None => self.grid.transform().world_to_index(w),
+        };
+        self.grid.sample_vec3(q).as_dvec3().clamp(DVec3::ZERO, DVec3::ONE)
     }
 }
 

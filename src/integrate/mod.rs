@@ -8,4 +8,4 @@ pub mod optics;
 pub mod phase;
 
 pub use march::{Illumination, MarchSettings, RayResult, Scratch, Volume, WorldRay, march};
-pub use medium::{Companion, Emission, Medium};
+pub use medium::{ColorTint, Companion, Emission, Medium};

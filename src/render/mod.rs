@@ -14,7 +14,7 @@ pub use plan::RenderPlan;
 use crate::field::union::FieldUnion;
 use crate::field::{Field, VoxelGrid};
 use crate::integrate::blackbody::BlackbodyTable;
-use crate::integrate::{Companion, Emission, Illumination, MarchSettings, Medium, Volume};
+use crate::integrate::{ColorTint, Companion, Emission, Illumination, MarchSettings, Medium, Volume};
 use crate::output::{Frame, names, write_atomically, write_exr, write_preview};
 use crate::shadow::{ShadowQuadrature, density_integral};
 use crate::vdb::{ValueKind, VdbFile};
@@ -32,6 +32,7 @@ use std::time::Instant;
 pub const DENSITY_NAMES: &[&str] = &["density", "density_grid", "smoke", "soot"];
 pub const EMISSION_NAMES: &[&str] = &["flame", "flames", "fire", "emission", "fuel"];
 pub const TEMPERATURE_NAMES: &[&str] = &["temperature", "heat", "temp"];
+pub const COLOR_NAMES: &[&str] = &["Cd", "color", "colour"];
 
 /// Picks the grid for a role: the one named, else the first usual name that exists.
 fn choose(
@@ -39,14 +40,16 @@ fn choose(
     choice: &GridChoice,
     usual: &[&str],
     role: &str,
+    kind: ValueKind,
 ) -> Result<Option<String>> {
     match choice {
         GridChoice::Off => Ok(None),
         GridChoice::Named(n) => {
             let g = file.grid(n)?;
-            if g.kind != ValueKind::Scalar {
+            if g.kind != kind {
+                let want = if kind == ValueKind::Vector { "vec3" } else { "float" };
                 return Err(anyhow!(
-                    "{}: grid \"{}\" ({}) cannot be the {role} grid: it must hold float values",
+                    "{}: grid \"{}\" ({}) cannot be the {role} grid: it must hold {want} values",
                     file.path().display(),
                     g.unique_name,
                     g.value_type
@@ -59,7 +62,7 @@ fn choose(
             .find_map(|n| {
                 file.grids()
                     .iter()
-                    .find(|g| g.name.eq_ignore_ascii_case(n) && g.kind == ValueKind::Scalar)
+                    .find(|g| g.name.eq_ignore_ascii_case(n) && g.kind == kind)
             })
             .map(|g| g.unique_name.clone())),
     }
@@ -138,20 +141,22 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         .insert("load".into(), Stage::ran(t.elapsed().as_secs_f64()));
 
     let density_name =
-        choose(&file, &plan.density_grid, DENSITY_NAMES, "density")?.ok_or_else(|| {
+        choose(&file, &plan.density_grid, DENSITY_NAMES, "density", ValueKind::Scalar)?.ok_or_else(|| {
             anyhow!(
                 "{}: no density grid found (the file has: {}); name one with --density-grid",
                 plan.input.display(),
                 file.grid_list()
             )
         })?;
-    let emission_name = choose(&file, &plan.emission_grid, EMISSION_NAMES, "emission")?;
+    let emission_name = choose(&file, &plan.emission_grid, EMISSION_NAMES, "emission", ValueKind::Scalar)?;
     let temperature_name = choose(
         &file,
         &plan.temperature_grid,
         TEMPERATURE_NAMES,
         "temperature",
+        ValueKind::Scalar,
     )?;
+    let color_name = choose(&file, &plan.color_grid, COLOR_NAMES, "color", ValueKind::Vector)?;
     let medium = Medium {
         sigma_a: plan.sigma_a,
         sigma_s: plan.sigma_s,
@@ -171,12 +176,16 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
     let density = load(&density_name)?;
     let emission_grid = emission_name.as_ref().map(load).transpose()?;
     let temperature_grid = temperature_name.as_ref().map(load).transpose()?;
+    // The colour grid only tints scattering: not decoded when nothing scatters.
+    let scatters = !plan.lights.is_empty() && medium.scatters();
+    let color_grid = color_name.filter(|_| scatters).as_ref().map(load).transpose()?;
     st.stages
         .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
     for (role, g) in [
         ("density", Some(&density)),
         ("emission", emission_grid.as_ref()),
         ("temperature", temperature_grid.as_ref()),
+        ("color", color_grid.as_ref()),
     ] {
         if let Some(g) = g {
             st.grid_roles.insert(role.into(), g.name().into());
@@ -227,7 +236,6 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         });
     }
     let emits = emission.as_ref().is_some_and(|e| e.is_active());
-    let scatters = !plan.lights.is_empty() && medium.scatters();
     st.stages.insert(
         "emission".into(),
         if emits {
@@ -275,6 +283,7 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         density: &density,
         medium,
         emission,
+        color: color_grid.as_ref().map(|c| ColorTint::new(c, &density)),
         traversal: &traversal,
     };
     let sigma_t_min = medium.sigma_t().min_element().max(1e-30);

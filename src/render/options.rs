@@ -51,6 +51,9 @@ pub struct RenderOptions {
     /// Temperature grid for blackbody emission (default: detected — temperature, heat; "none" to disable).
     #[arg(long = "temperature-grid", value_name = "NAME")]
     pub temperature_grid: Option<String>,
+    /// Vec3 grid tinting scattering (default: detected — Cd, color, colour; "none" to disable).
+    #[arg(long = "color-grid", value_name = "NAME")]
+    pub color_grid: Option<String>,
     /// Absorption per world unit at density 1, r,g,b (default 0.1,0.1,0.1).
     #[arg(long = "sigma-a", value_name = "r,g,b")]
     pub sigma_a: Option<String>,
@@ -193,6 +196,7 @@ impl RenderOptions {
             density_grid,
             emission_grid,
             temperature_grid,
+            color_grid,
             sigma_a,
             sigma_s,
             density_scale,
