@@ -6,7 +6,7 @@ use std::path::Path;
 
 pub const EXAMPLES: &str = "Examples:
   murk render fixtures/cloud.vdb -o cloud.exr --preview cloud.png
-  murk render fixtures/cloud.vdb -o cloud.exr --res 960x540 --light sun:1,1,0:1,0.9,0.8:8 --light sun:-1,0.2,0:0.3,0.4,1:2
+  murk render fixtures/cloud.vdb -o cloud.exr --res 320x180 --light sun:1,1,0:1,0.9,0.8:8 --light sun:-1,0.2,0:0.3,0.4,1:2
   murk render fixtures/pyro.vdb -o pyro.exr --no-lights --stats pyro.json
   murk render fixtures/scene.toml -o cloud.exr --spp 4
 

@@ -109,7 +109,13 @@ impl Camera {
     /// A camera that frames the world box `(lo, hi)` whole, looking from the front and a
     /// little above (−z view direction, y up): every corner of the box is inside the
     /// frame with a 4 % margin.
-    pub fn framing(lo: DVec3, hi: DVec3, width: usize, height: usize, projection: Option<Projection>) -> Camera {
+    pub fn framing(
+        lo: DVec3,
+        hi: DVec3,
+        width: usize,
+        height: usize,
+        projection: Option<Projection>,
+    ) -> Camera {
         let centre = (lo + hi) * 0.5;
         let back = DVec3::new(0.0, 0.3, 1.0).normalize();
         let aspect = height as f64 / width as f64;
@@ -136,7 +142,9 @@ impl Camera {
                 let tan_x = (fov_deg.to_radians() * 0.5).tan();
                 let tan_y = tan_x * aspect;
                 // Distance from the centre so that x/(d − z) ≤ tan for every corner.
-                let dist = corners.fold(1e-6f64, |d, (x, y, z)| d.max(z + x * margin / tan_x).max(z + y * margin / tan_y));
+                let dist = corners.fold(1e-6f64, |d, (x, y, z)| {
+                    d.max(z + x * margin / tan_x).max(z + y * margin / tan_y)
+                });
                 cam.eye = centre + back * dist;
             }
             Projection::Orthographic { width: w } => {

@@ -14,7 +14,9 @@ pub use plan::RenderPlan;
 use crate::field::union::FieldUnion;
 use crate::field::{Field, VoxelGrid};
 use crate::integrate::blackbody::BlackbodyTable;
-use crate::integrate::{ColorTint, Companion, Emission, Illumination, MarchSettings, Medium, Volume};
+use crate::integrate::{
+    ColorTint, Companion, Emission, Illumination, MarchSettings, Medium, Volume,
+};
 use crate::output::{Frame, names, write_atomically, write_exr, write_preview};
 use crate::shadow::{ShadowQuadrature, density_integral};
 use crate::vdb::{ValueKind, VdbFile};
@@ -26,6 +28,7 @@ use light::Light;
 use plan::{GridChoice, ShadowMode};
 use stats::{RenderStats, Sanitised, Stage};
 use std::io::IsTerminal;
+use std::path::Path;
 use std::time::Instant;
 
 /// Names grids get from Houdini, Blender and EmberGen, by role, in order of preference.
@@ -47,7 +50,11 @@ fn choose(
         GridChoice::Named(n) => {
             let g = file.grid(n)?;
             if g.kind != kind {
-                let want = if kind == ValueKind::Vector { "vec3" } else { "float" };
+                let want = if kind == ValueKind::Vector {
+                    "vec3"
+                } else {
+                    "float"
+                };
                 return Err(anyhow!(
                     "{}: grid \"{}\" ({}) cannot be the {role} grid: it must hold {want} values",
                     file.path().display(),
@@ -90,7 +97,14 @@ impl Illumination for MarchedLights<'_> {
             return 0.0;
         }
         let (dir, dist) = self.lights[light].toward(x);
-        density_integral(self.density, x, dir, dist, ShadowQuadrature::Step(self.shadow_step), self.enough)
+        density_integral(
+            self.density,
+            x,
+            dir,
+            dist,
+            ShadowQuadrature::Step(self.shadow_step),
+            self.enough,
+        )
     }
 }
 
@@ -134,21 +148,34 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         spp: plan.spp,
         ..Default::default()
     };
+    check_output_dirs(plan)?;
     // Load: descriptors and metadata only.
     let t = Instant::now();
     let file = VdbFile::open(&plan.input)?;
     st.stages
         .insert("load".into(), Stage::ran(t.elapsed().as_secs_f64()));
 
-    let density_name =
-        choose(&file, &plan.density_grid, DENSITY_NAMES, "density", ValueKind::Scalar)?.ok_or_else(|| {
-            anyhow!(
-                "{}: no density grid found (the file has: {}); name one with --density-grid",
-                plan.input.display(),
-                file.grid_list()
-            )
-        })?;
-    let emission_name = choose(&file, &plan.emission_grid, EMISSION_NAMES, "emission", ValueKind::Scalar)?;
+    let density_name = choose(
+        &file,
+        &plan.density_grid,
+        DENSITY_NAMES,
+        "density",
+        ValueKind::Scalar,
+    )?
+    .ok_or_else(|| {
+        anyhow!(
+            "{}: no density grid found (the file has: {}); name one with --density-grid",
+            plan.input.display(),
+            file.grid_list()
+        )
+    })?;
+    let emission_name = choose(
+        &file,
+        &plan.emission_grid,
+        EMISSION_NAMES,
+        "emission",
+        ValueKind::Scalar,
+    )?;
     let temperature_name = choose(
         &file,
         &plan.temperature_grid,
@@ -156,13 +183,20 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         "temperature",
         ValueKind::Scalar,
     )?;
-    let color_name = choose(&file, &plan.color_grid, COLOR_NAMES, "color", ValueKind::Vector)?;
+    let color_name = choose(
+        &file,
+        &plan.color_grid,
+        COLOR_NAMES,
+        "color",
+        ValueKind::Vector,
+    )?;
     let medium = Medium {
         sigma_a: plan.sigma_a,
         sigma_s: plan.sigma_s,
         density_scale: plan.density_scale,
         g: plan.g,
     };
+    let emission_found = emission_name.is_some() || temperature_name.is_some();
     let emission_wanted = emission_name.is_some()
         && plan.emission_intensity > 0.0
         && plan.emission_color.max_element() > 0.0;
@@ -178,7 +212,11 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
     let temperature_grid = temperature_name.as_ref().map(load).transpose()?;
     // The colour grid only tints scattering: not decoded when nothing scatters.
     let scatters = !plan.lights.is_empty() && medium.scatters();
-    let color_grid = color_name.filter(|_| scatters).as_ref().map(load).transpose()?;
+    let color_grid = color_name
+        .filter(|_| scatters)
+        .as_ref()
+        .map(load)
+        .transpose()?;
     st.stages
         .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
     for (role, g) in [
@@ -236,12 +274,21 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         });
     }
     let emits = emission.as_ref().is_some_and(|e| e.is_active());
+    let turned_off =
+        plan.emission_grid == GridChoice::Off && plan.temperature_grid == GridChoice::Off;
+    let emission_skip_reason = if turned_off {
+        "emission and temperature grids turned off"
+    } else if emission_found {
+        "emission and blackbody intensities are 0"
+    } else {
+        "no emission or temperature grid in the scene"
+    };
     st.stages.insert(
         "emission".into(),
         if emits {
             Stage::ran(0.0)
         } else {
-            Stage::skipped("no emission or temperature grid in the scene")
+            Stage::skipped(emission_skip_reason)
         },
     );
     let scatter_reason = if plan.lights.is_empty() {
@@ -375,25 +422,64 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         "murk/depthRule".into(),
         "Z is the camera-space distance along the view axis where accumulated alpha first reaches 0.5; +inf where it never does".into(),
     ));
-    write_exr(&plan.output, &frame, &exr)?;
-    if let Some((path, opts)) = &plan.preview {
-        write_preview(path, &frame, opts)?;
-    }
     st.channels = frame
         .channel_names()
         .iter()
         .map(|s| s.to_string())
         .collect();
-    st.stages
-        .insert("write".into(), Stage::ran(t.elapsed().as_secs_f64()));
-    st.total_seconds = start.elapsed().as_secs_f64();
-    if let Some(path) = &plan.stats {
-        let text = serde_json::to_string_pretty(&st)?;
-        write_atomically(path, |tmp| {
-            std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display()))
-        })?;
+    // Every output or none: if a later one fails, the earlier ones of this run go.
+    let mut written: Vec<&Path> = Vec::new();
+    let result = (|| -> Result<()> {
+        write_exr(&plan.output, &frame, &exr)?;
+        written.push(&plan.output);
+        if let Some((path, opts)) = &plan.preview {
+            write_preview(path, &frame, opts)?;
+            written.push(path);
+        }
+        st.stages
+            .insert("write".into(), Stage::ran(t.elapsed().as_secs_f64()));
+        st.total_seconds = start.elapsed().as_secs_f64();
+        if let Some(path) = &plan.stats {
+            let text = serde_json::to_string_pretty(&st)?;
+            write_atomically(path, |tmp| {
+                std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display()))
+            })?;
+        }
+        Ok(())
+    })();
+    if let Err(e) = result {
+        for p in written {
+            let _ = std::fs::remove_file(p);
+        }
+        return Err(e);
     }
     Ok(st)
+}
+
+/// Fails before any work if an output's directory does not exist.
+fn check_output_dirs(plan: &RenderPlan) -> Result<()> {
+    let outputs = [
+        Some(&plan.output),
+        plan.preview.as_ref().map(|p| &p.0),
+        plan.stats.as_ref(),
+    ];
+    for path in outputs.into_iter().flatten() {
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if !dir.is_dir() {
+            return Err(anyhow!(
+                "{}: cannot write there: the directory {} does not exist",
+                path.display(),
+                dir.display()
+            ));
+        }
+        if path.is_dir() {
+            return Err(anyhow!("{}: is a directory", path.display()));
+        }
+    }
+    Ok(())
 }
 
 /// Near and far planes that bracket the density (for the worldToNDC attribute).

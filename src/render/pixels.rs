@@ -109,7 +109,9 @@ pub fn render_pixels(job: &PixelJob, progress: &ProgressBar) -> PixelPasses {
                             let v = (a * inv) as f32;
                             *dst = if v.is_finite() { v } else { 0.0 };
                         }
-                        px[stride - 1] = if depth_n > 0 {
+                        // Z follows the pixel's opacity: finite only where the mean alpha reaches 0.5
+                        // (then at least one sample crossed it), the mean of the crossings.
+                        px[stride - 1] = if depth_n > 0 && acc[0] * inv >= 0.5 {
                             (depth_sum / depth_n as f64) as f32
                         } else {
                             f32::INFINITY

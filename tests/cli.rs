@@ -1,0 +1,502 @@
+//! The command line as a user meets it: every example in `--help` runs, and bad
+//! input ends in exit code 2 with one line `murk: error: ...` on stderr, no
+//! panic, and nothing left in the output directory.
+
+use std::collections::BTreeSet;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use exr::prelude::read_all_flat_layers_from_file;
+use serde_json::Value;
+
+const MURK: &str = env!("CARGO_BIN_EXE_murk");
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn fixture(name: &str) -> String {
+    root()
+        .join("fixtures")
+        .join(name)
+        .to_str()
+        .unwrap()
+        .to_owned()
+}
+
+/// A fresh, empty directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("cli-{name}"));
+    let _ = fs::remove_dir_all(&dir);
+    fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn murk(cwd: &Path, args: &[String]) -> Output {
+    Command::new(MURK)
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {MURK}: {e}"))
+}
+
+fn listing(dir: &Path) -> BTreeSet<String> {
+    match fs::read_dir(dir) {
+        Ok(entries) => entries
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect(),
+        Err(_) => BTreeSet::new(),
+    }
+}
+
+// ------------------------------------------------------------------------------------
+// 5. The examples in --help.
+
+/// The command lines under `Examples:` in a help text, without the leading `murk`.
+fn examples(help: &str) -> Vec<Vec<String>> {
+    let mut lines = help.lines().skip_while(|l| l.trim() != "Examples:");
+    assert!(lines.next().is_some(), "no `Examples:` section in:\n{help}");
+    let found: Vec<Vec<String>> = lines
+        .take_while(|l| !l.trim().is_empty())
+        .filter_map(|l| l.trim().strip_prefix("murk "))
+        .map(split_words)
+        .collect();
+    assert!(
+        !found.is_empty(),
+        "`Examples:` lists no `murk ...` command:\n{help}"
+    );
+    found
+}
+
+/// Splits a command line into words, honouring '...' and "..." quotes.
+fn split_words(line: &str) -> Vec<String> {
+    let (mut words, mut word, mut quote, mut in_word) = (Vec::new(), String::new(), None, false);
+    for c in line.chars() {
+        match (quote, c) {
+            (Some(q), c) if c == q => quote = None,
+            (Some(_), c) => word.push(c),
+            (None, '\'' | '"') => {
+                quote = Some(c);
+                in_word = true;
+            }
+            (None, c) if c.is_whitespace() => {
+                if in_word {
+                    words.push(std::mem::take(&mut word));
+                    in_word = false;
+                }
+            }
+            (None, c) => {
+                word.push(c);
+                in_word = true;
+            }
+        }
+    }
+    assert!(quote.is_none(), "unbalanced quote in `{line}`");
+    if in_word {
+        words.push(word);
+    }
+    words
+}
+
+fn help(sub: &str) -> String {
+    let out = murk(root(), &[sub.to_owned(), "--help".to_owned()]);
+    assert!(
+        out.status.success(),
+        "murk {sub} --help failed: {}",
+        out.status
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+const OUTPUT_FLAGS: [&str; 4] = ["-o", "--output", "--preview", "--stats"];
+
+/// Checks a file an example wrote.
+fn check_output(path: &Path, example: &str) {
+    let len = fs::metadata(path)
+        .unwrap_or_else(|e| panic!("`{example}` did not write {}: {e}", path.display()))
+        .len();
+    assert!(len > 0, "`{example}` wrote an empty {}", path.display());
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("exr") => {
+            let image = read_all_flat_layers_from_file(path)
+                .unwrap_or_else(|e| panic!("`{example}`: {} unreadable: {e}", path.display()));
+            let names: BTreeSet<String> = image.layer_data[0]
+                .channel_data
+                .list
+                .iter()
+                .map(|c| c.name.to_string())
+                .collect();
+            for c in ["R", "G", "B", "A", "Z"] {
+                assert!(names.contains(c), "`{example}`: no {c} in {names:?}");
+            }
+        }
+        Some("png") => {
+            image::open(path)
+                .unwrap_or_else(|e| panic!("`{example}`: {} unreadable: {e}", path.display()));
+        }
+        Some("json") => {
+            let text = fs::read_to_string(path).unwrap();
+            serde_json::from_str::<Value>(&text)
+                .unwrap_or_else(|e| panic!("`{example}`: {} is not JSON: {e}", path.display()));
+        }
+        _ => {}
+    }
+}
+
+#[test]
+fn render_help_examples_run() {
+    let text = help("render");
+    let out_dir = scratch("examples-render");
+    // Where the outputs would have gone unredirected: they must not appear there.
+    let mut elsewhere = Vec::new();
+    for (n, example) in examples(&text).into_iter().enumerate() {
+        let shown = format!("murk {}", example.join(" "));
+        assert_eq!(example[0], "render", "`{shown}` under `murk render --help`");
+        // Output paths go to the scratch directory.
+        let mut args = example.clone();
+        let mut outputs = Vec::new();
+        let mut given = BTreeSet::new();
+        for i in 1..args.len() {
+            if OUTPUT_FLAGS.contains(&args[i - 1].as_str()) {
+                elsewhere.push(root().join(&args[i]));
+                let name = Path::new(&args[i])
+                    .file_name()
+                    .unwrap()
+                    .to_string_lossy()
+                    .into_owned();
+                let path = out_dir.join(format!("{n}-{name}"));
+                args[i] = path.to_str().unwrap().to_owned();
+                outputs.push(path);
+                given.insert(if args[i - 1] == "--output" {
+                    "-o".to_owned()
+                } else {
+                    args[i - 1].clone()
+                });
+            }
+        }
+        // A scene file may name outputs of its own (next to it, in fixtures/): send them
+        // to the scratch directory too.
+        let input = &example[1];
+        if input.ends_with(".toml") {
+            let scene: toml::Table =
+                toml::from_str(&fs::read_to_string(root().join(input)).unwrap())
+                    .unwrap_or_else(|e| panic!("`{shown}`: {input} is not TOML: {e}"));
+            for (key, flag) in [
+                ("output", "-o"),
+                ("preview", "--preview"),
+                ("stats", "--stats"),
+            ] {
+                let Some(name) = scene.get(key).and_then(|v| v.as_str()) else {
+                    continue;
+                };
+                if given.contains(flag) {
+                    continue;
+                }
+                elsewhere.push(root().join(input).with_file_name(name));
+                let name = Path::new(name)
+                    .file_name()
+                    .unwrap()
+                    .to_string_lossy()
+                    .into_owned();
+                let path = out_dir.join(format!("{n}-scene-{name}"));
+                args.push(flag.to_owned());
+                args.push(path.to_str().unwrap().to_owned());
+                outputs.push(path);
+            }
+        }
+        assert!(!outputs.is_empty(), "`{shown}` writes nothing");
+        let existed: Vec<bool> = elsewhere.iter().map(|p| p.exists()).collect();
+        let out = murk(root(), &args);
+        assert!(
+            out.status.success(),
+            "`{shown}` (run as murk {}) failed ({}):\n{}",
+            args.join(" "),
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+        for path in &outputs {
+            check_output(path, &shown);
+        }
+        for (path, existed) in elsewhere.drain(..).zip(existed) {
+            assert!(
+                existed || !path.exists(),
+                "`{shown}` wrote {} despite the redirection",
+                path.display()
+            );
+        }
+    }
+}
+
+#[test]
+fn info_help_examples_run() {
+    let text = help("info");
+    for example in examples(&text) {
+        let shown = format!("murk {}", example.join(" "));
+        assert_eq!(example[0], "info", "`{shown}` under `murk info --help`");
+        let out = murk(root(), &example);
+        assert!(
+            out.status.success(),
+            "`{shown}` failed ({}):\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let stdout = String::from_utf8(out.stdout).unwrap();
+        let file = Path::new(&example[1])
+            .file_name()
+            .unwrap()
+            .to_str()
+            .unwrap();
+        assert!(
+            stdout.contains(file),
+            "`{shown}` does not name {file}:\n{stdout}"
+        );
+        if example.iter().any(|a| a == "--json") {
+            let doc: Value = serde_json::from_str(&stdout)
+                .unwrap_or_else(|e| panic!("`{shown}`: not JSON: {e}"));
+            assert!(
+                !doc["grids"].as_array().unwrap().is_empty(),
+                "`{shown}`: no grids"
+            );
+        }
+    }
+}
+
+// ------------------------------------------------------------------------------------
+// 6. Bad input.
+
+/// Runs `murk render <input> <flags> -o OUT/x.exr --preview OUT/x.png --stats OUT/x.json`
+/// (outputs may be replaced in `flags`) and checks it fails cleanly: exit code 2, one
+/// stderr line starting `murk: error:` that contains every `needle` (case-insensitive),
+/// no panic, and OUT still empty. Returns the message.
+fn fails(name: &str, input: &str, flags: &[&str], needles: &[&str]) -> String {
+    let dir = scratch(name);
+    let out_dir = dir.join("out");
+    fs::create_dir(&out_dir).unwrap();
+    let o = |f: &str| out_dir.join(f).to_str().unwrap().to_owned();
+    let mut args = vec!["render".to_owned(), input.to_owned()];
+    let flags: Vec<String> = flags
+        .iter()
+        .map(|f| f.replace("OUT", out_dir.to_str().unwrap()))
+        .collect();
+    for (flag, file) in [
+        ("-o", "x.exr"),
+        ("--preview", "x.png"),
+        ("--stats", "x.json"),
+    ] {
+        if !flags.iter().any(|f| f == flag) {
+            args.push(flag.to_owned());
+            args.push(o(file));
+        }
+    }
+    if !flags.iter().any(|f| f == "--res") {
+        args.extend(["--res".to_owned(), "32x18".to_owned()]);
+    }
+    args.extend(flags);
+    let out = murk(&dir, &args);
+    let shown = format!("murk {}", args.join(" "));
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(
+        !stderr.contains("panicked"),
+        "`{shown}` panicked:\n{stderr}"
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "`{shown}`: exit status {}; stderr:\n{stderr}",
+        out.status
+    );
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(
+        lines.len(),
+        1,
+        "`{shown}`: stderr is not one line:\n{stderr}"
+    );
+    let msg = lines[0];
+    assert!(msg.starts_with("murk: error: "), "`{shown}`: {msg}");
+    for needle in needles {
+        assert!(
+            msg.to_lowercase().contains(&needle.to_lowercase()),
+            "`{shown}`: the message does not mention `{needle}`: {msg}"
+        );
+    }
+    let left = listing(&out_dir);
+    assert!(
+        left.is_empty(),
+        "`{shown}` failed but left {left:?} in the output directory ({msg})"
+    );
+    msg.to_owned()
+}
+
+#[test]
+fn missing_input_file() {
+    fails(
+        "missing",
+        "/nonexistent-murk-input/none.vdb",
+        &[],
+        &["none.vdb", "no such file"],
+    );
+}
+
+#[test]
+fn input_is_a_directory() {
+    let dir = scratch("input-dir-src");
+    fails(
+        "input-dir",
+        dir.to_str().unwrap(),
+        &[],
+        &[dir.to_str().unwrap(), "directory"],
+    );
+}
+
+#[test]
+fn input_is_not_a_vdb_file() {
+    let dir = scratch("not-vdb-src");
+    let file = dir.join("notes.vdb");
+    fs::write(&file, "these are not voxels\n").unwrap();
+    fails(
+        "not-vdb",
+        file.to_str().unwrap(),
+        &[],
+        &["notes.vdb", "not a VDB"],
+    );
+    let file = dir.join("tiny.vdb");
+    fs::write(&file, [0x20, 0x42]).unwrap();
+    fails("not-vdb-tiny", file.to_str().unwrap(), &[], &["tiny.vdb"]);
+}
+
+#[test]
+fn unknown_density_grid_lists_the_grids() {
+    fails(
+        "density-grid",
+        &fixture("pyro.vdb"),
+        &["--density-grid", "nope"],
+        &["nope", "density", "temperature", "flame", "vel", "Cd"],
+    );
+}
+
+#[test]
+fn zero_resolution() {
+    fails(
+        "res",
+        &fixture("cloud.vdb"),
+        &["--res", "0x10"],
+        &["--res", "0x10"],
+    );
+}
+
+#[test]
+fn field_of_view_out_of_range() {
+    fails(
+        "fov",
+        &fixture("cloud.vdb"),
+        &["--fov", "200"],
+        &["--fov", "200"],
+    );
+}
+
+#[test]
+fn unknown_light_type() {
+    fails(
+        "light",
+        &fixture("cloud.vdb"),
+        &["--light", "spot:1,2,3"],
+        &["spot"],
+    );
+}
+
+#[test]
+fn unknown_shadow_mode() {
+    fails(
+        "shadows",
+        &fixture("cloud.vdb"),
+        &["--shadows", "foo"],
+        &["--shadows", "foo"],
+    );
+}
+
+#[test]
+fn unknown_compression() {
+    fails(
+        "compression",
+        &fixture("cloud.vdb"),
+        &["--compression", "foo"],
+        &["compression", "foo"],
+    );
+}
+
+#[test]
+fn exr_into_a_missing_directory() {
+    fails(
+        "exr-dir",
+        &fixture("cloud.vdb"),
+        &["-o", "OUT/missing/x.exr"],
+        &["missing/x.exr"],
+    );
+}
+
+#[test]
+fn preview_into_a_missing_directory() {
+    fails(
+        "png-dir",
+        &fixture("cloud.vdb"),
+        &["--preview", "OUT/missing/x.png"],
+        &["missing/x.png"],
+    );
+}
+
+#[test]
+fn stats_into_a_missing_directory() {
+    fails(
+        "json-dir",
+        &fixture("cloud.vdb"),
+        &["--stats", "OUT/missing/x.json"],
+        &["missing/x.json"],
+    );
+}
+
+#[test]
+fn scene_file_with_an_unknown_key() {
+    let dir = scratch("bad-scene-src");
+    let scene = dir.join("scene.toml");
+    fs::write(
+        &scene,
+        format!("input = \"{}\"\ncolour = \"red\"\n", fixture("cloud.vdb")),
+    )
+    .unwrap();
+    fails(
+        "bad-scene",
+        scene.to_str().unwrap(),
+        &[],
+        &["scene.toml", "colour"],
+    );
+}
+
+#[test]
+fn unparseable_flag_value() {
+    // clap rejects it before murk's own checks: the same one-line rule applies.
+    fails(
+        "fov-word",
+        &fixture("cloud.vdb"),
+        &["--fov", "wide"],
+        &["--fov", "wide"],
+    );
+}
+
+#[test]
+fn error_messages_do_not_repeat_their_cause() {
+    let msg = fails(
+        "repeat",
+        &fixture("cloud.vdb"),
+        &["-o", "OUT/missing/x.exr"],
+        &[],
+    );
+    let parts: Vec<&str> = msg.split(": ").collect();
+    for pair in parts.windows(2) {
+        assert_ne!(
+            pair[0], pair[1],
+            "the message says `{}` twice: {msg}",
+            pair[0]
+        );
+    }
+}
