@@ -7,7 +7,8 @@ use murk::field::{Field, VoxelGrid};
 use murk::integrate::blackbody::BlackbodyTable;
 use murk::integrate::phase::hg;
 use murk::integrate::{
-    Companion, Emission, Illumination, MarchSettings, Medium, RayResult, Scratch, Volume, WorldRay, march,
+    Companion, Emission, Illumination, MarchSettings, Medium, RayResult, Scratch, Volume, WorldRay,
+    march,
 };
 use murk::shadow::{ShadowQuadrature, density_integral};
 use murk::vdb::VdbFile;
@@ -47,7 +48,14 @@ impl Illumination for Sun<'_> {
         (grey(self.irradiance), -self.toward)
     }
     fn density_to_light(&self, _: usize, x: DVec3) -> f64 {
-        density_integral(self.field, x, self.toward, f64::INFINITY, ShadowQuadrature::Exact, 1e30)
+        density_integral(
+            self.field,
+            x,
+            self.toward,
+            f64::INFINITY,
+            ShadowQuadrature::Exact,
+            1e30,
+        )
     }
 }
 
@@ -86,8 +94,8 @@ fn slab_alpha_is_exact_at_every_step() {
             color: None,
             traversal: &slab,
         };
-        for mu in [1.0, 0.8, 0.5] {
-            let d = DVec3::new((1.0 - mu * mu as f64).sqrt(), 0.0, -mu);
+        for mu in [1.0f64, 0.8, 0.5] {
+            let d = DVec3::new((1.0 - mu * mu).sqrt(), 0.0, -mu);
             let want = -(-sigma_t * 1.0 / mu).exp_m1();
             for step in STEPS {
                 for jitter in [0.5, 0.1, 0.93] {

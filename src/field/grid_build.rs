@@ -287,7 +287,10 @@ impl TreeSink for GridBuilder {
         active: bool,
     ) -> Result<(), String> {
         if !matches!(size, 8 | 128 | 4096) || (origin & IVec3::splat(size - 1)) != IVec3::ZERO {
-            return Err(format!("a tile of size {size} at a misaligned origin ({}, {}, {})", origin.x, origin.y, origin.z));
+            return Err(format!(
+                "a tile of size {size} at a misaligned origin ({}, {}, {})",
+                origin.x, origin.y, origin.z
+            ));
         }
         let voxels = (size as u64).pow(3);
         if active {
@@ -324,7 +327,10 @@ impl TreeSink for GridBuilder {
 
     fn leaf(&mut self, origin: IVec3, values: &[f32], active: &[u64; 8]) -> Result<(), String> {
         if (origin & IVec3::splat(7)) != IVec3::ZERO {
-            return Err(format!("a leaf at a misaligned origin ({}, {}, {})", origin.x, origin.y, origin.z));
+            return Err(format!(
+                "a leaf at a misaligned origin ({}, {}, {})",
+                origin.x, origin.y, origin.z
+            ));
         }
         let ch = self.channels.max(1);
         if values.len() != LEAF_VOXELS * ch {
@@ -400,10 +406,21 @@ mod tests {
     fn misaligned_nodes_are_rejected() {
         let mut b = GridBuilder::new();
         b.begin(1, &[0.0]).unwrap();
-        assert!(b.leaf(IVec3::new(8, 3, 0), &[0.0; 512], &[0; 8]).unwrap_err().contains("misaligned"));
-        assert!(b.tile(IVec3::new(8, 0, 0), 128, &[1.0], true).unwrap_err().contains("misaligned"));
+        assert!(
+            b.leaf(IVec3::new(8, 3, 0), &[0.0; 512], &[0; 8])
+                .unwrap_err()
+                .contains("misaligned")
+        );
+        assert!(
+            b.tile(IVec3::new(8, 0, 0), 128, &[1.0], true)
+                .unwrap_err()
+                .contains("misaligned")
+        );
         assert!(b.tile(IVec3::ZERO, 16, &[1.0], true).is_err());
-        assert!(b.tile(IVec3::new(4096, 0, -4096), 4096, &[1.0], true).is_ok());
+        assert!(
+            b.tile(IVec3::new(4096, 0, -4096), 4096, &[1.0], true)
+                .is_ok()
+        );
     }
 
     /// NaN, ±Inf and negative values become 0 and are counted; stats keep the finite raw values.

@@ -7,6 +7,10 @@ use std::collections::HashMap;
 /// Longest chain of instanced grids accepted (real files have chains of length 1).
 pub const MAX_INSTANCE_CHAIN: usize = 16;
 
+/// Most instanced grids sharing one tree (each decodes that tree again; real files have
+/// a few).
+pub const MAX_INSTANCES_PER_TREE: usize = 32;
+
 /// Largest index coordinate magnitude accepted: leaves a margin for node arithmetic in
 /// i32 (a root node spans 4096 voxels) and keeps local index space exact in f32 steps.
 pub const MAX_INDEX_COORD: i64 = 1 << 30;

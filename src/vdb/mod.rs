@@ -396,7 +396,7 @@ fn compression_name(c: openvdb::io::Compression) -> String {
 
 fn meta_text(v: &openvdb::metadata::MetaValue) -> String {
     use openvdb::metadata::MetaValue as M;
-    let text = match v {
+    match v {
         M::Bool(b) => b.to_string(),
         M::Int32(i) => i.to_string(),
         M::Int64(i) => i.to_string(),
@@ -410,8 +410,7 @@ fn meta_text(v: &openvdb::metadata::MetaValue) -> String {
             format!("<{} bytes of {}>", data.len(), guard::printable(type_name))
         }
         other => format!("<{}>", other.type_name()),
-    };
-    text
+    }
 }
 
 pub(super) fn io_problem(e: &std::io::Error) -> String {
