@@ -161,16 +161,26 @@ mod tests {
             *v = ((i * 37) % 11) as f32 * 0.1;
         }
         let mask = [u64::MAX; 8];
-        for o in [IVec3::ZERO, IVec3::new(8, 0, 0), IVec3::new(40, 16, 8), IVec3::new(0, 64, 120)] {
+        for o in [
+            IVec3::ZERO,
+            IVec3::new(8, 0, 0),
+            IVec3::new(40, 16, 8),
+            IVec3::new(0, 64, 120),
+        ] {
             b.leaf(base + o, &vals, &mask).unwrap();
         }
-        b.tile(base + IVec3::new(16, 0, 0), 8, &[0.5], true).unwrap();
-        b.tile(base + IVec3::new(128, 0, 0), 128, &[0.25], true).unwrap();
-        b.finish("t", DMat4::from_scale(DVec3::new(0.1, 0.2, 0.1))).unwrap()
+        b.tile(base + IVec3::new(16, 0, 0), 8, &[0.5], true)
+            .unwrap();
+        b.tile(base + IVec3::new(128, 0, 0), 128, &[0.25], true)
+            .unwrap();
+        b.finish("t", DMat4::from_scale(DVec3::new(0.1, 0.2, 0.1)))
+            .unwrap()
     }
 
     fn rng(state: &mut u64) -> f64 {
-        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (*state >> 11) as f64 / (1u64 << 53) as f64
     }
 
@@ -182,9 +192,17 @@ mod tests {
         let g = test_grid();
         let b = g.active_bounds();
         let mut s = 7u64;
-        let mut dirs: Vec<DVec3> = vec![DVec3::X, DVec3::NEG_X, DVec3::Y, DVec3::NEG_Z, DVec3::new(-0.0, 0.0, 1.0)];
+        let mut dirs: Vec<DVec3> = vec![
+            DVec3::X,
+            DVec3::NEG_X,
+            DVec3::Y,
+            DVec3::NEG_Z,
+            DVec3::new(-0.0, 0.0, 1.0),
+        ];
         for _ in 0..200 {
-            dirs.push(DVec3::new(rng(&mut s) - 0.5, rng(&mut s) - 0.5, rng(&mut s) - 0.5).normalize());
+            dirs.push(
+                DVec3::new(rng(&mut s) - 0.5, rng(&mut s) - 0.5, rng(&mut s) - 0.5).normalize(),
+            );
         }
         let mut nonzero_checked = 0;
         for (k, d) in dirs.iter().enumerate() {
@@ -204,11 +222,19 @@ mod tests {
             for i in 0..4000 {
                 let t = i as f64 * 0.25 * 0.05;
                 let v = g.value_at_index(ray.at(t));
-                let inside = spans.iter().find(|sp| sp.t0 - 1e-9 <= t && t <= sp.t1 + 1e-9);
+                let inside = spans
+                    .iter()
+                    .find(|sp| sp.t0 - 1e-9 <= t && t <= sp.t1 + 1e-9);
                 if v > 0.0 {
                     nonzero_checked += 1;
-                    let sp = inside.unwrap_or_else(|| panic!("ray {k}: value {v} at t {t} outside every span"));
-                    assert!(v <= sp.range.max + 1e-6 && v >= sp.range.min - 1e-6, "ray {k}: {v} outside {:?}", sp.range);
+                    let sp = inside.unwrap_or_else(|| {
+                        panic!("ray {k}: value {v} at t {t} outside every span")
+                    });
+                    assert!(
+                        v <= sp.range.max + 1e-6 && v >= sp.range.min - 1e-6,
+                        "ray {k}: {v} outside {:?}",
+                        sp.range
+                    );
                 }
             }
         }
@@ -220,10 +246,32 @@ mod tests {
     #[test]
     fn misses_and_parallel_rays() {
         let g = test_grid();
-        let far = g.transform().index_to_world(g.active_bounds().max.as_dvec3() + DVec3::splat(10.0));
-        assert_eq!(Spans::new(&g, IndexRay::new(&g, far, DVec3::X), 0.0, 1e9).count(), 0);
-        assert_eq!(Spans::new(&g, IndexRay::new(&g, far, DVec3::new(0.0, -0.0, 1.0)), 0.0, 1e9).count(), 0);
+        let far = g
+            .transform()
+            .index_to_world(g.active_bounds().max.as_dvec3() + DVec3::splat(10.0));
+        assert_eq!(
+            Spans::new(&g, IndexRay::new(&g, far, DVec3::X), 0.0, 1e9).count(),
+            0
+        );
+        assert_eq!(
+            Spans::new(
+                &g,
+                IndexRay::new(&g, far, DVec3::new(0.0, -0.0, 1.0)),
+                0.0,
+                1e9
+            )
+            .count(),
+            0
+        );
         let inside = g.transform().index_to_world(DVec3::ZERO);
-        assert!(clip_to_box(&IndexRay::new(&g, inside, DVec3::new(-0.0, 0.0, 1.0)), &g.active_bounds(), 0.0, 1e9).is_some());
+        assert!(
+            clip_to_box(
+                &IndexRay::new(&g, inside, DVec3::new(-0.0, 0.0, 1.0)),
+                &g.active_bounds(),
+                0.0,
+                1e9
+            )
+            .is_some()
+        );
     }
 }

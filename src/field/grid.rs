@@ -215,7 +215,11 @@ impl VoxelGrid {
     #[inline]
     pub fn sample_channel(&self, p: DVec3, c: usize) -> f32 {
         if !(p.abs().max_element() < LOOKUP_LIMIT) || c >= self.channels {
-            return if c < self.channels { self.tile_values[c] } else { 0.0 };
+            return if c < self.channels {
+                self.tile_values[c]
+            } else {
+                0.0
+            };
         }
         let i = IVec3::new(floor_i32(p.x), floor_i32(p.y), floor_i32(p.z));
         let t = (p - i.as_dvec3()).as_vec3();
@@ -253,7 +257,9 @@ impl VoxelGrid {
                 };
                 *value = match slot {
                     Slot::Tile(tile) => self.tile_values[tile as usize * ch + c],
-                    Slot::Leaf(l) => self.leaf_values[(l as usize * LEAF_VOXELS + leaf_offset(corner)) * ch + c],
+                    Slot::Leaf(l) => {
+                        self.leaf_values[(l as usize * LEAF_VOXELS + leaf_offset(corner)) * ch + c]
+                    }
                 };
             }
         }

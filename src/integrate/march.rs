@@ -135,7 +135,12 @@ pub struct WorldRay {
 impl WorldRay {
     /// The ray from `origin` along `dir` (normalised here), unbounded.
     pub fn new(origin: DVec3, dir: DVec3) -> Self {
-        WorldRay { origin, dir: dir.normalize_or_zero(), t_min: 0.0, t_max: f64::INFINITY }
+        WorldRay {
+            origin,
+            dir: dir.normalize_or_zero(),
+            t_min: 0.0,
+            t_max: f64::INFINITY,
+        }
     }
 }
 
@@ -233,7 +238,8 @@ pub fn march(
                         exp_source_weight(st.y, tau0.y, tau1.y, ds),
                         exp_source_weight(st.z, tau0.z, tau1.z, ds),
                     );
-                    scratch.per_light[l] += t_now * sigma_s_here * rho * phase * irradiance * weight;
+                    scratch.per_light[l] +=
+                        t_now * sigma_s_here * rho * phase * irradiance * weight;
                 }
                 last_end = b;
             }

@@ -89,7 +89,10 @@ pub struct ColorTint<'a> {
 impl<'a> ColorTint<'a> {
     pub fn new(grid: &'a VoxelGrid, density: &dyn Field) -> Self {
         let c = Companion::new(grid, density);
-        ColorTint { grid, offset: c.offset() }
+        ColorTint {
+            grid,
+            offset: c.offset(),
+        }
     }
 
     #[inline]
@@ -98,7 +101,10 @@ impl<'a> ColorTint<'a> {
             Some(o) => p + o,
             None => self.grid.transform().world_to_index(w),
         };
-        self.grid.sample_vec3(q).as_dvec3().clamp(DVec3::ZERO, DVec3::ONE)
+        self.grid
+            .sample_vec3(q)
+            .as_dvec3()
+            .clamp(DVec3::ZERO, DVec3::ONE)
     }
 }
 

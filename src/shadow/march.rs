@@ -18,14 +18,23 @@ pub enum ShadowQuadrature {
 /// to `max_dist`. Cells of constant density are integrated exactly; the others as
 /// `quadrature` says. Stops once the integral exceeds `enough` (the caller's point of
 /// zero transmittance).
-pub fn density_integral(field: &dyn Field, from: DVec3, toward: DVec3, max_dist: f64, quadrature: ShadowQuadrature, enough: f64) -> f64 {
+pub fn density_integral(
+    field: &dyn Field,
+    from: DVec3,
+    toward: DVec3,
+    max_dist: f64,
+    quadrature: ShadowQuadrature,
+    enough: f64,
+) -> f64 {
     let ray = IndexRay::new(field, from, toward);
     let speed = ray.index_speed();
     if !(speed > 0.0) || !speed.is_finite() {
         return 0.0;
     }
     let step = match quadrature {
-        ShadowQuadrature::Step(s) if field.quadrature() != Quadrature::ClosedForm => Some(s.max(1e-6) / speed),
+        ShadowQuadrature::Step(s) if field.quadrature() != Quadrature::ClosedForm => {
+            Some(s.max(1e-6) / speed)
+        }
         _ => None,
     };
     let mut sum = 0.0;
