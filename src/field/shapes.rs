@@ -210,6 +210,23 @@ impl ConstantBox {
     }
 }
 
+/// `∫ρ dt` along a local-index ray over `[t0, t1]` for a constant-density shape, from
+/// the world length of its chord (`chord(o, d, t0, t1)` for the world ray `o + t·d`).
+fn chord_integral(
+    transform: &IndexToWorld,
+    density: f32,
+    ray: &IndexRay,
+    t0: f64,
+    t1: f64,
+    chord: impl Fn(DVec3, DVec3, f64, f64) -> f64,
+) -> f64 {
+    let (o, d) = (
+        transform.index_to_world(ray.origin),
+        transform.linear() * ray.dir,
+    );
+    density as f64 * chord(o, d, t0, t1) / d.length().max(f64::MIN_POSITIVE)
+}
+
 impl Field for ConstantBox {
     /// The exact indicator: `ρ` inside the closed box, 0 outside (no interpolation).
     fn value_at_index(&self, p: DVec3) -> f32 {
@@ -228,15 +245,15 @@ impl Field for ConstantBox {
         index_box_outward(self.index_min, self.index_max)
     }
 
-    /// Exact: ρ × the length of the chord inside the box.
     fn quadrature(&self) -> super::Quadrature {
         super::Quadrature::ClosedForm
     }
 
+    /// Exact: ρ × the length of the chord inside the box.
     fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
-        let t = &self.transform;
-        let (o, d) = (t.index_to_world(ray.origin), t.linear() * ray.dir);
-        self.density as f64 * self.chord_length(o, d, t0, t1) / d.length().max(f64::MIN_POSITIVE)
+        chord_integral(&self.transform, self.density, ray, t0, t1, |o, d, a, b| {
+            self.chord_length(o, d, a, b)
+        })
     }
 
     fn cell_at(&self, ijk: IVec3) -> Cell {
@@ -385,15 +402,15 @@ impl Field for ConstantSphere {
         index_box_outward(self.index_center - r, self.index_center + r)
     }
 
-    /// Exact: ρ × the length of the chord inside the ball.
     fn quadrature(&self) -> super::Quadrature {
         super::Quadrature::ClosedForm
     }
 
+    /// Exact: ρ × the length of the chord inside the ball.
     fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
-        let t = &self.transform;
-        let (o, d) = (t.index_to_world(ray.origin), t.linear() * ray.dir);
-        self.density as f64 * self.chord_length(o, d, t0, t1) / d.length().max(f64::MIN_POSITIVE)
+        chord_integral(&self.transform, self.density, ray, t0, t1, |o, d, a, b| {
+            self.chord_length(o, d, a, b)
+        })
     }
 
     fn cell_at(&self, ijk: IVec3) -> Cell {
