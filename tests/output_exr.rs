@@ -3,10 +3,12 @@
 //! read-back with the `exr` crate. Both tools are required: a missing tool
 //! fails the test (install `openexr` and `openimageio-tools`).
 
+mod common;
+use common::{exrheader, exrheader_channels, oiio_info, tool};
+
 use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
 use murk::output::{
@@ -104,51 +106,6 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// Runs an external tool; a missing tool or a failure fails the test.
-fn run(tool: &str, args: &[&str], package: &str) -> String {
-    let out = Command::new(tool).args(args).output().unwrap_or_else(|e| {
-        panic!("cannot run `{tool}` ({e}): it is required; install the Debian package `{package}`")
-    });
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success(),
-        "`{tool} {}` failed: {}\n{text}\n{err}",
-        args.join(" "),
-        out.status
-    );
-    text
-}
-
-fn exrheader(path: &Path) -> String {
-    run("exrheader", &[path.to_str().unwrap()], "openexr")
-}
-
-fn oiio_info(path: &Path) -> String {
-    run(
-        "oiiotool",
-        &["--info", "-v", path.to_str().unwrap()],
-        "openimageio-tools",
-    )
-}
-
-/// The channel list printed by exrheader: name → type description, in order.
-fn exrheader_channels(header: &str) -> Vec<(String, String)> {
-    header
-        .lines()
-        .skip_while(|l| !l.starts_with("channels (type chlist):"))
-        .skip(1)
-        .take_while(|l| l.starts_with("    "))
-        .map(|l| {
-            let mut parts = l.trim().split(", ");
-            (
-                parts.next().unwrap().to_owned(),
-                parts.next().unwrap().to_owned(),
-            )
-        })
-        .collect()
-}
-
 /// Pixel values as read by OpenImageIO (`--dumpdata`): channel → (x, y) → value.
 fn oiio_pixels(path: &Path) -> BTreeMap<String, BTreeMap<(usize, usize), f32>> {
     let info = oiio_info(path);
@@ -168,7 +125,7 @@ fn oiio_pixels(path: &Path) -> BTreeMap<String, BTreeMap<(usize, usize), f32>> {
         "--dumpdata",
         path.to_str().unwrap(),
     ];
-    let dump = run("oiiotool", &args, "openimageio-tools");
+    let dump = tool("oiiotool", &args, "openimageio-tools");
     let mut out: BTreeMap<String, BTreeMap<(usize, usize), f32>> = BTreeMap::new();
     for line in dump
         .lines()
@@ -471,7 +428,7 @@ fn nans_are_written_as_zero_and_counted() {
         h.contains("dataWindow (type box2i): (10 5) - (29 19)\n"),
         "{h}"
     );
-    let stats = run(
+    let stats = tool(
         "oiiotool",
         &["--stats", path.to_str().unwrap()],
         "openimageio-tools",

@@ -8,6 +8,9 @@
 //!
 //! Renders are small (96×54 and less) so that every test is quick.
 
+mod common;
+use common::{exrheader, exrheader_channels, oiio_info};
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -88,51 +91,6 @@ fn render(dir: &Path, input: &str, name: &str, extra: &[&str]) -> PathBuf {
     a.extend(args(extra));
     murk_ok(&a);
     exr
-}
-
-/// Runs an external tool; a missing tool or a failure fails the test.
-fn tool(tool: &str, args: &[&str], package: &str) -> String {
-    let out = Command::new(tool).args(args).output().unwrap_or_else(|e| {
-        panic!("cannot run `{tool}` ({e}): it is required; install the Debian package `{package}`")
-    });
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "`{tool} {}` failed: {}\n{text}\n{}",
-        args.join(" "),
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    text
-}
-
-fn exrheader(path: &Path) -> String {
-    tool("exrheader", &[path.to_str().unwrap()], "openexr")
-}
-
-fn oiio_info(path: &Path) -> String {
-    tool(
-        "oiiotool",
-        &["--info", "-v", path.to_str().unwrap()],
-        "openimageio-tools",
-    )
-}
-
-/// The channel list printed by exrheader: (name, type), in file order.
-fn exrheader_channels(header: &str) -> Vec<(String, String)> {
-    header
-        .lines()
-        .skip_while(|l| !l.starts_with("channels (type chlist):"))
-        .skip(1)
-        .take_while(|l| l.starts_with("    "))
-        .map(|l| {
-            let mut parts = l.trim().split(", ");
-            (
-                parts.next().unwrap().to_owned(),
-                parts.next().unwrap().to_owned(),
-            )
-        })
-        .collect()
 }
 
 /// A `box2i` line of exrheader, e.g. `dataWindow (type box2i): (30 17) - (63 41)`.
