@@ -19,9 +19,7 @@ pub struct GridBuilder {
     channels: usize,
     scalar: bool,
     root: HashMap<[i32; 3], u32>,
-    upper_origin: Vec<IVec3>,
     upper_slots: Vec<u32>,
-    lower_origin: Vec<IVec3>,
     lower_slots: Vec<u32>,
     leaf_origin: Vec<IVec3>,
     leaf_values: Vec<f32>,
@@ -86,11 +84,10 @@ impl GridBuilder {
             Some(e) if e & CHILD != 0 => Ok((e & !CHILD) as usize),
             Some(_) => Err("a node overlaps a root tile".to_string()),
             None => {
-                let u = self.upper_origin.len();
+                let u = self.upper_slots.len() / UPPER_SLOTS;
                 if u as u32 >= CHILD {
                     return Err("too many nodes".to_string());
                 }
-                self.upper_origin.push((g >> 12_i32) << 12_i32);
                 self.upper_slots
                     .resize(self.upper_slots.len() + UPPER_SLOTS, 0);
                 self.root.insert(key, CHILD | u as u32);
@@ -106,8 +103,7 @@ impl GridBuilder {
         if e & CHILD != 0 {
             return Ok((e & !CHILD) as usize);
         }
-        let l = self.lower_origin.len();
-        self.lower_origin.push((g >> 7_i32) << 7_i32);
+        let l = self.lower_slots.len() / LOWER_SLOTS;
         self.lower_slots
             .resize(self.lower_slots.len() + LOWER_SLOTS, 0);
         self.upper_slots[slot] = CHILD | l as u32;
@@ -129,9 +125,7 @@ impl GridBuilder {
         let GridBuilder {
             channels,
             root,
-            upper_origin,
             upper_slots,
-            lower_origin,
             lower_slots,
             leaf_origin,
             leaf_values,
@@ -224,7 +218,6 @@ impl GridBuilder {
             bounds,
             stats,
         };
-        let _ = (upper_origin, lower_origin);
         grid.leaf_stencil = leaf_origin
             .iter()
             .enumerate()

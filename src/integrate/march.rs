@@ -19,6 +19,10 @@
 //! non-negative. In a homogeneous medium lit by a sun τ_l *is* linear along the ray, so
 //! the closed forms (slab, sphere, camera inside) come out exact at any step.
 //!
+//! In cells where the majorant is small (σt·max ρ·step below [`THIN_STEP_DEPTH`]),
+//! steps grow until they reach that optical depth: the source term there changes little
+//! per step, and opacity does not depend on the step anyway. Not with emission active.
+//!
 //! The march stops once every channel's transmittance is below `termination` (default
 //! 1e-4), setting T to 0: the radiance dropped is at most `termination × (the largest
 //! source behind that point)` — below 1e-4 of the light's contribution for scattering
@@ -40,6 +44,10 @@ pub trait Illumination: Sync {
     /// `∫ρ ds` from `x` (world) toward the light; extinction is this times σt.
     fn density_to_light(&self, light: usize, x: DVec3) -> f64;
 }
+
+/// Largest optical depth (majorant × step) a step may cover before it is no longer
+/// lengthened in thin cells.
+pub const THIN_STEP_DEPTH: f64 = 0.01;
 
 /// Step, jitter and termination of the march.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -167,6 +175,7 @@ pub fn march(
     }
     let h = settings.step_voxels.max(1e-6) / speed;
     let sigma_t = vol.medium.sigma_t();
+    let sigma_t_max = sigma_t.max_element();
     let sigma_s = vol.medium.sigma_s_scaled();
     let scatter_lights = lights.filter(|l| l.light_count() > 0 && vol.medium.scatters());
     let n_lights = scatter_lights.map_or(0, |l| l.light_count());
@@ -184,13 +193,26 @@ pub fn march(
                 vol.traversal as *const _ as *const u8,
                 vol.density as *const _ as *const u8,
             );
+        // Where the cell is optically thin (majorant × step tiny), longer steps: the
+        // source term then changes little over a step. Not where emission is active:
+        // flame does not follow density.
+        let h_span = if emission.is_none() {
+            let per_step = sigma_t_max * span.range.max as f64 * h;
+            if per_step > 0.0 && per_step < THIN_STEP_DEPTH {
+                h * (THIN_STEP_DEPTH / per_step)
+            } else {
+                h
+            }
+        } else {
+            h
+        };
         let mut a = span.t0;
         let mut first = true;
         while a < span.t1 {
             let b = if first {
-                (a + u * h).min(span.t1)
+                (a + u * h_span).min(span.t1)
             } else {
-                (a + h).min(span.t1)
+                (a + h_span).min(span.t1)
             };
             first = false;
             if b <= a {

@@ -1,0 +1,242 @@
+#!/usr/bin/python3
+"""Helpers for scripts/bench.sh: alpha error of an EXR, run records, the final table.
+
+    bench_report.py alpha IMAGE.exr OUT.fits         # A channel, full window, as FITS
+    bench_report.py alpha-error REF.fits TEST.fits   # JSON: rmse, rmse_covered, max
+    bench_report.py run OUT.json --time FILE [--murk-stats FILE] [--vdb-log FILE]
+    bench_report.py table DIR                        # markdown table of DIR/*.json
+
+Every measurement is a JSON file DIR/<case>.<run>.json; `table` takes the median of
+each field over a case's runs. Needs /usr/bin/python3 with numpy, and oiiotool.
+"""
+
+import glob
+import json
+import os
+import re
+import statistics
+import subprocess
+import sys
+
+import numpy as np
+
+
+# ---------------------------------------------------------------- images
+
+def alpha(exr, fits):
+    """Writes the A channel of `exr`, padded to its display window, as a float FITS file
+    (the simplest float format this oiiotool writes)."""
+    subprocess.run(["oiiotool", exr, "--ch", "A", "--croptofull", "-d", "float", "-o", fits],
+                   check=True, stdout=subprocess.DEVNULL)
+
+
+def read_fits(path):
+    """A 2-D BITPIX −32 FITS image (header: 80-character cards in 2880-byte blocks)."""
+    data = open(path, "rb").read()
+    cards, end = {}, None
+    for off in range(0, len(data), 80):
+        card = data[off:off + 80].decode("ascii", "replace")
+        if card.startswith("END") and card[3:].strip() == "":
+            end = off + 80
+            break
+        if card[8:10] == "= ":
+            cards[card[:8].strip()] = card[10:].split("/")[0].strip()
+    if end is None or cards.get("BITPIX") != "-32" or cards.get("NAXIS") != "2":
+        raise ValueError(f"{path}: not a 2-D float FITS image")
+    start = (end + 2879) // 2880 * 2880
+    w, h = int(cards["NAXIS1"]), int(cards["NAXIS2"])
+    return np.frombuffer(data, dtype=">f4", count=w * h, offset=start).reshape(h, w)
+
+
+def alpha_error(ref_fits, test_fits):
+    ref, test = read_fits(ref_fits).astype(np.float64), read_fits(test_fits).astype(np.float64)
+    if ref.shape != test.shape:
+        raise ValueError(f"image sizes differ: {ref.shape} and {test.shape}")
+    d = test - ref
+    covered = (ref > 1e-3) | (test > 1e-3)
+    return {
+        "alpha_rmse": float(np.sqrt(np.mean(d * d))),
+        "alpha_rmse_covered": float(np.sqrt(np.mean(d[covered] ** 2))) if covered.any() else 0.0,
+        "alpha_max_err": float(np.max(np.abs(d))),
+        "alpha_mean_err": float(np.mean(d)),
+        "covered_pixels": int(covered.sum()),
+    }
+
+
+# ---------------------------------------------------------------- runs
+
+def run_record(out, time_file, murk_stats=None, vdb_log=None, extra=None):
+    """One render run: wall and CPU seconds (bash `time`, TIMEFORMAT='%R %U %S'), and the
+    renderer's own render-stage seconds."""
+    real, user, sys_ = (float(v) for v in open(time_file).read().split()[-3:])
+    rec = {"wall_s": real, "cpu_s": user + sys_}
+    if murk_stats:
+        st = json.load(open(murk_stats))
+        rec["render_s"] = st["stages"]["render"]["seconds"]
+        rec["samples"] = st.get("samples")
+    if vdb_log:
+        # vdb_render -v prints "ray-tracing <grid>..." then "...completed in X sec".
+        text = open(vdb_log).read()
+        m = re.search(r"ray-tracing[^\n]*\n[^\n]*completed in ([0-9.e+-]+) sec", text)
+        if not m:
+            raise ValueError(f"{vdb_log}: no ray-tracing time in vdb_render -v output")
+        rec["render_s"] = float(m.group(1))
+    if extra:
+        rec.update(json.load(open(extra)))
+    json.dump(rec, open(out, "w"))
+
+
+# ---------------------------------------------------------------- table
+
+def load_cases(d):
+    cases = {}
+    for path in sorted(glob.glob(os.path.join(d, "*.json"))):
+        case = os.path.basename(path).rsplit(".", 2)[0]
+        cases.setdefault(case, []).append(json.load(open(path)))
+    return cases
+
+
+def med(cases, case, field):
+    vals = [r[field] for r in cases.get(case, []) if r.get(field) is not None]
+    return statistics.median(vals) if vals else None
+
+
+def fmt(v, unit=""):
+    if v is None:
+        return "–"
+    if unit == "MiB":
+        return f"{v / 2**20:.1f} MiB"
+    if unit == "s":
+        return f"{v:.3f} s" if v < 10 else f"{v:.1f} s"
+    if unit == "M/s":
+        return f"{v / 1e6:.2f} M/s"
+    if unit == "x":
+        return f"{v:.2f}×"
+    if isinstance(v, float):
+        return "0" if v == 0 else (f"{v:.4f}" if abs(v) >= 1e-3 else f"{v:.1e}")
+    return str(v)
+
+
+def ratio(a, b):
+    return a / b if a is not None and b else None
+
+
+def load_table(cases):
+    rows = []
+    for kind in ("float", "half"):
+        m, o = f"load-murk-{kind}", f"load-openvdb-{kind}"
+        if m not in cases:
+            continue
+        for field, label, unit, target in (
+            ("seconds", "wall", "s", "≤ 1.5×"),
+            ("cpu_seconds", "CPU", "s", "≤ 1.5×"),
+            ("peak_bytes", "peak RSS above baseline", "MiB", "≤ 1.5×"),
+            ("retained_bytes", "RSS above baseline after load", "MiB", ""),
+            ("structure_bytes", "structure (memory_bytes() / memUsage())", "MiB", ""),
+        ):
+            a, b = med(cases, m, field), med(cases, o, field)
+            rows.append((f"load {kind}: {label}", fmt(a, unit), fmt(b, unit), fmt(ratio(a, b), "x"), target))
+    for kind in ("float", "half"):
+        s = f"sample-{kind}"
+        if s not in cases:
+            continue
+        for what, key in (("random points", "points"), ("coherent rays, 0.5-voxel steps", "rays")):
+            for label, mk in (("", "murk"), (", murk via &dyn Field", "murk_dyn")):
+                a = med(cases, s, f"{mk}_{key}_per_s")
+                b = med(cases, s, f"openvdb_rs_{key}_per_s")
+                target = "≥ 5×" if key == "rays" and not label else ""
+                rows.append((f"trilinear samples per CPU-second, 1 thread, {kind}, {what}{label}",
+                             fmt(a, "M/s"), fmt(b, "M/s"), fmt(ratio(a, b), "x"), target))
+        rows.append((f"largest sample difference murk − OpenVDB-rs, {kind}", fmt(med(cases, s, "max_abs_diff")), "", "", ""))
+    return rows
+
+
+def render_table(cases, meta):
+    rows = []
+    steps = meta.get("steps", [])
+    peers = (("vdb-default", "default"), ("vdb-matched", "matched"))
+    configs = (
+        ("murk-march", "murk --shadows march"),
+        ("murk-none", "murk --shadows none"),
+        ("vdb-default", f"vdb_render -cutoff {meta.get('vdb_cutoff_default')} (its default)"),
+        ("vdb-matched", f"vdb_render -cutoff {meta.get('vdb_cutoff_matched')} (termination matched)"),
+    )
+    for step in steps:
+        for key, label in configs:
+            c = f"render-{key}-s{step}"
+            if c not in cases:
+                continue
+            r = {f: med(cases, c, f) for f in ("render_s", "wall_s", "cpu_s", "alpha_rmse", "alpha_rmse_covered", "alpha_max_err")}
+            vs = []
+            for pk, _ in peers:
+                p = f"render-{pk}-s{step}"
+                if key.startswith("murk"):
+                    rs = ratio(r["render_s"], med(cases, p, "render_s"))
+                    rc = ratio(r["cpu_s"], med(cases, p, "cpu_s"))
+                    vs.append(f"{fmt(rs, 'x')} (CPU {fmt(rc, 'x')})")
+                else:
+                    vs.append("")
+            rows.append((step, label, fmt(r["render_s"], "s"), fmt(r["wall_s"], "s"), fmt(r["cpu_s"], "s"), *vs,
+                         fmt(r["alpha_rmse"]), fmt(r["alpha_rmse_covered"]), fmt(r["alpha_max_err"])))
+    for variant, what in (("converged", "fixtures/cloud.vdb"), ("converged-dilated", "topology dilated by 1 voxel")):
+        c = f"render-vdb-{variant}"
+        if c not in cases:
+            continue
+        r = {f: med(cases, c, f) for f in ("render_s", "wall_s", "cpu_s", "alpha_rmse", "alpha_rmse_covered", "alpha_max_err")}
+        rows.append((meta.get("conv_step"),
+                     f"convention check: vdb_render -cutoff {meta.get('vdb_cutoff_tiny')} -shadowstep 1000, {what} (1 run)",
+                     fmt(r["render_s"], "s"), fmt(r["wall_s"], "s"), fmt(r["cpu_s"], "s"), "", "",
+                     fmt(r["alpha_rmse"]), fmt(r["alpha_rmse_covered"]), fmt(r["alpha_max_err"])))
+    return rows
+
+
+def print_table(header, rows):
+    print("| " + " | ".join(header) + " |")
+    print("|" + "---|" * len(header))
+    for r in rows:
+        print("| " + " | ".join(str(v) for v in r) + " |")
+    print()
+
+
+def table(d):
+    cases = load_cases(d)
+    meta_path = os.path.join(d, "meta.info")
+    meta = json.load(open(meta_path)) if os.path.exists(meta_path) else {}
+    print(f"murk benchmarks, {meta.get('when', '')}. Medians of {meta.get('runs', '?')} runs on a SHARED "
+          f"{meta.get('cores', '?')}-core machine (other builds were running): expect noise; CPU seconds are "
+          "steadier than wall seconds there.")
+    print()
+    rows = load_table(cases)
+    if rows:
+        print("Load and sampling (murk against OpenVDB: pyopenvdb.readAll for loading, OpenVDB-rs's "
+              "BoxSampler + ValueAccessor for sampling):")
+        print()
+        print_table(("measurement", "murk", "OpenVDB", "murk / OpenVDB", "target"), rows)
+    rows = render_table(cases, meta)
+    if rows:
+        print(f"Render of fixtures/cloud.vdb, {meta.get('res')}, {meta.get('threads')} threads; {meta.get('camera')}. "
+              f"Alpha error against {meta.get('reference')}. Time ratios compare render stages "
+              "(in brackets: process CPU seconds; target: murk --shadows march < 1× at equal or lower "
+              "alpha error).")
+        print()
+        print_table(("step (voxels)", "renderer", "render stage", "wall", "CPU", "÷ vdb_render default",
+                     "÷ vdb_render matched", "alpha RMSE", "alpha RMSE (covered px)", "alpha max err"), rows)
+
+
+def main():
+    cmd, args = sys.argv[1], sys.argv[2:]
+    if cmd == "alpha":
+        alpha(*args)
+    elif cmd == "alpha-error":
+        print(json.dumps(alpha_error(*args)))
+    elif cmd == "run":
+        out, opts = args[0], dict(zip(args[1::2], args[2::2]))
+        run_record(out, opts["--time"], opts.get("--murk-stats"), opts.get("--vdb-log"), opts.get("--extra"))
+    elif cmd == "table":
+        table(args[0])
+    else:
+        sys.exit(f"unknown command {cmd}")
+
+
+if __name__ == "__main__":
+    main()

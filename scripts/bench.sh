@@ -1,0 +1,205 @@
+#!/usr/bin/env bash
+# Benchmarks murk against OpenVDB, measured in the same run; prints a markdown table.
+#
+#   scripts/bench.sh [load|render|all]      (default: all)
+#
+# load:   a 264³ grid (18.4 M active voxels; float and half) made at run time by
+#         benches/make_big_grid.py. murk's VdbFile::open + VoxelGrid::load against
+#         pyopenvdb.readAll (time, peak RSS), each in a fresh process; then trilinear
+#         samples per second, murk's value_at_index against OpenVDB-rs's BoxSampler with
+#         a cached ValueAccessor (benches/grid.rs).
+# render: fixtures/cloud.vdb at 960x540, murk (release) against vdb_render with the same
+#         camera, σ (murk's per world unit = vdb_render's per voxel / voxel size) and
+#         primary step in voxels; alpha error of both against a fine-step murk reference.
+#
+# Knobs (environment): BENCH_RUNS (3), BENCH_THREADS (nproc), BENCH_RES (960x540),
+# BENCH_STEPS ("1 0.5": primary steps in voxels), BENCH_SHADOW_STEP (1),
+# BENCH_REF_STEP (0.05: murk's reference), BENCH_CONV_STEP (0.1: vdb_render's convention
+# check), BENCH_GRID_SIZE (264), BENCH_SAMPLE_REPS (5),
+# BENCH_KEEP=1 keeps the temporary directory (images, raw JSON).
+#
+# Needs: cargo, /usr/bin/python3 with pyopenvdb and numpy (python3-openvdb), vdb_render
+# (libopenvdb-tools), oiiotool (openimageio-tools). Not part of CI: run it by hand, on a
+# quiet machine if you can.
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+WHAT=${1:-all}
+RUNS=${BENCH_RUNS:-3}
+THREADS=${BENCH_THREADS:-$(nproc)}
+RES=${BENCH_RES:-960x540}
+STEPS=${BENCH_STEPS:-"1 0.5"}
+SHADOW_STEP=${BENCH_SHADOW_STEP:-1}
+REF_STEP=${BENCH_REF_STEP:-0.05}
+CONV_STEP=${BENCH_CONV_STEP:-0.1}
+GRID_SIZE=${BENCH_GRID_SIZE:-264}
+SAMPLE_REPS=${BENCH_SAMPLE_REPS:-5}
+PY=/usr/bin/python3
+REPORT="$PY $ROOT/benches/bench_report.py"
+
+case "$WHAT" in
+    load | render | all) ;;
+    *) echo "usage: scripts/bench.sh [load|render|all]" >&2; exit 2 ;;
+esac
+for tool in cargo oiiotool vdb_render "$PY"; do
+    command -v "$tool" >/dev/null || { echo "bench.sh: $tool not found" >&2; exit 2; }
+done
+
+TMP=$(mktemp -d "${TMPDIR:-/tmp}/murk-bench.XXXXXX")
+cleanup() {
+    if [[ "${BENCH_KEEP:-0}" == 1 ]]; then echo "bench.sh: kept $TMP" >&2; else rm -rf "$TMP"; fi
+}
+trap cleanup EXIT
+OUT="$TMP/results"
+mkdir -p "$OUT"
+
+log() { echo "bench.sh: $*" >&2; }
+
+# Runs "$@" with bash's `time`: "real user sys" seconds go to the file named by $TIME_TO,
+# the command's stdout and stderr to $LOG_TO.
+timed() {
+    local TIMEFORMAT='%R %U %S'
+    if ! { time "$@" >"$LOG_TO" 2>&1; } 2>"$TIME_TO"; then
+        log "failed: $*"
+        cat "$LOG_TO" >&2
+        return 1
+    fi
+}
+
+# ------------------------------------------------------------------ A. load
+bench_load() {
+    log "building the grid benchmark (cargo bench --no-run)"
+    local exe
+    exe=$(cd "$ROOT" && cargo bench --bench grid --no-run --message-format=json 2>/dev/null |
+        $PY -c 'import json, sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m.get("target", {}).get("name") == "grid" and m.get("executable"):
+        print(m["executable"])')
+    [[ -x "$exe" ]] || { log "could not build benches/grid.rs"; exit 1; }
+
+    log "writing the ${GRID_SIZE}³ grids"
+    $PY "$ROOT/benches/make_big_grid.py" "$TMP/grids" --size "$GRID_SIZE" >&2
+
+    for kind in float half; do
+        local f="$TMP/grids/big_$kind.vdb"
+        for run in $(seq "$RUNS"); do
+            log "load $kind, run $run/$RUNS"
+            "$exe" load "$f" >"$OUT/load-murk-$kind.$run.json"
+            # OpenVDB maps the file and decodes leaf buffers lazily unless told not to.
+            OPENVDB_DISABLE_DELAYED_LOAD=1 $PY "$ROOT/benches/openvdb_load.py" "$f" >"$OUT/load-openvdb-$kind.$run.json"
+        done
+        log "sampling $kind ($SAMPLE_REPS repetitions, single thread)"
+        "$exe" sample "$f" --reps "$SAMPLE_REPS" >"$OUT/sample-$kind.1.json"
+    done
+}
+
+# ------------------------------------------------------------------ B. render
+# The demo cloud: voxel size 0.05, index bbox (-40,-21,-40)-(43,31,39).
+CLOUD="$ROOT/fixtures/cloud.vdb"
+VOXEL=0.05
+EYE=0.1,2.3,6.7
+LOOK=0.075,0.25,-0.025
+FOV=40 # horizontal, for both (vdb_render's -fov is horizontal: aperture is the frame width)
+SIGMA_A=0.1 # per world unit (murk); vdb_render takes σ per voxel = σ · voxel size
+SIGMA_S=2
+SUN=0.6,1,0.5 # direction toward the light, for both
+VDB_CUTOFF_DEFAULT=0.005
+# vdb_render stops a ray when |T|² = Σ T_c² < cutoff, so T < sqrt(cutoff/3) for grey
+# media; murk stops at T < 1e-4 (its --termination): cutoff 3e-8 matches that.
+VDB_CUTOFF_MATCHED=3e-8
+VDB_CUTOFF_TINY=1e-12
+
+vdb_sigma() { $PY -c "print($1 * $VOXEL)"; }
+
+murk_render() { # OUT.exr STATS.json STEP SHADOWS [extra flags]
+    local out=$1 stats=$2 step=$3 shadows=$4
+    shift 4
+    "$MURK" render "$CLOUD" -o "$out" --res "$RES" --eye "$EYE" --look-at "$LOOK" --fov "$FOV" \
+        --sigma-a "$SIGMA_A,$SIGMA_A,$SIGMA_A" --sigma-s "$SIGMA_S,$SIGMA_S,$SIGMA_S" \
+        --light "sun:$SUN:1,1,1:6" --step "$step" --shadows "$shadows" --shadow-step "$SHADOW_STEP" \
+        --float --stats "$stats" --quiet --threads "$THREADS" "$@"
+}
+
+vdb_render_run() { # OUT.exr STEP CUTOFF SHADOWSTEP [VDB]
+    local a s
+    a=$(vdb_sigma "$SIGMA_A")
+    s=$(vdb_sigma "$SIGMA_S")
+    vdb_render "${5:-$CLOUD}" "$1" -res "$RES" -translate "$EYE" -lookat "$LOOK" -up 0,1,0 -fov "$FOV" \
+        -absorb "$a,$a,$a" -scatter "$s,$s,$s" -light "$SUN,1,1,1" -step "$2" -shadowstep "$4" \
+        -cutoff "$3" -cpus "$THREADS" -v
+}
+
+# Alpha error of IMAGE against the reference, as JSON in $TMP/err.json.
+alpha_err() {
+    $REPORT alpha "$1" "$TMP/test.fits"
+    $REPORT alpha-error "$TMP/ref.fits" "$TMP/test.fits" >"$TMP/err.json"
+}
+
+bench_render() {
+    log "building murk (cargo build --release)"
+    (cd "$ROOT" && cargo build --release --quiet)
+    MURK="$ROOT/target/release/murk"
+    local img="$TMP/img"
+    mkdir -p "$img"
+
+    log "reference: murk --step $REF_STEP --shadows none"
+    murk_render "$img/ref.exr" "$TMP/ref.stats.json" "$REF_STEP" none
+    $REPORT alpha "$img/ref.exr" "$TMP/ref.fits"
+
+    # Convention check: a fine-step vdb_render should converge to the same alpha (shadow
+    # step huge: shadows do not change alpha, and would only cost time). Also on a copy
+    # with the active topology dilated by a voxel: vdb_render integrates only inside
+    # active leaves, and so misses the trilinear ramp below a leaf with no neighbour.
+    $PY "$ROOT/benches/dilate_topology.py" "$CLOUD" density "$TMP/cloud_dilated.vdb"
+    for variant in converged converged-dilated; do
+        local vdb=$CLOUD
+        [[ $variant == converged-dilated ]] && vdb=$TMP/cloud_dilated.vdb
+        log "convention check: vdb_render -step $CONV_STEP on $(basename "$vdb")"
+        TIME_TO="$TMP/time" LOG_TO="$TMP/vdb.log" timed \
+            vdb_render_run "$img/vdb-$variant.exr" "$CONV_STEP" "$VDB_CUTOFF_TINY" 1000 "$vdb"
+        alpha_err "$img/vdb-$variant.exr"
+        $REPORT run "$OUT/render-vdb-$variant.1.json" --time "$TMP/time" --vdb-log "$TMP/vdb.log" \
+            --extra "$TMP/err.json"
+    done
+
+    for step in $STEPS; do
+        for run in $(seq "$RUNS"); do
+            for shadows in march none; do
+                log "step $step: murk --shadows $shadows, run $run/$RUNS"
+                local name="murk-$shadows-s$step"
+                TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
+                    murk_render "$img/$name.exr" "$TMP/stats.json" "$step" "$shadows"
+                alpha_err "$img/$name.exr"
+                $REPORT run "$OUT/render-$name.$run.json" --time "$TMP/time" --murk-stats "$TMP/stats.json" \
+                    --extra "$TMP/err.json"
+            done
+            for cut in default matched; do
+                local cutoff=$VDB_CUTOFF_DEFAULT
+                [[ $cut == matched ]] && cutoff=$VDB_CUTOFF_MATCHED
+                log "step $step: vdb_render -cutoff $cutoff, run $run/$RUNS"
+                local name="vdb-$cut-s$step"
+                TIME_TO="$TMP/time" LOG_TO="$TMP/vdb.log" timed \
+                    vdb_render_run "$img/$name.exr" "$step" "$cutoff" "$SHADOW_STEP"
+                alpha_err "$img/$name.exr"
+                $REPORT run "$OUT/render-$name.$run.json" --time "$TMP/time" --vdb-log "$TMP/vdb.log" \
+                    --extra "$TMP/err.json"
+            done
+        done
+    done
+}
+
+if [[ "$WHAT" == load || "$WHAT" == all ]]; then bench_load; fi
+if [[ "$WHAT" == render || "$WHAT" == all ]]; then bench_render; fi
+
+steps_json=$($PY -c 'import json, sys; print(json.dumps(sys.argv[1].split()))' "$STEPS")
+cat >"$OUT/meta.info" <<EOF
+{"when": "$(date -u +%Y-%m-%dT%H:%MZ), murk $(cd "$ROOT" && git rev-parse --short HEAD 2>/dev/null || echo '?')",
+ "runs": $RUNS, "cores": $(nproc), "threads": $THREADS, "res": "$RES", "steps": $steps_json,
+ "camera": "eye $EYE, look-at $LOOK, horizontal fov $FOV°; σa $SIGMA_A, σs $SIGMA_S per world unit; shadow step $SHADOW_STEP voxel",
+ "reference": "murk --step $REF_STEP --shadows none",
+ "ref_step": "$REF_STEP", "conv_step": "$CONV_STEP",
+ "vdb_cutoff_default": "$VDB_CUTOFF_DEFAULT", "vdb_cutoff_matched": "$VDB_CUTOFF_MATCHED", "vdb_cutoff_tiny": "$VDB_CUTOFF_TINY"}
+EOF
+echo
+$REPORT table "$OUT"
