@@ -338,29 +338,62 @@ impl TreeSink for GridBuilder {
         self.lower_slots[slot] = CHILD | leaf_index;
         self.leaf_origin.push(origin);
         self.stats.leaves += 1;
-        let mut any_active = false;
-        let mut amin = IVec3::MAX;
-        let mut amax = IVec3::MIN;
-        for n in 0..LEAF_VOXELS {
-            let raw = &values[n * ch..(n + 1) * ch];
-            if active[n >> 6] >> (n & 63) & 1 == 1 {
-                any_active = true;
-                self.stats.active_voxels += 1;
-                self.count_active(raw, 1);
-                let p = origin + IVec3::new((n >> 6) as i32, ((n >> 3) & 7) as i32, (n & 7) as i32);
+        // Statistics of the raw active values, then the values themselves, sanitised in place.
+        let (mut amin, mut amax) = (IVec3::MAX, IVec3::MIN);
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        let mut sum = [0f64; 3];
+        let mut n_active = 0u64;
+        for (w, word) in active.iter().enumerate() {
+            let mut bits = *word;
+            while bits != 0 {
+                let n = w * 64 + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                n_active += 1;
+                for (c, v) in values[n * ch..(n + 1) * ch].iter().enumerate() {
+                    if v.is_finite() {
+                        lo[c] = lo[c].min(*v);
+                        hi[c] = hi[c].max(*v);
+                        sum[c] += *v as f64;
+                    }
+                }
+                let p = IVec3::new((n >> 6) as i32, ((n >> 3) & 7) as i32, (n & 7) as i32);
                 amin = amin.min(p);
                 amax = amax.max(p);
             }
-            for v in raw {
-                let s = self.sanitise(*v, 1);
-                self.leaf_values.push(s);
+        }
+        if n_active > 0 {
+            self.stats.active_voxels += n_active;
+            for c in 0..ch.min(3) {
+                if lo[c] <= hi[c] {
+                    self.stats.min[c] = self.stats.min[c].min(lo[c] as f64);
+                    self.stats.max[c] = self.stats.max[c].max(hi[c] as f64);
+                }
+                self.stats.sum[c] += sum[c];
+            }
+            self.active_min = self.active_min.min(origin + amin);
+            self.active_max = self.active_max.max(origin + amax);
+        }
+        let start = self.leaf_values.len();
+        self.leaf_values.extend_from_slice(values);
+        let scalar = self.scalar;
+        let (mut nan, mut inf, mut neg) = (0u64, 0u64, 0u64);
+        for v in &mut self.leaf_values[start..] {
+            if !v.is_finite() || (scalar && *v < 0.0) {
+                if v.is_nan() {
+                    nan += 1;
+                } else if v.is_infinite() {
+                    inf += 1;
+                } else {
+                    neg += 1;
+                }
+                *v = 0.0;
             }
         }
+        self.stats.nan += nan;
+        self.stats.inf += inf;
+        self.stats.negative += neg;
         self.grow_content(origin, 8, false);
-        if any_active {
-            self.active_min = self.active_min.min(amin);
-            self.active_max = self.active_max.max(amax);
-        }
         Ok(())
     }
 }

@@ -339,7 +339,8 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         density: &density,
         shadows: plan.shadows,
         shadow_step: plan.shadow_step,
-        enough: 20.0 / sigma_t_min,
+        // Past T = termination the light's contribution is dropped, as the camera ray's is.
+        enough: (1.0 / plan.termination).ln().max(1.0) / sigma_t_min,
     };
     let light_count = if scatters { plan.lights.len() } else { 0 };
     let job = pixels::PixelJob {
