@@ -6,74 +6,32 @@ pub mod light;
 pub mod options;
 pub mod pixels;
 pub mod plan;
+pub mod scene;
 pub mod stats;
 
 pub use options::RenderOptions;
 pub use plan::RenderPlan;
 
+use crate::field::Field;
 use crate::field::union::FieldUnion;
-use crate::field::{Field, VoxelGrid};
 use crate::integrate::blackbody::BlackbodyTable;
 use crate::integrate::{
     ColorTint, Companion, Emission, Illumination, MarchSettings, Medium, Volume,
 };
 use crate::output::{Frame, names, write_atomically, write_exr, write_preview};
 use crate::shadow::{ShadowQuadrature, density_integral};
-use crate::vdb::{ValueKind, VdbFile};
+use crate::vdb::VdbFile;
 use anyhow::{Context, Result, anyhow};
 use camera::{Camera, Projection};
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use light::Light;
 use plan::{GridChoice, ShadowMode};
-use stats::{RenderStats, Sanitised, Stage};
+use scene::{SceneGrids, load_grids};
+use stats::{RenderStats, Stage};
 use std::io::IsTerminal;
 use std::path::Path;
 use std::time::Instant;
-
-/// Names grids get from Houdini, Blender and EmberGen, by role, in order of preference.
-pub const DENSITY_NAMES: &[&str] = &["density", "density_grid", "smoke", "soot"];
-pub const EMISSION_NAMES: &[&str] = &["flame", "flames", "fire", "emission", "fuel"];
-pub const TEMPERATURE_NAMES: &[&str] = &["temperature", "heat", "temp"];
-pub const COLOR_NAMES: &[&str] = &["Cd", "color", "colour"];
-
-/// Picks the grid for a role: the one named, else the first usual name that exists.
-fn choose(
-    file: &VdbFile,
-    choice: &GridChoice,
-    usual: &[&str],
-    role: &str,
-    kind: ValueKind,
-) -> Result<Option<String>> {
-    match choice {
-        GridChoice::Off => Ok(None),
-        GridChoice::Named(n) => {
-            let g = file.grid(n)?;
-            if g.kind != kind {
-                let want = if kind == ValueKind::Vector {
-                    "vec3"
-                } else {
-                    "float"
-                };
-                return Err(anyhow!(
-                    "{}: grid \"{}\" ({}) cannot be the {role} grid: it must hold {want} values",
-                    file.path().display(),
-                    g.unique_name,
-                    g.value_type
-                ));
-            }
-            Ok(Some(g.unique_name.clone()))
-        }
-        GridChoice::Detect => Ok(usual
-            .iter()
-            .find_map(|n| {
-                file.grids()
-                    .iter()
-                    .find(|g| g.name.eq_ignore_ascii_case(n) && g.kind == kind)
-            })
-            .map(|g| g.unique_name.clone())),
-    }
-}
 
 /// Lights with shadows computed by marching toward them.
 struct MarchedLights<'a> {
@@ -155,98 +113,24 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
     st.stages
         .insert("load".into(), Stage::ran(t.elapsed().as_secs_f64()));
 
-    let density_name = choose(
-        &file,
-        &plan.density_grid,
-        DENSITY_NAMES,
-        "density",
-        ValueKind::Scalar,
-    )?
-    .ok_or_else(|| {
-        anyhow!(
-            "{}: no density grid found (the file has: {}); name one with --density-grid",
-            plan.input.display(),
-            file.grid_list()
-        )
-    })?;
-    let emission_name = choose(
-        &file,
-        &plan.emission_grid,
-        EMISSION_NAMES,
-        "emission",
-        ValueKind::Scalar,
-    )?;
-    let temperature_name = choose(
-        &file,
-        &plan.temperature_grid,
-        TEMPERATURE_NAMES,
-        "temperature",
-        ValueKind::Scalar,
-    )?;
-    let color_name = choose(
-        &file,
-        &plan.color_grid,
-        COLOR_NAMES,
-        "color",
-        ValueKind::Vector,
-    )?;
     let medium = Medium {
         sigma_a: plan.sigma_a,
         sigma_s: plan.sigma_s,
         density_scale: plan.density_scale,
         g: plan.g,
     };
-    let emission_found = emission_name.is_some() || temperature_name.is_some();
-    let emission_wanted = emission_name.is_some()
-        && plan.emission_intensity > 0.0
-        && plan.emission_color.max_element() > 0.0;
-    let temperature_wanted = temperature_name.is_some() && plan.blackbody_intensity > 0.0;
-    let emission_name = emission_name.filter(|_| emission_wanted);
-    let temperature_name = temperature_name.filter(|_| temperature_wanted);
-
+    let scatters = !plan.lights.is_empty() && medium.scatters();
     // Build: decode only the grids in a role.
     let t = Instant::now();
-    let load = |name: &String| VoxelGrid::load(&file, name);
-    let density = load(&density_name)?;
-    let emission_grid = emission_name.as_ref().map(load).transpose()?;
-    let temperature_grid = temperature_name.as_ref().map(load).transpose()?;
-    // The colour grid only tints scattering: not decoded when nothing scatters.
-    let scatters = !plan.lights.is_empty() && medium.scatters();
-    let color_grid = color_name
-        .filter(|_| scatters)
-        .as_ref()
-        .map(load)
-        .transpose()?;
+    let SceneGrids {
+        density,
+        emission: emission_grid,
+        temperature: temperature_grid,
+        color: color_grid,
+        emission_found,
+    } = load_grids(&file, plan, scatters, &mut st)?;
     st.stages
         .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
-    for (role, g) in [
-        ("density", Some(&density)),
-        ("emission", emission_grid.as_ref()),
-        ("temperature", temperature_grid.as_ref()),
-        ("color", color_grid.as_ref()),
-    ] {
-        if let Some(g) = g {
-            st.grid_roles.insert(role.into(), g.name().into());
-            st.grids_decoded.push(g.name().into());
-            let s = g.stats();
-            st.sanitised.insert(
-                g.name().into(),
-                Sanitised {
-                    nan: s.nan,
-                    inf: s.inf,
-                    negative: s.negative,
-                },
-            );
-            st.sanitised_total += s.sanitised();
-            st.grid_memory_bytes += g.memory_bytes();
-        }
-    }
-    st.grids_not_decoded = file
-        .grids()
-        .iter()
-        .map(|g| g.unique_name.clone())
-        .filter(|n| !st.grids_decoded.contains(n))
-        .collect();
 
     let camera = resolve_camera(plan, &density)?;
     let mut traversal = FieldUnion::new(&density);
