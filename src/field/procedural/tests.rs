@@ -1,3 +1,5 @@
+//! Unit tests of `procedural.rs`, compiled only under #[cfg(test)].
+
 use super::*;
 use glam::Vec3;
 

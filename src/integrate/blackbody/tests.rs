@@ -1,3 +1,5 @@
+//! Unit tests of `blackbody.rs`, compiled only under #[cfg(test)].
+
 use super::*;
 
 fn chromaticity(xyz: [f64; 3]) -> (f64, f64) {

@@ -18,7 +18,9 @@ use std::collections::{BTreeMap, HashMap};
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
+mod bytes;
 mod tree;
+use bytes::{Bytes, popcount};
 use tree::TreeScan;
 
 /// `OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION`: per-node metadata bytes, per-grid
@@ -110,130 +112,6 @@ pub(super) struct ScannedFile {
     /// False for files written as streams: the reader loads those whole when opening.
     has_offsets: bool,
     pub grids: Vec<ScannedGrid>,
-}
-
-/// A position-tracking reader that refuses to read past the end of the file.
-struct Bytes<R> {
-    r: R,
-    pos: u64,
-    /// Where the readable data ends: the file's length, or a grid's end offset.
-    len: u64,
-    /// What ends at `len`, for messages.
-    what: &'static str,
-}
-
-impl<R: Read + Seek> Bytes<R> {
-    fn left(&self) -> u64 {
-        self.len.saturating_sub(self.pos)
-    }
-
-    fn need(&self, n: u64) -> Result<(), String> {
-        if n > self.left() {
-            return Err(if self.pos >= self.len || n <= 64 {
-                format!(
-                    "{} is truncated (unexpected end of data at byte {})",
-                    self.what,
-                    self.pos.min(self.len)
-                )
-            } else {
-                format!(
-                    "a length or size of {n} bytes at byte {} runs past the end of {} ({} bytes left)",
-                    self.pos,
-                    self.what,
-                    self.left()
-                )
-            });
-        }
-        Ok(())
-    }
-
-    fn array<const N: usize>(&mut self) -> Result<[u8; N], String> {
-        self.need(N as u64)?;
-        let mut b = [0u8; N];
-        self.r.read_exact(&mut b).map_err(|e| e.to_string())?;
-        self.pos += N as u64;
-        Ok(b)
-    }
-
-    fn u8(&mut self) -> Result<u8, String> {
-        Ok(self.array::<1>()?[0])
-    }
-    fn i8(&mut self) -> Result<i8, String> {
-        Ok(self.u8()? as i8)
-    }
-    fn u32(&mut self) -> Result<u32, String> {
-        Ok(u32::from_le_bytes(self.array()?))
-    }
-    fn i32(&mut self) -> Result<i32, String> {
-        Ok(i32::from_le_bytes(self.array()?))
-    }
-    fn i64(&mut self) -> Result<i64, String> {
-        Ok(i64::from_le_bytes(self.array()?))
-    }
-    fn coord(&mut self) -> Result<[i32; 3], String> {
-        Ok([self.i32()?, self.i32()?, self.i32()?])
-    }
-
-    fn skip(&mut self, n: u64) -> Result<(), String> {
-        self.need(n)?;
-        let step =
-            i64::try_from(n).map_err(|_| "a size does not fit into a file offset".to_string())?;
-        self.r
-            .seek(SeekFrom::Current(step))
-            .map_err(|e| e.to_string())?;
-        self.pos += n;
-        Ok(())
-    }
-
-    /// Moves to an absolute position; positions past the end fail on the next read.
-    fn seek(&mut self, pos: u64) -> Result<(), String> {
-        self.r
-            .seek(SeekFrom::Start(pos.min(self.len)))
-            .map_err(|e| e.to_string())?;
-        self.pos = pos;
-        Ok(())
-    }
-
-    /// An OpenVDB string (u32 length + bytes), decoded as the reader does.
-    fn string(&mut self) -> Result<String, String> {
-        let n = self.u32()? as u64;
-        self.need(n)?;
-        let mut b = vec![0u8; n as usize];
-        self.r.read_exact(&mut b).map_err(|e| e.to_string())?;
-        self.pos += n;
-        Ok(String::from_utf8_lossy(&b).into_owned())
-    }
-
-    fn skip_string(&mut self) -> Result<(), String> {
-        let n = self.u32()? as u64;
-        self.skip(n)
-    }
-
-    /// A node mask of `words` 64-bit words.
-    fn mask(&mut self, words: usize) -> Result<Vec<u64>, String> {
-        self.need(words as u64 * 8)?;
-        let mut b = vec![0u8; words * 8];
-        self.r.read_exact(&mut b).map_err(|e| e.to_string())?;
-        self.pos += words as u64 * 8;
-        Ok(b.chunks_exact(8)
-            .map(|c| u64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]))
-            .collect())
-    }
-
-    fn meta_map(&mut self) -> Result<(), String> {
-        let count = self.u32()?;
-        for _ in 0..count {
-            self.skip_string()?;
-            self.skip_string()?;
-            let size = self.u32()? as u64;
-            self.skip(size)?;
-        }
-        Ok(())
-    }
-}
-
-fn popcount(words: &[u64]) -> u64 {
-    words.iter().map(|w| w.count_ones() as u64).sum()
 }
 
 /// Scans the header, file metadata, descriptors and every grid head (and, for files

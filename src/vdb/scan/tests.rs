@@ -1,3 +1,5 @@
+//! Unit tests of `scan/mod.rs`, compiled only under #[cfg(test)].
+
 use super::*;
 
 fn fixtures() -> Vec<std::path::PathBuf> {
