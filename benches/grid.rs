@@ -17,6 +17,7 @@
 //! time by `scripts/bench.sh`.
 
 use glam::DVec3;
+use murk::field::random::SplitMix64;
 use murk::field::{Field, VoxelGrid};
 use murk::vdb::VdbFile;
 use openvdb::grid::AnyGrid;
@@ -132,23 +133,9 @@ fn load(args: &[String]) -> Result<(), String> {
     Ok(())
 }
 
-/// splitmix64: a small deterministic generator (same points for both samplers).
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn in_box(&mut self, lo: DVec3, hi: DVec3) -> DVec3 {
-        DVec3::new(self.unit(), self.unit(), self.unit()) * (hi - lo) + lo
-    }
+/// Uniform points in a box (same points for both samplers).
+fn in_box(rng: &mut SplitMix64, lo: DVec3, hi: DVec3) -> DVec3 {
+    rng.vec(0.0, 1.0) * (hi - lo) + lo
 }
 
 /// A ray segment in file index space: `n` samples at `start + k·step`.
@@ -247,13 +234,13 @@ fn sample(args: &[String]) -> Result<(), String> {
     let origin = grid.transform().origin.as_dvec3();
 
     // Random points in the active bbox (file index space).
-    let mut rng = Rng(0x5EED);
-    let points: Vec<DVec3> = (0..n_points).map(|_| rng.in_box(lo, hi)).collect();
+    let mut rng = SplitMix64(0x5EED);
+    let points: Vec<DVec3> = (0..n_points).map(|_| in_box(&mut rng, lo, hi)).collect();
     let local: Vec<DVec3> = points.iter().map(|p| *p - origin).collect();
     // Coherent rays: chords between two random points of the bbox, 0.5-voxel steps.
     let rays: Vec<RaySeg> = (0..n_rays)
         .map(|_| {
-            let (a, b) = (rng.in_box(lo, hi), rng.in_box(lo, hi));
+            let (a, b) = (in_box(&mut rng, lo, hi), in_box(&mut rng, lo, hi));
             let len = (b - a).length();
             let n = (len / 0.5).floor() as u32 + 1;
             RaySeg {

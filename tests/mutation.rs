@@ -12,6 +12,7 @@
 //! `MUTATION_FILTER=<text>` to run only the mutants whose names contain `<text>` (names
 //! are `<fixture>-<index>-<mutation>`, as in the failure list).
 
+use murk::field::random::SplitMix64;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -35,20 +36,16 @@ const MEMORY_LIMIT_KIB: u64 = 512 * 1024;
 const WORKERS: usize = 3;
 
 // ------------------------------------------------------------------------------------
-// A tiny deterministic PRNG (SplitMix64).
+// A small deterministic PRNG over the crate's SplitMix64.
 
-struct Rng(u64);
+struct Rng(SplitMix64);
 
 impl Rng {
     fn new(seed: u64) -> Self {
-        Rng(seed)
+        Rng(SplitMix64(seed))
     }
     fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
     /// Uniform in `0..n` (`n > 0`).
     fn below(&mut self, n: usize) -> usize {

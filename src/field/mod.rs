@@ -13,6 +13,7 @@
 pub mod grid;
 pub mod grid_build;
 pub mod procedural;
+pub mod random;
 pub mod shapes;
 pub mod transform;
 pub mod union;

@@ -21,6 +21,7 @@
 //! 8³ cells with a conservative range derived from the fBm's amplitude bound
 //! ([`NOISE_BOUND`]) and the falloff's extremes over the cell.
 
+use super::random::SplitMix64;
 use super::shapes::{index_box_outward, range_over_box, virtual_cell};
 use super::{Cell, Field, IndexBox, IndexToWorld, ValueRange};
 use glam::{DVec3, IVec3};
@@ -57,20 +58,6 @@ const PERLIN_PERMUTATION: [u8; 256] = [
     176, 115, 121, 50, 45, 127, 4, 150, 254, 138, 236, 205, 93, 222, 114, 67, 29, 24, 72, 243, 141,
     128, 195, 78, 66, 215, 61, 156, 180,
 ];
-
-/// SplitMix64 (Steele, Lea & Flood 2014): a tiny, well-mixed deterministic generator.
-#[derive(Clone, Debug)]
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-}
 
 /// The hash of improved noise: a permutation of 0..=255, stored twice so that
 /// `perm[perm[x] + y]` needs no wrap-around.

@@ -1,6 +1,7 @@
 //! The pixel loop: 16×16 tiles in parallel (rayon), each pixel integrated by the march.
 
 use super::camera::Camera;
+use crate::field::random::{mix64, unit_f64};
 use crate::integrate::{Illumination, MarchSettings, Scratch, Volume, WorldRay, march};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
@@ -24,16 +25,13 @@ pub struct PixelPasses {
     pub samples: u64,
 }
 
-/// A deterministic hash of a pixel sample to [0, 1) (splitmix64).
+/// A deterministic hash of a pixel sample to [0, 1) (SplitMix64's mixer).
 pub fn unit_random(seed: u64, x: usize, y: usize, s: u32, k: u32) -> f64 {
-    let mut z = seed
+    let z = seed
         .wrapping_add((x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15))
         .wrapping_add((y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F))
         .wrapping_add(((s as u64) << 32 | k as u64).wrapping_mul(0x1656_67B1_9E37_79F9));
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 11) as f64 / (1u64 << 53) as f64
+    unit_f64(mix64(z))
 }
 
 pub struct PixelJob<'a> {
