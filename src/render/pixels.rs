@@ -62,10 +62,11 @@ pub fn render_pixels(job: &PixelJob, progress: &ProgressBar) -> PixelPasses {
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
                 let mut out = vec![0f32; (x1 - x0) * (y1 - y0) * stride];
                 let mut tile_samples = 0;
+                let mut acc = vec![0f64; stride - 1];
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let px = &mut out[((y - y0) * (x1 - x0) + (x - x0)) * stride..][..stride];
-                        let mut acc = vec![0f64; stride - 1];
+                        acc.fill(0.0);
                         let (mut depth_sum, mut depth_n) = (0.0, 0u32);
                         for s in 0..job.spp {
                             let (jx, jy) = if job.spp == 1 {
