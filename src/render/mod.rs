@@ -94,8 +94,56 @@ fn resolve_camera(plan: &RenderPlan, density: &dyn Field) -> Result<Camera> {
     Ok(cam)
 }
 
+/// A rendered image, not yet written: its channels, the EXR header it will carry, and
+/// the stats so far (everything but the write stage).
+pub struct RenderedImage {
+    pub frame: Frame,
+    pub exr: crate::output::ExrOptions,
+    pub stats: RenderStats,
+}
+
 /// Renders a plan and writes its outputs. Returns the stats (also written with --stats).
 pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
+    let start = Instant::now();
+    check_output_dirs(plan)?;
+    let RenderedImage {
+        frame,
+        mut exr,
+        stats: mut st,
+    } = render_image(plan)?;
+    let t = Instant::now();
+    exr.render_time_seconds = Some(start.elapsed().as_secs_f64());
+    // Every output or none: if a later one fails, the earlier ones of this run go.
+    let mut written: Vec<&Path> = Vec::new();
+    let result = (|| -> Result<()> {
+        write_exr(&plan.output, &frame, &exr)?;
+        written.push(&plan.output);
+        if let Some((path, opts)) = &plan.preview {
+            write_preview(path, &frame, opts)?;
+            written.push(path);
+        }
+        st.stages
+            .insert("write".into(), Stage::ran(t.elapsed().as_secs_f64()));
+        st.total_seconds = start.elapsed().as_secs_f64();
+        if let Some(path) = &plan.stats {
+            let text = serde_json::to_string_pretty(&st)?;
+            write_atomically(path, |tmp| {
+                std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display()))
+            })?;
+        }
+        Ok(())
+    })();
+    if let Err(e) = result {
+        for p in written {
+            let _ = std::fs::remove_file(p);
+        }
+        return Err(e);
+    }
+    Ok(st)
+}
+
+/// Renders a plan into memory: load → build → render. Nothing is written.
+pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
     let start = Instant::now();
     let mut st = RenderStats {
         murk_version: env!("CARGO_PKG_VERSION").into(),
@@ -106,7 +154,6 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         spp: plan.spp,
         ..Default::default()
     };
-    check_output_dirs(plan)?;
     // Load: descriptors and metadata only.
     let t = Instant::now();
     let file = VdbFile::open(&plan.input)?;
@@ -191,7 +238,7 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
     st.shadows = match (scatters, plan.shadows) {
         (false, _) => format!("skipped: {scatter_reason}"),
         (true, ShadowMode::None) => "none".into(),
-        (true, ShadowMode::March) => "march".into(),
+        (true, ShadowMode::March | ShadowMode::Dsm) => "march".into(),
     };
     st.stages.insert(
         "shadows".into(),
@@ -206,9 +253,6 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
             }
         },
     );
-    if let Some(n) = &plan.shadows_note {
-        st.notes.push(n.clone());
-    }
     st.lights = plan.lights.iter().map(|l| l.name.clone()).collect();
     let volume = Volume {
         density: &density,
@@ -267,8 +311,7 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
     st.samples = passes.samples;
     st.samples_per_second = passes.samples as f64 / render_seconds.max(1e-9);
 
-    // Write.
-    let t = Instant::now();
+    // Assemble the channels.
     let mut frame = Frame::new(plan.width, plan.height);
     let n = plan.width * plan.height;
     let sum3 = |c: usize| -> Vec<f32> {
@@ -299,7 +342,6 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         }
     }
     let mut exr = plan.exr.clone();
-    exr.render_time_seconds = Some(start.elapsed().as_secs_f64());
     exr.world_to_camera = Some(camera.world_to_camera().as_mat4().to_cols_array_2d());
     let (near, far) = depth_range(&camera, &density);
     exr.world_to_ndc = Some(camera.world_to_ndc(near, far).as_mat4().to_cols_array_2d());
@@ -312,33 +354,12 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
         .iter()
         .map(|s| s.to_string())
         .collect();
-    // Every output or none: if a later one fails, the earlier ones of this run go.
-    let mut written: Vec<&Path> = Vec::new();
-    let result = (|| -> Result<()> {
-        write_exr(&plan.output, &frame, &exr)?;
-        written.push(&plan.output);
-        if let Some((path, opts)) = &plan.preview {
-            write_preview(path, &frame, opts)?;
-            written.push(path);
-        }
-        st.stages
-            .insert("write".into(), Stage::ran(t.elapsed().as_secs_f64()));
-        st.total_seconds = start.elapsed().as_secs_f64();
-        if let Some(path) = &plan.stats {
-            let text = serde_json::to_string_pretty(&st)?;
-            write_atomically(path, |tmp| {
-                std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display()))
-            })?;
-        }
-        Ok(())
-    })();
-    if let Err(e) = result {
-        for p in written {
-            let _ = std::fs::remove_file(p);
-        }
-        return Err(e);
-    }
-    Ok(st)
+    st.total_seconds = start.elapsed().as_secs_f64();
+    Ok(RenderedImage {
+        frame,
+        exr,
+        stats: st,
+    })
 }
 
 /// Fails before any work if an output's directory does not exist.

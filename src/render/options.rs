@@ -100,10 +100,34 @@ pub struct RenderOptions {
     /// Shadow-ray step in voxels (default 1).
     #[arg(long = "shadow-step", value_name = "VOXELS")]
     pub shadow_step: Option<f64>,
-    /// march (a shadow ray per sample), dsm (deep shadow map; not built yet — falls back to
-    /// march with a note) or none (default march).
-    #[arg(long, value_name = "march|dsm|none")]
+    /// dsm (a deep shadow map of optical depth baked once per light, default), march (a
+    /// shadow ray per sample: the reference) or none.
+    #[arg(long, value_name = "dsm|march|none")]
     pub shadows: Option<String>,
+    /// Largest transmittance error the deep shadow map may make, absolute (default 1e-3).
+    #[arg(long = "dsm-tolerance", value_name = "T")]
+    pub dsm_tolerance: Option<f64>,
+    /// Measure the shadow map against marched shadow rays at 10,000 random points inside
+    /// the density (max and mean transmittance error, in the stats).
+    #[arg(long = "dsm-verify")]
+    #[serde(default)]
+    pub dsm_verify: bool,
+    /// Reuse deep shadow maps from this file (made by `murk bake-shadows`) when the density
+    /// and lights match; refuse when they do not.
+    #[arg(long = "shadow-cache", value_name = "SHADOWS.vdb")]
+    pub shadow_cache: Option<PathBuf>,
+    /// A ground plane at height Y (world), receiving the lights through the volume: written as
+    /// the shadow.R/G/B layer (the fraction of light it receives).
+    #[arg(long, value_name = "Y", allow_hyphen_values = true)]
+    pub ground: Option<f64>,
+    /// Also show the ground plane (grey, Lambertian) in the beauty pass.
+    #[arg(long = "ground-visible")]
+    #[serde(default)]
+    pub ground_visible: bool,
+    /// Reference quality: f64 throughout, exact optical depth for shadows, a tiny source step.
+    #[arg(long)]
+    #[serde(default)]
+    pub reference: bool,
     /// Transmittance below which a ray stops (default 1e-4).
     #[arg(long, value_name = "T")]
     pub termination: Option<f64>,
@@ -181,6 +205,9 @@ impl RenderOptions {
                 light: if self.light.is_empty() { base.light } else { self.light },
                 no_lights: self.no_lights || base.no_lights,
                 float: self.float || base.float,
+                dsm_verify: self.dsm_verify || base.dsm_verify,
+                ground_visible: self.ground_visible || base.ground_visible,
+                reference: self.reference || base.reference,
                 quiet: self.quiet || base.quiet,
             } };
         }
@@ -209,6 +236,9 @@ impl RenderOptions {
             step,
             shadow_step,
             shadows,
+            dsm_tolerance,
+            shadow_cache,
+            ground,
             termination,
             spp,
             seed,

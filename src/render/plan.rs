@@ -11,6 +11,8 @@ use std::path::PathBuf;
 /// How light transmittance is found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ShadowMode {
+    /// A deep shadow map per light, baked before the render.
+    Dsm,
     /// A shadow ray per sample and light.
     March,
     /// No shadows (lights reach every point unattenuated).
@@ -66,8 +68,15 @@ pub struct RenderPlan {
     pub blackbody_intensity: f64,
     pub lights: Vec<Light>,
     pub shadows: ShadowMode,
-    /// What the user asked for, when it differs from what runs (e.g. dsm → march).
-    pub shadows_note: Option<String>,
+    /// Largest transmittance error of the deep shadow map.
+    pub dsm_tolerance: f64,
+    pub dsm_verify: bool,
+    pub shadow_cache: Option<PathBuf>,
+    /// Height of the ground plane, if any.
+    pub ground: Option<f64>,
+    pub ground_visible: bool,
+    /// Reference quality (f64, exact shadow optical depth, tiny source step).
+    pub reference: bool,
     pub step: f64,
     pub shadow_step: f64,
     pub termination: f64,
@@ -187,16 +196,10 @@ impl RenderPlan {
                 }
             }
         }
-        let (shadows, shadows_note) = match o.shadows.as_deref().unwrap_or("march") {
-            "march" => (ShadowMode::March, None),
-            "none" => (ShadowMode::None, None),
-            "dsm" => (
-                ShadowMode::March,
-                Some(
-                    "dsm requested: the deep shadow map is not built yet, shadows were marched"
-                        .to_string(),
-                ),
-            ),
+        let shadows = match o.shadows.as_deref().unwrap_or("dsm") {
+            "dsm" => ShadowMode::Dsm,
+            "march" => ShadowMode::March,
+            "none" => ShadowMode::None,
             other => {
                 return Err(format!(
                     "--shadows \"{other}\": expected march, dsm or none"
@@ -270,7 +273,21 @@ impl RenderPlan {
             )?,
             lights,
             shadows,
-            shadows_note,
+            dsm_tolerance: {
+                let t = o.dsm_tolerance.unwrap_or(1e-3);
+                if !(t > 0.0 && t < 1.0) {
+                    return Err(format!("--dsm-tolerance {t} must lie in (0, 1)"));
+                }
+                t
+            },
+            dsm_verify: o.dsm_verify,
+            shadow_cache: o.shadow_cache.clone(),
+            ground: match o.ground {
+                Some(y) if !y.is_finite() => return Err("--ground must be a finite height".into()),
+                g => g,
+            },
+            ground_visible: o.ground_visible,
+            reference: o.reference,
             step: positive(o.step, 0.5, "--step")?,
             shadow_step: positive(o.shadow_step, 1.0, "--shadow-step")?,
             termination,
