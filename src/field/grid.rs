@@ -137,6 +137,44 @@ pub(super) fn leaf_offset(g: IVec3) -> usize {
 }
 
 impl VoxelGrid {
+    /// A 64-bit fingerprint of what the grid renders as: its transform, topology and
+    /// values (not its name). Equal grids give equal hashes on every machine.
+    pub fn content_hash(&self) -> u64 {
+        use super::random::mix64;
+        let mut h: u64 = 0x6d75_726b_0000_0001;
+        let mut eat = |v: u64| h = mix64(h ^ v).wrapping_add(0x9E37_79B9_7F4A_7C15);
+        eat(self.channels as u64);
+        for c in self.transform.matrix().to_cols_array() {
+            eat(c.to_bits());
+        }
+        for c in self.transform.origin.to_array() {
+            eat(c as u32 as u64);
+        }
+        for list in [&self.upper_slots, &self.lower_slots] {
+            eat(list.len() as u64);
+            list.iter().for_each(|v| eat(*v as u64));
+        }
+        for list in [&self.leaf_values, &self.tile_values] {
+            eat(list.len() as u64);
+            list.iter().for_each(|v| eat(v.to_bits() as u64));
+        }
+        match &self.root {
+            RootIndex::Dense { min, dims, entries } => {
+                eat(min.x as u32 as u64 | (min.y as u32 as u64) << 32);
+                eat(min.z as u32 as u64 | (dims.x as u32 as u64) << 32);
+                eat(dims.y as u32 as u64 | (dims.z as u32 as u64) << 32);
+                entries.iter().for_each(|v| eat(*v as u64));
+            }
+            RootIndex::Sorted { keys, entries } => {
+                for (k, e) in keys.iter().zip(entries) {
+                    eat(k[0] as u32 as u64 | (k[1] as u32 as u64) << 32);
+                    eat(k[2] as u32 as u64 | (*e as u64) << 32);
+                }
+            }
+        }
+        h
+    }
+
     pub fn name(&self) -> &str {
         &self.name
     }

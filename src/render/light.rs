@@ -1,5 +1,6 @@
 //! Lights: suns (directional, given by the direction toward them) and point lights.
 
+use crate::shadow::LightGeometry;
 use glam::DVec3;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -102,14 +103,29 @@ impl Light {
 
     /// Unit direction from `x` toward the light, and the distance to it (∞ for a sun).
     pub fn toward(&self, x: DVec3) -> (DVec3, f64) {
-        match &self.kind {
-            LightKind::Sun { toward } => (*toward, f64::INFINITY),
-            LightKind::Point { position } => {
-                let d = *position - x;
-                let r = d.length();
-                (if r > 0.0 { d / r } else { DVec3::Y }, r)
-            }
+        self.geometry().toward(x)
+    }
+
+    /// Where the light is, as the shadow code sees it.
+    pub fn geometry(&self) -> LightGeometry {
+        match self.kind {
+            LightKind::Sun { toward } => LightGeometry::Sun { travel: -toward },
+            LightKind::Point { position } => LightGeometry::Point { position },
         }
+    }
+
+    /// The light's placement in words, without colour or intensity (which shadows do
+    /// not depend on): `sun:DX,DY,DZ` or `point:X,Y,Z`, full precision.
+    pub fn placement(&self) -> String {
+        let v = match self.kind {
+            LightKind::Sun { toward } => toward,
+            LightKind::Point { position } => position,
+        };
+        let kind = match self.kind {
+            LightKind::Sun { .. } => "sun",
+            LightKind::Point { .. } => "point",
+        };
+        format!("{kind}:{:?},{:?},{:?}", v.x, v.y, v.z)
     }
 }
 

@@ -7,6 +7,8 @@ pub mod options;
 pub mod pixels;
 pub mod plan;
 pub mod scene;
+pub mod shadow_cache;
+pub mod shadows;
 pub mod stats;
 
 pub use options::RenderOptions;
@@ -19,52 +21,19 @@ use crate::integrate::{
     ColorTint, Companion, Emission, Illumination, MarchSettings, Medium, Volume,
 };
 use crate::output::{Frame, names, write_atomically, write_exr, write_preview};
-use crate::shadow::{ShadowQuadrature, density_integral};
+use crate::shadow::ShadowQuadrature;
 use crate::vdb::VdbFile;
 use anyhow::{Context, Result, anyhow};
 use camera::{Camera, Projection};
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
-use light::Light;
 use plan::{GridChoice, ShadowMode};
 use scene::{SceneGrids, load_grids};
+use shadows::{SceneLights, bake_maps, light_shadows};
 use stats::{RenderStats, Stage};
 use std::io::IsTerminal;
 use std::path::Path;
 use std::time::Instant;
-
-/// Lights with shadows computed by marching toward them.
-struct MarchedLights<'a> {
-    lights: &'a [Light],
-    density: &'a dyn Field,
-    shadows: ShadowMode,
-    shadow_step: f64,
-    /// `∫ρ ds` past which transmittance is 0 for every channel.
-    enough: f64,
-}
-
-impl Illumination for MarchedLights<'_> {
-    fn light_count(&self) -> usize {
-        self.lights.len()
-    }
-    fn incident(&self, light: usize, x: DVec3) -> (DVec3, DVec3) {
-        self.lights[light].incident(x)
-    }
-    fn density_to_light(&self, light: usize, x: DVec3) -> f64 {
-        if self.shadows == ShadowMode::None {
-            return 0.0;
-        }
-        let (dir, dist) = self.lights[light].toward(x);
-        density_integral(
-            self.density,
-            x,
-            dir,
-            dist,
-            ShadowQuadrature::Step(self.shadow_step),
-            self.enough,
-        )
-    }
-}
 
 fn resolve_camera(plan: &RenderPlan, density: &dyn Field) -> Result<Camera> {
     let (lo, hi) = density.world_bounds();
@@ -235,24 +204,42 @@ pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
             Stage::skipped(scatter_reason)
         },
     );
+    // Shadows: a map per light, baked once here (or read from a cache) and looked up by
+    // every sample; or marched per sample.
+    let sigma_t = medium.sigma_t();
+    let shadows_needed = scatters && plan.shadows != ShadowMode::None;
+    let mut maps = Vec::new();
+    if shadows_needed && plan.shadows == ShadowMode::Dsm {
+        let t = Instant::now();
+        let (m, map_stats) =
+            bake_maps(plan, &density, density.content_hash(), sigma_t, plan.quiet)?;
+        maps = m;
+        let seconds = t.elapsed().as_secs_f64();
+        st.shadow_map_memory_bytes = map_stats.iter().map(|s| s.bake.memory_bytes).sum();
+        st.density_memory_bytes = density.memory_bytes();
+        st.shadow_maps = map_stats;
+        st.stages.insert("shadows".into(), Stage::ran(seconds));
+    } else {
+        st.stages.insert(
+            "shadows".into(),
+            if !scatters {
+                Stage::skipped(scatter_reason)
+            } else if plan.shadows == ShadowMode::None {
+                Stage::skipped("--shadows none")
+            } else {
+                Stage {
+                    status: "ran: marched per sample (inside render)".into(),
+                    seconds: 0.0,
+                }
+            },
+        );
+    }
     st.shadows = match (scatters, plan.shadows) {
         (false, _) => format!("skipped: {scatter_reason}"),
         (true, ShadowMode::None) => "none".into(),
-        (true, ShadowMode::March | ShadowMode::Dsm) => "march".into(),
+        (true, ShadowMode::March) => "march".into(),
+        (true, ShadowMode::Dsm) => "dsm".into(),
     };
-    st.stages.insert(
-        "shadows".into(),
-        if !scatters {
-            Stage::skipped(scatter_reason)
-        } else if plan.shadows == ShadowMode::None {
-            Stage::skipped("--shadows none")
-        } else {
-            Stage {
-                status: "ran: marched per sample (inside render)".into(),
-                seconds: 0.0,
-            }
-        },
-    );
     st.lights = plan.lights.iter().map(|l| l.name.clone()).collect();
     let volume = Volume {
         density: &density,
@@ -261,12 +248,12 @@ pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
         color: color_grid.as_ref().map(|c| ColorTint::new(c, &density)),
         traversal: &traversal,
     };
-    let sigma_t_min = medium.sigma_t().min_element().max(1e-30);
-    let lights = MarchedLights {
+    let sigma_t_min = sigma_t.min_element().max(1e-30);
+    let lights = SceneLights {
         lights: &plan.lights,
         density: &density,
-        shadows: plan.shadows,
-        shadow_step: plan.shadow_step,
+        shadows: light_shadows(plan.shadows, maps, plan.lights.len()),
+        quadrature: ShadowQuadrature::Step(plan.shadow_step),
         // Past T = termination the light's contribution is dropped, as the camera ray's is.
         enough: (1.0 / plan.termination).ln().max(1.0) / sigma_t_min,
     };

@@ -57,6 +57,11 @@ pub struct RenderStats {
     pub grid_memory_bytes: usize,
     pub lights: Vec<String>,
     pub shadows: String,
+    /// Per light, with `--shadows dsm`: how its deep shadow map was made and what it holds.
+    pub shadow_maps: Vec<super::shadows::ShadowMapStats>,
+    /// All shadow maps' memory, bytes, and the density structure's, to compare.
+    pub shadow_map_memory_bytes: usize,
+    pub density_memory_bytes: usize,
     /// EXR channels written.
     pub channels: Vec<String>,
     pub rays: u64,

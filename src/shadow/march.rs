@@ -50,18 +50,27 @@ pub fn density_integral(
                 acc += field.value_at_index(ray.at(span.t0 + (k as f64 + 0.5) * ds)) as f64;
             }
             sum += acc * ds;
-        } else if field.quadrature() == Quadrature::Approximate {
-            let n = (len * speed).ceil().clamp(1.0, 1e7);
-            let ds = len / n;
-            for k in 0..n as u64 {
-                sum += field.integral(&ray, span.t0 + k as f64 * ds, span.t0 + (k + 1) as f64 * ds);
-            }
         } else {
-            sum += field.integral(&ray, span.t0, span.t1);
+            sum += exact_integral(field, &ray, span.t0, span.t1);
         }
         if sum > enough {
             break;
         }
     }
     sum
+}
+
+/// `∫ρ dt` over `[t0, t1]` of a stretch inside one cell, as exactly as the field allows:
+/// its own integral where that is exact, else two-point Gauss–Legendre on pieces of at
+/// most one voxel.
+pub fn exact_integral(field: &dyn Field, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
+    if field.quadrature() != Quadrature::Approximate {
+        return field.integral(ray, t0, t1);
+    }
+    let len = t1 - t0;
+    let n = (len * ray.index_speed()).ceil().clamp(1.0, 1e7);
+    let ds = len / n;
+    (0..n as u64)
+        .map(|k| field.integral(ray, t0 + k as f64 * ds, t0 + (k + 1) as f64 * ds))
+        .sum()
 }

@@ -9,9 +9,11 @@ mod decode;
 mod error;
 pub mod guard;
 mod scan;
+mod write;
 
 pub use decode::{DecodedValues, TreeSink};
 pub use error::VdbError;
+pub use write::{FloatGridOut, write_float_grids};
 
 use error::panic_message;
 use glam::{DMat4, DVec3, IVec3};

@@ -1,0 +1,352 @@
+//! Deep shadow maps on disk, for reuse across frames and cameras (`murk bake-shadows`,
+//! `murk render --shadow-cache`).
+//!
+//! A cache is an ordinary `.vdb` file. For every light, chart and level in use it holds a
+//! float grid `dsm_<light>_c<chart>_L<level>` of `∫ρ ds` toward the light (density ×
+//! world length; optical depth is σt × this) whose index space is that level's lattice,
+//! and a float grid `dsm_<light>_c<chart>_bricks` holding `level + 1` at each brick. For a
+//! sun the transforms are the true light-space → world maps, so Houdini or Blender show
+//! the grids where they belong; a point light's charts are perspective, which an affine
+//! transform cannot express, so their grids sit in lattice space and the chart is in the
+//! metadata. Every grid's metadata names its light (`murk:light`, `murk:placement`) and
+//! the density grid it was baked from (`murk:density_hash`).
+
+use super::light::Light;
+use super::shadows::ShadowMapStats;
+use crate::field::{Field, VoxelGrid};
+use crate::shadow::BakeReport;
+use crate::shadow::chart::{Chart, ChartKind};
+use crate::shadow::map::{
+    BRICK, BrickSamples, ChartMap, ChartSelect, LEVELS, ShadowMap, side, spacing,
+};
+use crate::vdb::{FloatGridOut, VdbFile, write_float_grids};
+use anyhow::{Result, anyhow};
+use glam::{DMat4, DVec3, IVec3};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+fn vec_text(v: DVec3) -> String {
+    format!("{:?},{:?},{:?}", v.x, v.y, v.z)
+}
+
+fn parse_vec(s: &str) -> Option<DVec3> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse().ok())
+        .collect::<Option<_>>()?;
+    (v.len() == 3 && v.iter().all(|x| x.is_finite())).then(|| DVec3::new(v[0], v[1], v[2]))
+}
+
+/// Index → world of a chart's lattice scaled by `step` lattice units per index.
+fn lattice_transform(chart: &Chart, step: f64) -> DMat4 {
+    let origin = match chart.kind {
+        ChartKind::Parallel { origin } => origin,
+        ChartKind::Perspective { light, .. } => light,
+    };
+    let s = chart.unit * step;
+    DMat4::from_cols(
+        (chart.e1 * s).extend(0.0),
+        (chart.e2 * s).extend(0.0),
+        (chart.e3 * s).extend(0.0),
+        origin.extend(1.0),
+    )
+}
+
+fn grid_name(light: &str, chart: usize, what: &str) -> String {
+    format!("dsm_{light}_c{chart}_{what}")
+}
+
+/// Writes the maps of `lights` (one per light, in order) to `path`, atomically.
+pub fn write(
+    path: &Path,
+    density_hash: u64,
+    lights: &[Light],
+    maps: &[ShadowMap],
+    stats: &[ShadowMapStats],
+    tolerance: f64,
+    sigma_t: DVec3,
+) -> Result<()> {
+    let mut grids = Vec::new();
+    for ((light, map), st) in lights.iter().zip(maps).zip(stats) {
+        for (ci, cm) in map.charts.iter().enumerate() {
+            let chart = &cm.chart;
+            let (kind, origin, scale) = match chart.kind {
+                ChartKind::Parallel { origin } => ("parallel", origin, 0.0),
+                ChartKind::Perspective { light, scale } => ("perspective", light, scale),
+            };
+            let meta = |level: Option<u8>| {
+                let mut m = vec![
+                    ("murk:light".to_string(), light.name.clone()),
+                    ("murk:placement".into(), light.placement()),
+                    ("murk:density_hash".into(), format!("{density_hash:016x}")),
+                    (
+                        "murk:quantity".into(),
+                        "integral of density toward the light, world units; optical depth = sigma_t x value".into(),
+                    ),
+                    ("murk:chart".into(), format!("{ci}/{}", map.charts.len())),
+                    ("murk:chart_kind".into(), kind.into()),
+                    ("murk:chart_e1".into(), vec_text(chart.e1)),
+                    ("murk:chart_e2".into(), vec_text(chart.e2)),
+                    ("murk:chart_e3".into(), vec_text(chart.e3)),
+                    ("murk:chart_origin".into(), vec_text(origin)),
+                    ("murk:chart_scale".into(), format!("{scale:?}")),
+                    ("murk:lattice_step".into(), format!("{:?}", chart.unit)),
+                    ("murk:tolerance".into(), format!("{tolerance:?}")),
+                    ("murk:sigma_t".into(), vec_text(sigma_t)),
+                    (
+                        "murk:bricks_over_tolerance".into(),
+                        st.bake.bricks_over_tolerance.to_string(),
+                    ),
+                ];
+                if let Some(l) = level {
+                    m.push(("murk:level".into(), l.to_string()));
+                }
+                m
+            };
+            grids.push(FloatGridOut {
+                name: grid_name(&light.name, ci, "bricks"),
+                index_to_world: lattice_transform(chart, BRICK as f64),
+                voxels: cm
+                    .bricks
+                    .iter()
+                    .map(|b| (b.key, b.level as f32 + 1.0))
+                    .collect(),
+                metadata: meta(None),
+            });
+            for level in 0..LEVELS as u8 {
+                let n = 1i32 << level;
+                let m = side(level);
+                let mut voxels = Vec::new();
+                for b in cm.bricks.iter().filter(|b| b.level == level) {
+                    let v = cm.brick_values(b);
+                    for k in 0..m {
+                        for j in 0..m {
+                            for i in 0..m {
+                                let ijk = b.key * n + IVec3::new(i as i32, j as i32, k as i32);
+                                voxels.push((ijk, v[i + m * (j + m * k)]));
+                            }
+                        }
+                    }
+                }
+                if voxels.is_empty() {
+                    continue;
+                }
+                grids.push(FloatGridOut {
+                    name: grid_name(&light.name, ci, &format!("L{level}")),
+                    index_to_world: lattice_transform(chart, spacing(level)),
+                    voxels,
+                    metadata: meta(Some(level)),
+                });
+            }
+        }
+    }
+    let file_meta = [(
+        "creator".to_string(),
+        format!("murk {}", env!("CARGO_PKG_VERSION")),
+    )];
+    crate::output::write_atomically(path, |tmp| {
+        write_float_grids(tmp, &grids, &file_meta).map_err(|e| anyhow!("{}: {e}", path.display()))
+    })
+}
+
+/// Reads the maps for `lights` from a cache, refusing it when it was baked for another
+/// density grid or another placement of a light.
+/// The density slopes stored beside τ are sampled from `density` again.
+pub fn read(
+    path: &Path,
+    density: &dyn Field,
+    density_hash: u64,
+    lights: &[Light],
+) -> Result<Vec<(ShadowMap, BakeReport)>> {
+    let file = VdbFile::open(path)?;
+    let bad = |what: String| anyhow!("{}: {what}", path.display());
+    // light name → grid name → metadata
+    let mut by_light: BTreeMap<String, Vec<(String, BTreeMap<String, String>)>> = BTreeMap::new();
+    for g in file.grids() {
+        let meta: BTreeMap<String, String> = g.metadata.iter().cloned().collect();
+        if let Some(l) = meta.get("murk:light") {
+            by_light
+                .entry(l.clone())
+                .or_default()
+                .push((g.name.clone(), meta));
+        }
+    }
+    if by_light.is_empty() {
+        return Err(bad(
+            "not a murk shadow cache (no grid has murk:light metadata)".into(),
+        ));
+    }
+    let mut out = Vec::with_capacity(lights.len());
+    for light in lights {
+        let grids = by_light.get(&light.name).ok_or_else(|| {
+            bad(format!(
+                "has no shadow map for light {} (it has maps for: {}); bake again with murk bake-shadows",
+                light.name,
+                by_light.keys().cloned().collect::<Vec<_>>().join(", ")
+            ))
+        })?;
+        let meta = &grids[0].1;
+        let get = |k: &str| {
+            meta.get(k)
+                .ok_or_else(|| bad(format!("grid {} lacks {k}", grids[0].0)))
+        };
+        if get("murk:placement")? != &light.placement() {
+            return Err(bad(format!(
+                "was baked for light {} at {}, not {}; bake again with murk bake-shadows",
+                light.name,
+                get("murk:placement")?,
+                light.placement()
+            )));
+        }
+        let hash = format!("{density_hash:016x}");
+        if get("murk:density_hash")? != &hash {
+            return Err(bad(format!(
+                "was baked from a different density grid (hash {}, this one is {hash}); bake again with murk bake-shadows",
+                get("murk:density_hash")?
+            )));
+        }
+        let charts: usize = get("murk:chart")?
+            .split_once('/')
+            .and_then(|(_, n)| n.parse().ok())
+            .filter(|n| (1..=6).contains(n))
+            .ok_or_else(|| bad("bad murk:chart".into()))?;
+        let mut report = BakeReport {
+            charts,
+            points_per_level: vec![0; LEVELS],
+            ..Default::default()
+        };
+        let mut chart_maps = Vec::with_capacity(charts);
+        for ci in 0..charts {
+            let name = grid_name(&light.name, ci, "bricks");
+            let meta = &grids
+                .iter()
+                .find(|(n, _)| *n == name)
+                .ok_or_else(|| bad(format!("lacks grid {name}")))?
+                .1;
+            let chart =
+                chart_from(meta).ok_or_else(|| bad(format!("grid {name}: bad chart metadata")))?;
+            report.lattice_step = chart.unit;
+            report.bricks_over_tolerance += meta
+                .get("murk:bricks_over_tolerance")
+                .and_then(|v| v.parse::<usize>().ok())
+                .unwrap_or(0);
+            let bricks_grid = VoxelGrid::load(&file, &name)?;
+            let mut levels: Vec<Option<VoxelGrid>> = vec![None; LEVELS];
+            let mut bricks = Vec::new();
+            let keys = active_voxels(&bricks_grid)
+                .ok_or_else(|| bad(format!("grid {name}: its bricks span too large a region")))?;
+            for key in keys {
+                let v = bricks_grid.voxel_value(key, 0);
+                let level = v - 1.0;
+                if !(level >= 0.0 && level < LEVELS as f32 && level.fract() == 0.0) {
+                    return Err(bad(format!(
+                        "grid {name}: brick level {v} is not 1..{LEVELS}"
+                    )));
+                }
+                let level = level as u8;
+                if levels[level as usize].is_none() {
+                    levels[level as usize] = Some(VoxelGrid::load(
+                        &file,
+                        &grid_name(&light.name, ci, &format!("L{level}")),
+                    )?);
+                }
+                let g = levels[level as usize].as_ref().expect("loaded above");
+                let n = 1i32 << level;
+                let m = side(level);
+                let mut samples = BrickSamples::default();
+                for k in 0..m {
+                    for j in 0..m {
+                        for i in 0..m {
+                            let ijk = key * n + IVec3::new(i as i32, j as i32, k as i32);
+                            samples.tau.push(g.voxel_value(ijk, 0));
+                            let q = ijk.as_dvec3() * spacing(level);
+                            samples.rho.push(density.value_at_world(chart.to_world(q)));
+                        }
+                    }
+                }
+                bricks.push((key, level, samples));
+            }
+            let cm = ChartMap::new(chart, bricks, 64 << 20)
+                .ok_or_else(|| bad(format!("grid {name}: its bricks span too large a region")))?;
+            chart_maps.push(cm);
+        }
+        let select = if charts == 6 {
+            match chart_maps[0].chart.kind {
+                ChartKind::Perspective { light, .. } => ChartSelect::CubeFaces { light },
+                ChartKind::Parallel { .. } => return Err(bad("six parallel charts".into())),
+            }
+        } else {
+            ChartSelect::Single
+        };
+        let map = ShadowMap {
+            charts: chart_maps,
+            select,
+        };
+        report.bricks = map.brick_count();
+        report.points_per_level = map.points_per_level().to_vec();
+        report.memory_bytes = map.memory_bytes();
+        out.push((map, report));
+    }
+    Ok(out)
+}
+
+fn chart_from(meta: &BTreeMap<String, String>) -> Option<Chart> {
+    let v = |k: &str| meta.get(k).and_then(|s| parse_vec(s));
+    let f = |k: &str| {
+        meta.get(k)
+            .and_then(|s| s.parse::<f64>().ok())
+            .filter(|x| x.is_finite())
+    };
+    let (e1, e2, e3, origin) = (
+        v("murk:chart_e1")?,
+        v("murk:chart_e2")?,
+        v("murk:chart_e3")?,
+        v("murk:chart_origin")?,
+    );
+    let unit = f("murk:lattice_step").filter(|u| *u > 0.0)?;
+    let kind = match meta.get("murk:chart_kind")?.as_str() {
+        "parallel" => ChartKind::Parallel { origin },
+        "perspective" => ChartKind::Perspective {
+            light: origin,
+            scale: f("murk:chart_scale").filter(|s| *s > 0.0)?,
+        },
+        _ => return None,
+    };
+    let orthonormal = [e1, e2, e3].iter().all(|e| (e.length() - 1.0).abs() < 1e-9)
+        && e1.dot(e2).abs() < 1e-9
+        && e1.dot(e3).abs() < 1e-9;
+    orthonormal.then_some(Chart {
+        kind,
+        e1,
+        e2,
+        e3,
+        unit,
+    })
+}
+
+/// The global index of every stored voxel of a (small) grid, from its active bounds;
+/// `None` if the bounds are too large to scan.
+fn active_voxels(g: &VoxelGrid) -> Option<Vec<IVec3>> {
+    let b = g.active_bounds();
+    if b.is_empty() {
+        return Some(Vec::new());
+    }
+    let origin = g.transform().origin;
+    let (lo, hi) = (b.min.ceil().as_ivec3(), b.max.floor().as_ivec3());
+    let mut out = Vec::new();
+    let count = (hi - lo + IVec3::ONE).as_i64vec3().element_product();
+    if count > (64 << 20) {
+        return None;
+    }
+    for z in lo.z..=hi.z {
+        for y in lo.y..=hi.y {
+            for x in lo.x..=hi.x {
+                let global = IVec3::new(x, y, z) + origin;
+                if g.voxel_value(global, 0) > 0.0 {
+                    out.push(global);
+                }
+            }
+        }
+    }
+    Some(out)
+}

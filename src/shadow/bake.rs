@@ -1,0 +1,509 @@
+//! Baking a deep shadow map: which bricks exist, and at which level each one holds its
+//! values.
+//!
+//! 1. Every 16³-voxel block where the density is not zero (stencil included) is mapped
+//!    into each light-space chart; the bricks its lattice box touches exist.
+//! 2. Values are `∫ρ ds` from the light, computed by marching *columns*: one light ray per
+//!    lateral lattice position and brick stack, integrated exactly (two-point
+//!    Gauss–Legendre per voxel crossing) and read off at every sample depth on the way,
+//!    so each sample reuses the sum of the one before it.
+//! 3. Adaptivity: each brick is tried at level 0 (one sample per corner). Its samples at
+//!    the next level are computed, and the coarse level is kept if the map's
+//!    reconstruction from it (Hermite along the column, bilinear across) reproduces them
+//!    within half the tolerance, in transmittance `e^{−σt·∫ρ ds}` for every channel.
+//!    Otherwise the brick moves one level finer, down to one lattice step. Deep inside a thick cloud transmittance is small, so errors in
+//!    optical depth cost little there and the bricks stay coarse.
+
+use super::chart::{Chart, Column};
+use super::map::{
+    BRICK, BrickSamples, ChartMap, ChartSelect, LEVELS, MAX_LEVEL, ShadowMap, hermite, side,
+    spacing,
+};
+use super::march::exact_integral;
+use crate::accel::{IndexRay, Spans, nonzero_blocks};
+use crate::field::Field;
+use glam::{DVec3, IVec3};
+use rayon::prelude::*;
+use std::collections::{BTreeMap, HashSet};
+
+/// The level whose samples are one lattice step (one voxel) apart.
+const VOXEL_LEVEL: u8 = 4;
+
+/// Where a light is, as far as shadows care.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightGeometry {
+    /// A sun: the unit direction its light travels.
+    Sun { travel: DVec3 },
+    /// A point light at a world position.
+    Point { position: DVec3 },
+}
+
+impl LightGeometry {
+    /// Unit direction from `x` toward the light and the distance to it.
+    pub fn toward(&self, x: DVec3) -> (DVec3, f64) {
+        match *self {
+            LightGeometry::Sun { travel } => (-travel, f64::INFINITY),
+            LightGeometry::Point { position } => {
+                let d = position - x;
+                let r = d.length();
+                (if r > 0.0 { d / r } else { DVec3::Y }, r)
+            }
+        }
+    }
+}
+
+/// What a bake is asked for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BakeSettings {
+    /// Largest transmittance error allowed, absolute.
+    pub tolerance: f64,
+    /// Extinction per unit density for each channel (σt × density scale).
+    pub sigma_t: DVec3,
+    /// Finest level a brick may reach.
+    pub max_level: u8,
+    /// Largest number of bricks (over all charts) before the lattice is made coarser.
+    pub max_bricks: usize,
+    /// Largest number of values held before refinement stops.
+    pub max_values: usize,
+}
+
+impl BakeSettings {
+    pub fn new(tolerance: f64, sigma_t: DVec3) -> Self {
+        BakeSettings {
+            tolerance,
+            sigma_t,
+            max_level: MAX_LEVEL,
+            max_bricks: 4 << 20,
+            max_values: 256 << 20,
+        }
+    }
+}
+
+/// What a bake did.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct BakeReport {
+    /// Lattice step in world units (the density's smallest voxel edge, or a multiple).
+    pub lattice_step: f64,
+    pub charts: usize,
+    pub bricks: usize,
+    /// Values held at each level (level 0 = one per 16³ brick corner).
+    pub points_per_level: Vec<u64>,
+    /// Bricks kept at a level that did not meet the tolerance check (finest level, or the
+    /// value budget ran out).
+    pub bricks_over_tolerance: usize,
+    /// Light columns marched.
+    pub columns: u64,
+    pub memory_bytes: usize,
+}
+
+/// Bakes the map of one light over `density`.
+pub fn bake(
+    density: &dyn Field,
+    light: LightGeometry,
+    settings: &BakeSettings,
+) -> (ShadowMap, BakeReport) {
+    let voxel = density.transform().voxel_size().min_element();
+    let mut unit = if voxel > 0.0 && voxel.is_finite() {
+        voxel
+    } else {
+        1.0
+    };
+    loop {
+        if let Some(done) = bake_at(density, light, settings, unit) {
+            return done;
+        }
+        // Too many bricks for this lattice: a coarser one.
+        unit *= 2.0;
+    }
+}
+
+/// The 8 world corners of every non-empty 16³ block of the density; `None` past `limit`.
+fn block_corners(density: &dyn Field, limit: usize) -> Option<Vec<[DVec3; 8]>> {
+    let tr = density.transform();
+    let mut out = Vec::new();
+    let ok = nonzero_blocks(density, BRICK, limit, &mut |b| {
+        let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+        out.push(std::array::from_fn(|i| {
+            tr.index_to_world(DVec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            ))
+        }));
+    });
+    ok.then_some(out)
+}
+
+/// The charts of a light around the blocks, with the lateral limit of each.
+fn charts_for(
+    light: LightGeometry,
+    blocks: &[[DVec3; 8]],
+    unit: f64,
+) -> (Vec<Chart>, ChartSelect, f64) {
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for c in blocks.iter().flatten() {
+        lo = lo.min(*c);
+        hi = hi.max(*c);
+    }
+    let center = (lo + hi) * 0.5;
+    match light {
+        LightGeometry::Sun { travel } => (
+            vec![Chart::parallel(travel, center, unit)],
+            ChartSelect::Single,
+            f64::INFINITY,
+        ),
+        LightGeometry::Point { position } => {
+            let radius = (hi - lo).length() * 0.5;
+            let dist = (center - position).length();
+            let r_max = blocks
+                .iter()
+                .flatten()
+                .map(|c| (*c - position).length())
+                .fold(unit, f64::max);
+            // One chart when the light sees the whole volume within 60° of its axis.
+            if dist > radius / 60f64.to_radians().sin() {
+                let chart = Chart::perspective(position, center - position, r_max, unit);
+                let scale = r_max / unit;
+                let half_tan = radius / (dist * dist - radius * radius).sqrt();
+                (
+                    vec![chart],
+                    ChartSelect::Single,
+                    scale.max(1.0) * half_tan * 1.05 + 2.0,
+                )
+            } else {
+                let scale = (r_max / unit).max(1.0);
+                (
+                    Chart::cube_faces(position, r_max, unit),
+                    ChartSelect::CubeFaces { light: position },
+                    scale + 2.0,
+                )
+            }
+        }
+    }
+}
+
+fn bake_at(
+    density: &dyn Field,
+    light: LightGeometry,
+    settings: &BakeSettings,
+    unit: f64,
+) -> Option<(ShadowMap, BakeReport)> {
+    let blocks = block_corners(density, settings.max_bricks)?;
+    let (charts, select, lateral_limit) = charts_for(light, &blocks, unit);
+    let mut report = BakeReport {
+        lattice_step: unit,
+        charts: charts.len(),
+        points_per_level: vec![0; LEVELS],
+        ..Default::default()
+    };
+    // Which bricks exist, per chart.
+    let mut marked: Vec<Vec<IVec3>> = Vec::with_capacity(charts.len());
+    let mut total = 0usize;
+    for chart in &charts {
+        let mut set = HashSet::new();
+        for corners in &blocks {
+            let Some((lo, hi)) = chart.lattice_bounds(corners, lateral_limit) else {
+                continue;
+            };
+            let (blo, bhi) = (
+                (lo / BRICK as f64 - 1e-9).floor(),
+                (hi / BRICK as f64 + 1e-9).floor(),
+            );
+            let count = (bhi - blo + DVec3::ONE).element_product();
+            if !(count.is_finite()
+                && blo.abs().max_element() < 1e9
+                && bhi.abs().max_element() < 1e9)
+                || total as f64 + count > settings.max_bricks as f64 * 4.0
+            {
+                return None;
+            }
+            for z in blo.z as i32..=bhi.z as i32 {
+                for y in blo.y as i32..=bhi.y as i32 {
+                    for x in blo.x as i32..=bhi.x as i32 {
+                        set.insert(IVec3::new(x, y, z));
+                    }
+                }
+            }
+            total = total.saturating_add(count as usize);
+        }
+        if set.len() > settings.max_bricks {
+            return None;
+        }
+        let mut keys: Vec<IVec3> = set.into_iter().collect();
+        keys.sort_by_key(|k| (k.x, k.y, k.z));
+        marked.push(keys);
+    }
+    if marked.iter().map(Vec::len).sum::<usize>() > settings.max_bricks {
+        return None;
+    }
+    let mut maps = Vec::with_capacity(charts.len());
+    for (chart, keys) in charts.iter().zip(&marked) {
+        let bricks = refine(density, chart, keys, settings, &mut report);
+        maps.push(ChartMap::new(
+            *chart,
+            bricks,
+            settings.max_bricks.saturating_mul(16),
+        )?);
+    }
+    let map = ShadowMap {
+        charts: maps,
+        select,
+    };
+    report.bricks = map.brick_count();
+    report.points_per_level = map.points_per_level().to_vec();
+    report.memory_bytes = map.memory_bytes();
+    Some((map, report))
+}
+
+/// The distinct extinction coefficients of the channels.
+fn channels(sigma_t: DVec3) -> Vec<f64> {
+    let mut v: Vec<f64> = sigma_t
+        .to_array()
+        .into_iter()
+        .filter(|s| *s > 0.0)
+        .collect();
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    v
+}
+
+/// Largest transmittance error of reconstructing `fine` (level ℓ+1 samples) from its
+/// even-index samples (level ℓ), as the map would: Hermite along the column (z), with
+/// the slope `ρ × step`, and bilinear across.
+fn coarse_error(fine: &BrickSamples, level_fine: u8, unit: f64, sigmas: &[f64]) -> f64 {
+    let m = side(level_fine);
+    let idx = |i: usize, j: usize, k: usize| i + m * (j + m * k);
+    // World length of one coarse step along the column.
+    let step = 2.0 * spacing(level_fine) * unit;
+    let (h00, h10, h01, h11) = hermite(0.5);
+    // τ reconstructed on column (i, j) (both even) at fine depth k.
+    let column = |i: usize, j: usize, k: usize| -> f64 {
+        if k % 2 == 0 {
+            return fine.tau[idx(i, j, k)] as f64;
+        }
+        let (a, b) = (idx(i, j, k - 1), idx(i, j, k + 1));
+        h00 * fine.tau[a] as f64
+            + h01 * fine.tau[b] as f64
+            + step * (h10 * fine.rho[a] as f64 + h11 * fine.rho[b] as f64)
+    };
+    // Even neighbours of an index: itself if even, else both sides.
+    let nb = |i: usize| if i % 2 == 0 { [i, i] } else { [i - 1, i + 1] };
+    let mut worst: f64 = 0.0;
+    for k in 0..m {
+        for j in 0..m {
+            for i in 0..m {
+                // At voxel spacing and finer, only where there is density: nothing else looks
+                // the map up inside a brick. (Coarser samples could step over density.)
+                if (i % 2 == 0 && j % 2 == 0 && k % 2 == 0)
+                    || (level_fine >= VOXEL_LEVEL && fine.rho[idx(i, j, k)] <= 0.0)
+                {
+                    continue;
+                }
+                let mut sum = 0.0;
+                for y in nb(j) {
+                    for x in nb(i) {
+                        sum += column(x, y, k);
+                    }
+                }
+                let (coarse, exact) = (sum / 4.0, fine.tau[idx(i, j, k)] as f64);
+                for &s in sigmas {
+                    worst = worst.max(((-s * coarse).exp() - (-s * exact).exp()).abs());
+                }
+            }
+        }
+    }
+    worst
+}
+
+/// The even-index samples of `fine`: the same brick one level coarser.
+fn coarsen(fine: &BrickSamples, level_fine: u8) -> BrickSamples {
+    let m = side(level_fine);
+    let mc = side(level_fine - 1);
+    let mut out = BrickSamples {
+        tau: Vec::with_capacity(mc * mc * mc),
+        rho: Vec::with_capacity(mc * mc * mc),
+    };
+    for k in 0..mc {
+        for j in 0..mc {
+            for i in 0..mc {
+                let f = 2 * i + m * (2 * j + m * 2 * k);
+                out.tau.push(fine.tau[f]);
+                out.rho.push(fine.rho[f]);
+            }
+        }
+    }
+    out
+}
+
+/// Chooses every brick's level; returns `(key, level, samples)`.
+fn refine(
+    density: &dyn Field,
+    chart: &Chart,
+    keys: &[IVec3],
+    settings: &BakeSettings,
+    report: &mut BakeReport,
+) -> Vec<(IVec3, u8, BrickSamples)> {
+    let sigmas = channels(settings.sigma_t);
+    // Where each brick stack starts: density lies only inside marked bricks.
+    let mut stack_start: BTreeMap<(i32, i32), i32> = BTreeMap::new();
+    for k in keys {
+        let e = stack_start.entry((k.x, k.y)).or_insert(k.z);
+        *e = (*e).min(k.z);
+    }
+    let mut done = Vec::with_capacity(keys.len());
+    let max_level = settings.max_level.max(1);
+    // Bricks still undecided, with their values one level finer than the level on trial.
+    let mut trial: u8 = 0;
+    let mut pending: Vec<(IVec3, BrickSamples)> = {
+        let vals = sample_level(density, chart, keys, 1, &stack_start, report);
+        keys.iter().copied().zip(vals).collect()
+    };
+    let mut held: usize = 0;
+    while !pending.is_empty() {
+        let fine_level = trial + 1;
+        let mut next = Vec::new();
+        for (key, fine) in pending {
+            if sigmas.is_empty()
+                || coarse_error(&fine, fine_level, chart.unit, &sigmas) <= 0.5 * settings.tolerance
+            {
+                let coarse = coarsen(&fine, fine_level);
+                held += coarse.tau.len();
+                done.push((key, trial, coarse));
+            } else if fine_level >= max_level {
+                report.bricks_over_tolerance += 1;
+                held += fine.tau.len();
+                done.push((key, fine_level, fine));
+            } else {
+                next.push((key, fine));
+            }
+        }
+        trial += 1;
+        let needed = next.len() * side(trial + 1).pow(3);
+        if held + needed > settings.max_values {
+            // Out of budget: keep what there is.
+            report.bricks_over_tolerance += next.len();
+            done.extend(next.into_iter().map(|(k, v)| (k, trial, v)));
+            break;
+        }
+        let keys: Vec<IVec3> = next.iter().map(|(k, _)| *k).collect();
+        let vals = sample_level(density, chart, &keys, trial + 1, &stack_start, report);
+        pending = keys.into_iter().zip(vals).collect();
+    }
+    done
+}
+
+/// Samples of the bricks `keys` at `level`, by marching columns.
+fn sample_level(
+    density: &dyn Field,
+    chart: &Chart,
+    keys: &[IVec3],
+    level: u8,
+    stack_start: &BTreeMap<(i32, i32), i32>,
+    report: &mut BakeReport,
+) -> Vec<BrickSamples> {
+    let m = side(level);
+    let s = spacing(level);
+    let b = BRICK as f64;
+    // Brick stacks: the bricks sharing a lateral position, front (near the light) first.
+    let mut stacks: BTreeMap<(i32, i32), Vec<(i32, usize)>> = BTreeMap::new();
+    for (idx, k) in keys.iter().enumerate() {
+        stacks.entry((k.x, k.y)).or_default().push((k.z, idx));
+    }
+    let stacks: Vec<((i32, i32), Vec<(i32, usize)>)> = stacks
+        .into_iter()
+        .map(|(xy, mut v)| {
+            v.sort_unstable();
+            (xy, v)
+        })
+        .collect();
+    let results: Vec<Vec<(usize, BrickSamples)>> = stacks
+        .par_iter()
+        .map(|((bx, by), bricks)| {
+            let blank = BrickSamples {
+                tau: vec![0f32; m * m * m],
+                rho: vec![0f32; m * m * m],
+            };
+            let mut values = vec![blank; bricks.len()];
+            let start = stack_start.get(&(*bx, *by)).copied().unwrap_or(bricks[0].0) as f64 * b;
+            let mut depths = Vec::with_capacity(bricks.len() * m);
+            for &(bz, _) in bricks {
+                for k in 0..m {
+                    depths.push((bz as f64 * b + k as f64 * s) * chart.unit);
+                }
+            }
+            let mut sums = Vec::with_capacity(depths.len());
+            for j in 0..m {
+                for i in 0..m {
+                    let x = *bx as f64 * b + i as f64 * s;
+                    let y = *by as f64 * b + j as f64 * s;
+                    sums.clear();
+                    let column = chart.column(x, y);
+                    let t0 = match chart.kind {
+                        super::chart::ChartKind::Parallel { .. } => start * chart.unit,
+                        super::chart::ChartKind::Perspective { .. } => {
+                            (start * chart.unit).max(0.0)
+                        }
+                    };
+                    cumulative_integrals(density, column, t0, &depths, &mut sums);
+                    for (n, v) in values.iter_mut().enumerate() {
+                        for k in 0..m {
+                            let (tau, rho) = sums[n * m + k];
+                            v.tau[i + m * (j + m * k)] = tau as f32;
+                            v.rho[i + m * (j + m * k)] = rho as f32;
+                        }
+                    }
+                }
+            }
+            bricks.iter().map(|&(_, idx)| idx).zip(values).collect()
+        })
+        .collect();
+    report.columns += (stacks.len() * m * m) as u64;
+    let mut out = vec![BrickSamples::default(); keys.len()];
+    for (idx, v) in results.into_iter().flatten() {
+        out[idx] = v;
+    }
+    out
+}
+
+/// `(∫ρ dt, ρ)` along `column` from `t_start` to each of `targets` (ascending): the
+/// integral exact, the density at the target.
+pub fn cumulative_integrals(
+    density: &dyn Field,
+    column: Column,
+    t_start: f64,
+    targets: &[f64],
+    out: &mut Vec<(f64, f64)>,
+) {
+    let Some(&t_end) = targets.last() else { return };
+    let ray = IndexRay::new(density, column.origin, column.dir);
+    let rho_at = |t: f64| density.value_at_index(ray.at(t)) as f64;
+    let mut sum = 0.0;
+    let mut k = 0;
+    if t_end > t_start {
+        for span in Spans::new(density, ray, t_start, t_end) {
+            while k < targets.len() && targets[k] <= span.t0 {
+                out.push((sum, rho_at(targets[k])));
+                k += 1;
+            }
+            let piece = |a: f64, b: f64| {
+                if span.range.is_constant() {
+                    span.range.max as f64 * (b - a)
+                } else {
+                    exact_integral(density, &ray, a, b)
+                }
+            };
+            let mut a = span.t0;
+            while k < targets.len() && targets[k] < span.t1 {
+                sum += piece(a, targets[k]);
+                a = targets[k];
+                out.push((sum, rho_at(a)));
+                k += 1;
+            }
+            sum += piece(a, span.t1);
+        }
+    }
+    while k < targets.len() {
+        out.push((sum, rho_at(targets[k])));
+        k += 1;
+    }
+}

@@ -1,0 +1,356 @@
+//! The deep shadow map of one light: `∫ρ ds` toward the light (density × world length;
+//! optical depth is this times σt) on a sparse, adaptive light-space lattice.
+//!
+//! The lattice (see [`super::chart`]) is cut into bricks of [`BRICK`]³ steps. Only bricks
+//! that touch the density's active region (dilated by the trilinear stencil) exist. Each
+//! brick holds its values at one *level*: level ℓ samples it every `BRICK / 2^ℓ` steps,
+//! `(2^ℓ + 1)³` values, from one value per corner (ℓ = 0, a 16³ region) down to one
+//! per voxel ([`MAX_LEVEL`]).
+//!
+//! Each sample holds `τ = ∫ρ ds` and the density `ρ` there, which is τ's derivative
+//! along the column. A lookup is cubic Hermite along the column (τ and its slope at the
+//! two samples around the point) and bilinear across: along the light, where τ changes
+//! fastest, the reconstruction is exact for density linear along the column, so a
+//! brick needs fine samples only where optical depth varies sharply *across* the light.
+
+use super::chart::Chart;
+use glam::{DVec3, IVec3};
+
+/// Lattice steps per brick side.
+pub const BRICK: i32 = 16;
+/// The finest level: `BRICK / 2^MAX_LEVEL` = one lattice step (one voxel). Half a step
+/// was tried: on the demo cloud it took 7× the memory for 4× less pointwise error, and
+/// the error left is at columns grazing the cloud's silhouette, where τ across the light
+/// grows like the square root of the distance and no finite lattice fits it.
+pub const MAX_LEVEL: u8 = 4;
+/// Levels 0..=MAX_LEVEL.
+pub const LEVELS: usize = MAX_LEVEL as usize + 1;
+
+/// Samples along one side of a brick at `level`.
+#[inline]
+pub fn side(level: u8) -> usize {
+    (1usize << level) + 1
+}
+
+/// Lattice steps between samples at `level`.
+#[inline]
+pub fn spacing(level: u8) -> f64 {
+    BRICK as f64 / (1u32 << level) as f64
+}
+
+/// The samples of one brick at its level: `side(level)³` each, x fastest, then y, then z.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BrickSamples {
+    /// `∫ρ ds` toward the light (world units).
+    pub tau: Vec<f32>,
+    /// Density at the sample: the slope of τ along the column per world unit.
+    pub rho: Vec<f32>,
+}
+
+/// One brick: its lattice position (in bricks), its level and where its values start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Brick {
+    pub key: IVec3,
+    pub level: u8,
+    pub offset: u32,
+}
+
+/// The bricks of one chart, with a dense table from brick position to brick.
+#[derive(Clone, Debug)]
+pub struct ChartMap {
+    pub chart: Chart,
+    lo: IVec3,
+    dims: IVec3,
+    slots: Vec<u32>,
+    pub bricks: Vec<Brick>,
+    /// Per brick: its τ samples then its ρ samples.
+    pub values: Vec<f32>,
+}
+
+const NO_BRICK: u32 = u32::MAX;
+
+impl ChartMap {
+    /// A map from finished bricks `(key, level, samples)`; `None` if the table of brick
+    /// positions would exceed `max_slots` entries.
+    pub fn new(
+        chart: Chart,
+        bricks: Vec<(IVec3, u8, BrickSamples)>,
+        max_slots: usize,
+    ) -> Option<Self> {
+        let (mut lo, mut hi) = (IVec3::MAX, IVec3::MIN);
+        for (k, _, _) in &bricks {
+            lo = lo.min(*k);
+            hi = hi.max(*k);
+        }
+        let dims = if bricks.is_empty() {
+            IVec3::ZERO
+        } else {
+            hi - lo + IVec3::ONE
+        };
+        let n = dims.x as usize * dims.y as usize * dims.z as usize;
+        if n > max_slots {
+            return None;
+        }
+        let mut map = ChartMap {
+            chart,
+            lo,
+            dims,
+            slots: vec![NO_BRICK; n],
+            bricks: Vec::with_capacity(bricks.len()),
+            values: Vec::with_capacity(bricks.iter().map(|b| 2 * b.2.tau.len()).sum()),
+        };
+        for (key, level, samples) in bricks {
+            let n = side(level).pow(3);
+            if samples.tau.len() != n || samples.rho.len() != n {
+                return None;
+            }
+            let slot = map.slot_index(key)?;
+            map.slots[slot] = map.bricks.len() as u32;
+            map.bricks.push(Brick {
+                key,
+                level,
+                offset: map.values.len() as u32,
+            });
+            map.values.extend_from_slice(&samples.tau);
+            map.values.extend_from_slice(&samples.rho);
+        }
+        Some(map)
+    }
+
+    fn slot_index(&self, key: IVec3) -> Option<usize> {
+        let r = key - self.lo;
+        if r.cmplt(IVec3::ZERO).any() || r.cmpge(self.dims).any() {
+            return None;
+        }
+        Some(
+            r.x as usize
+                + self.dims.x as usize * (r.y as usize + self.dims.y as usize * r.z as usize),
+        )
+    }
+
+    /// The brick holding lattice point `q`, if the map has one.
+    pub fn brick_at(&self, q: DVec3) -> Option<&Brick> {
+        let b = (q / BRICK as f64).floor();
+        let lo = self.lo.as_dvec3();
+        if !(b.cmpge(lo).all() && b.cmplt(lo + self.dims.as_dvec3()).all()) {
+            return None;
+        }
+        let slot = self.slots[self.slot_index(b.as_ivec3())?];
+        (slot != NO_BRICK).then(|| &self.bricks[slot as usize])
+    }
+
+    /// `∫ρ ds` toward the light at lattice point `q`. Inside a brick, the trilinear blend
+    /// of its values. Elsewhere there is no density, so the integral is the one at the
+    /// bottom face of the nearest brick above `q` in its column stack, or 0 if none is.
+    #[inline]
+    pub fn density_integral_at(&self, q: DVec3) -> f64 {
+        if let Some(b) = self.brick_at(q) {
+            return self.blend(b, q);
+        }
+        let b = (q / BRICK as f64).floor();
+        let lo = self.lo.as_dvec3();
+        let hi = lo + self.dims.as_dvec3();
+        if !(b.x >= lo.x && b.x < hi.x && b.y >= lo.y && b.y < hi.y && b.z >= lo.z) {
+            return 0.0;
+        }
+        let (bx, by) = (b.x as i32, b.y as i32);
+        let top = (b.z.min(hi.z) as i32) - 1;
+        for bz in (self.lo.z..=top).rev() {
+            if let Some(slot) = self.slot_index(IVec3::new(bx, by, bz))
+                && self.slots[slot] != NO_BRICK
+            {
+                let brick = &self.bricks[self.slots[slot] as usize];
+                return self.blend(brick, DVec3::new(q.x, q.y, (bz + 1) as f64 * BRICK as f64));
+            }
+        }
+        0.0
+    }
+
+    /// τ at `q` (clamped into the brick) from `brick`'s samples: cubic Hermite along the
+    /// column, bilinear across.
+    #[inline]
+    fn blend(&self, brick: &Brick, q: DVec3) -> f64 {
+        let n = (1i32 << brick.level) as f64;
+        let h = spacing(brick.level);
+        let local =
+            ((q - brick.key.as_dvec3() * BRICK as f64) / h).clamp(DVec3::ZERO, DVec3::splat(n));
+        let i = local.floor().min(DVec3::splat(n - 1.0));
+        let f = local - i;
+        let m = side(brick.level);
+        let i = i.as_uvec3();
+        let base = brick.offset as usize + i.x as usize + m * (i.y as usize + m * i.z as usize);
+        let tau = &self.values[base..];
+        let rho = &self.values[base + m * m * m..];
+        // Slope per unit of f: density × world length of one sample step along the column.
+        let step = h * self.chart.unit;
+        let (dz, t) = (m * m, f.z);
+        let (h00, h10, h01, h11) = hermite(t);
+        let column = |d: usize| {
+            h00 * tau[d] as f64
+                + h01 * tau[d + dz] as f64
+                + step * (h10 * rho[d] as f64 + h11 * rho[d + dz] as f64)
+        };
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let c0 = lerp(column(0), column(1), f.x);
+        let c1 = lerp(column(m), column(m + 1), f.x);
+        lerp(c0, c1, f.y)
+    }
+
+    /// Bytes held: values, bricks and the position table.
+    pub fn memory_bytes(&self) -> usize {
+        self.values.len() * 4
+            + self.bricks.len() * std::mem::size_of::<Brick>()
+            + self.slots.len() * 4
+    }
+
+    /// Values held at each level.
+    pub fn points_per_level(&self) -> [u64; LEVELS] {
+        let mut n = [0u64; LEVELS];
+        for b in &self.bricks {
+            n[b.level as usize] += side(b.level).pow(3) as u64;
+        }
+        n
+    }
+
+    /// The τ samples of brick `b` (`side(level)³`, x fastest).
+    pub fn brick_values(&self, b: &Brick) -> &[f32] {
+        &self.values[b.offset as usize..][..side(b.level).pow(3)]
+    }
+}
+
+/// The cubic Hermite basis at `t` ∈ [0, 1]: weights of (v0, slope0, v1, slope1).
+#[inline]
+pub fn hermite(t: f64) -> (f64, f64, f64, f64) {
+    let (t2, t3) = (t * t, t * t * t);
+    (
+        2.0 * t3 - 3.0 * t2 + 1.0,
+        t3 - 2.0 * t2 + t,
+        -2.0 * t3 + 3.0 * t2,
+        t3 - t2,
+    )
+}
+
+/// How a world point picks its chart.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ChartSelect {
+    /// The map has one chart.
+    Single,
+    /// Six cube faces around a point light, in [`Chart::cube_faces`] order.
+    CubeFaces { light: DVec3 },
+}
+
+/// The cube face (in [`Chart::cube_faces`] order) that serves direction `d`.
+#[inline]
+pub fn cube_face(d: DVec3) -> usize {
+    let a = d.abs();
+    let axis = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    2 * axis + usize::from(d[axis] < 0.0)
+}
+
+/// One light's deep shadow map.
+#[derive(Clone, Debug)]
+pub struct ShadowMap {
+    pub charts: Vec<ChartMap>,
+    pub select: ChartSelect,
+}
+
+impl ShadowMap {
+    /// `∫ρ ds` from world point `p` toward the light, anywhere: 0 where no density lies
+    /// between (upstream of the volume, or behind a point light that faces away from it).
+    #[inline]
+    pub fn density_integral(&self, p: DVec3) -> f64 {
+        let chart = match self.select {
+            ChartSelect::Single => self.charts.first(),
+            ChartSelect::CubeFaces { light } => self.charts.get(cube_face(p - light)),
+        };
+        chart
+            .and_then(|c| Some(c.density_integral_at(c.chart.to_lattice(p)?)))
+            .unwrap_or(0.0)
+    }
+
+    pub fn memory_bytes(&self) -> usize {
+        self.charts.iter().map(ChartMap::memory_bytes).sum()
+    }
+
+    pub fn points_per_level(&self) -> [u64; LEVELS] {
+        let mut n = [0u64; LEVELS];
+        for c in &self.charts {
+            for (a, b) in n.iter_mut().zip(c.points_per_level()) {
+                *a += b;
+            }
+        }
+        n
+    }
+
+    pub fn brick_count(&self) -> usize {
+        self.charts.iter().map(|c| c.bricks.len()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lookup_is_trilinear_inside_a_brick_and_exact_at_its_samples() {
+        let chart = Chart::parallel(DVec3::Z, DVec3::ZERO, 1.0);
+        // Level 1 brick at (0,0,0), spacing 8: τ = x + 2y + z³/64 (lattice units = world
+        // units here), so ρ = dτ/dz = 3z²/64. Hermite reproduces the cubic along z exactly.
+        let f = |q: DVec3| q.x + 2.0 * q.y + q.z.powi(3) / 64.0;
+        let mut samples = BrickSamples::default();
+        for k in 0..3 {
+            for j in 0..3 {
+                for i in 0..3 {
+                    let q = DVec3::new(i as f64, j as f64, k as f64) * 8.0;
+                    samples.tau.push(f(q) as f32);
+                    samples.rho.push((3.0 * q.z * q.z / 64.0) as f32);
+                }
+            }
+        }
+        let map = ChartMap::new(chart, vec![(IVec3::ZERO, 1, samples)], 1 << 20).unwrap();
+        for q in [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(16.0, 16.0, 16.0),
+            DVec3::new(3.5, 9.25, 15.0),
+        ] {
+            let v = map.density_integral_at(q);
+            assert!(
+                (v - f(q)).abs() < 1e-4 * f(q).max(1.0),
+                "{q}: {v} vs {}",
+                f(q)
+            );
+        }
+        // Beside the stack and upstream of it: nothing in between.
+        assert_eq!(map.density_integral_at(DVec3::new(-0.5, 1.0, 1.0)), 0.0);
+        assert_eq!(map.density_integral_at(DVec3::new(1.0, 1.0, -0.5)), 0.0);
+        // Downstream: the value at the stack's bottom face.
+        let below = map.density_integral_at(DVec3::new(1.0, 2.0, 40.0));
+        assert!(
+            (below - f(DVec3::new(1.0, 2.0, 16.0))).abs() < 1e-3,
+            "{below}"
+        );
+        assert_eq!(map.points_per_level()[1], 27);
+    }
+
+    #[test]
+    fn cube_faces_match_their_charts() {
+        let faces = Chart::cube_faces(DVec3::ZERO, 1.0, 0.1);
+        for d in [
+            DVec3::X,
+            -DVec3::X,
+            DVec3::Y,
+            -DVec3::Y,
+            DVec3::Z,
+            -DVec3::Z,
+        ] {
+            let f = cube_face(d + DVec3::splat(0.1));
+            assert!(faces[f].e3.dot(d) > 0.99, "{d} → face {f}");
+        }
+    }
+}
