@@ -292,10 +292,11 @@ fn coarse_error(fine: &BrickSamples, level_fine: u8, unit: f64, sigmas: &[f64]) 
     for k in 0..m {
         for j in 0..m {
             for i in 0..m {
-                // At voxel spacing and finer, only where there is density: nothing else looks
-                // the map up inside a brick. (Coarser samples could step over density.)
+                // At voxel spacing and finer, only where there is density, and on the
+                // bottom face (points downstream of the brick read it): nothing else looks
+                // the map up. (Coarser samples could step over density: all count.)
                 if (i % 2 == 0 && j % 2 == 0 && k % 2 == 0)
-                    || (level_fine >= VOXEL_LEVEL && fine.rho[idx(i, j, k)] <= 0.0)
+                    || (level_fine >= VOXEL_LEVEL && k + 1 < m && fine.rho[idx(i, j, k)] <= 0.0)
                 {
                     continue;
                 }
