@@ -500,3 +500,104 @@ fn error_messages_do_not_repeat_their_cause() {
         );
     }
 }
+
+#[test]
+fn bake_shadows_help_examples_run_in_order() {
+    let text = help("bake-shadows");
+    let dir = scratch("examples-bake");
+    let all = examples(&text);
+    assert!(all.len() >= 2, "{text}");
+    for example in all {
+        let shown = format!("murk {}", example.join(" "));
+        let args: Vec<String> = example
+            .iter()
+            .map(|a| {
+                if a.starts_with("fixtures/") {
+                    root().join(a).to_str().unwrap().to_owned()
+                } else {
+                    a.clone()
+                }
+            })
+            .collect();
+        let out = murk(&dir, &args);
+        assert!(
+            out.status.success(),
+            "`{shown}` failed ({}):\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    assert!(dir.join("shadows.vdb").is_file() && dir.join("frame1.exr").is_file());
+}
+
+#[test]
+fn a_shadow_cache_for_other_lights_is_refused() {
+    let dir = scratch("cache-refused");
+    let cache = dir.join("shadows.vdb").to_str().unwrap().to_owned();
+    let bake = murk(
+        &dir,
+        &[
+            "bake-shadows".into(),
+            fixture("cloud.vdb"),
+            "-o".into(),
+            cache.clone(),
+            "--quiet".into(),
+        ],
+    );
+    assert!(
+        bake.status.success(),
+        "{}",
+        String::from_utf8_lossy(&bake.stderr)
+    );
+    let out = murk(
+        &dir,
+        &[
+            "render".into(),
+            fixture("cloud.vdb"),
+            "-o".into(),
+            "x.exr".into(),
+            "--light".into(),
+            "sun:1,0,0".into(),
+            "--shadow-cache".into(),
+            cache.clone(),
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("shadows.vdb") && err.contains("bake again"),
+        "{err}"
+    );
+    assert!(!dir.join("x.exr").exists());
+    // A render with the same light reuses it.
+    let stats = dir.join("s.json");
+    let out = murk(
+        &dir,
+        &[
+            "render".into(),
+            fixture("cloud.vdb"),
+            "-o".into(),
+            "y.exr".into(),
+            "--res".into(),
+            "32x18".into(),
+            "--shadow-cache".into(),
+            cache,
+            "--stats".into(),
+            stats.to_str().unwrap().into(),
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: Value = serde_json::from_str(&fs::read_to_string(&stats).unwrap()).unwrap();
+    assert!(
+        doc["shadow_maps"][0]["source"]
+            .as_str()
+            .unwrap()
+            .starts_with("cache: "),
+        "{doc}"
+    );
+}

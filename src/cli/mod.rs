@@ -33,6 +33,14 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Bake the deep shadow map of every light into a .vdb, for `murk render --shadow-cache`.
+    #[command(after_help = render::BAKE_EXAMPLES)]
+    BakeShadows {
+        /// A .vdb file, or a scene .toml (flags override what it says).
+        input: PathBuf,
+        #[command(flatten)]
+        options: Box<murk::render::RenderOptions>,
+    },
     /// Render a .vdb (or a scene .toml that names one) to a multi-layer EXR.
     #[command(after_help = render::EXAMPLES)]
     Render {
@@ -66,6 +74,7 @@ pub fn run() -> i32 {
     let result = match cli.command {
         Command::Info { file, stats, json } => info::run(&file, stats, json),
         Command::Render { input, options } => render::run(&input, *options),
+        Command::BakeShadows { input, options } => render::bake(&input, *options),
     };
     match result {
         Ok(()) => 0,

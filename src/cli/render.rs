@@ -1,7 +1,7 @@
 //! `murk render`.
 
 use anyhow::{Result, anyhow};
-use murk::render::{RenderOptions, RenderPlan, run as render};
+use murk::render::{RenderOptions, RenderPlan, bake_shadow_file, run as render};
 use std::path::Path;
 
 pub const EXAMPLES: &str = "Examples:
@@ -13,7 +13,17 @@ pub const EXAMPLES: &str = "Examples:
 With no --light the scene is lit by the default sun, sun:0.6,1,0.5:1,1,1:6 (from the upper right front, white, irradiance 6).
 With no camera flags the camera frames the density's world bounds.";
 
-pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
+pub const BAKE_EXAMPLES: &str = "Examples:
+  murk bake-shadows fixtures/cloud.vdb -o shadows.vdb
+  murk render fixtures/cloud.vdb -o frame1.exr --shadow-cache shadows.vdb --eye 3,1,2
+  murk bake-shadows fixtures/cloud.vdb -o shadows.vdb --light sun:1,1,0 --light point:2,3,1:1,1,1:40 --dsm-tolerance 1e-4
+
+The map stores the integral of density toward each light, so it depends on the density grid and
+where the lights are, not on their colour or intensity or on sigma. Render with the same --light
+flags (in the same order, so the names sun0, point0, ... match).";
+
+/// The plan of a render or bake: options from the flags over a scene file, if given.
+fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> {
     let is_scene = input
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
@@ -28,9 +38,17 @@ pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
     } else {
         (options, input.to_path_buf())
     };
-    let plan = RenderPlan::new(&options, vdb).map_err(|e| anyhow!(e))?;
+    let quiet = options.quiet;
+    Ok((
+        RenderPlan::new(&options, vdb).map_err(|e| anyhow!(e))?,
+        quiet,
+    ))
+}
+
+pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
+    let (plan, quiet) = plan_for(input, options)?;
     let stats = render(&plan)?;
-    if !options.quiet {
+    if !quiet {
         eprintln!(
             "murk: wrote {} ({}x{}, {} channels) in {:.2} s",
             plan.output.display(),
@@ -42,6 +60,28 @@ pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
         for n in &stats.notes {
             eprintln!("murk: note: {n}");
         }
+    }
+    Ok(())
+}
+
+pub fn bake(input: &Path, options: RenderOptions) -> Result<()> {
+    let (plan, quiet) = plan_for(input, options)?;
+    let stats = bake_shadow_file(&plan)?;
+    if !quiet {
+        for m in &stats.shadow_maps {
+            eprintln!(
+                "murk: {}: {} bricks, {:.1} MB, baked in {:.2} s",
+                m.light,
+                m.bake.bricks,
+                m.bake.memory_bytes as f64 / 1e6,
+                m.bake_seconds
+            );
+        }
+        eprintln!(
+            "murk: wrote {} in {:.2} s",
+            plan.output.display(),
+            stats.total_seconds
+        );
     }
     Ok(())
 }

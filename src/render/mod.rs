@@ -349,6 +349,82 @@ pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
     })
 }
 
+/// `murk bake-shadows`: bakes the deep shadow map of every light of `plan` over its
+/// density grid and writes them to `plan.output` (a `.vdb`), for `--shadow-cache`.
+pub fn bake_shadow_file(plan: &RenderPlan) -> Result<RenderStats> {
+    let start = Instant::now();
+    check_output_dirs(plan)?;
+    if !plan
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("vdb"))
+    {
+        return Err(anyhow!(
+            "{}: a shadow cache is a .vdb file; name the output NAME.vdb",
+            plan.output.display()
+        ));
+    }
+    if plan.lights.is_empty() {
+        return Err(anyhow!("no lights to bake shadows for"));
+    }
+    let mut st = RenderStats {
+        murk_version: env!("CARGO_PKG_VERSION").into(),
+        input: plan.input.display().to_string(),
+        output: plan.output.display().to_string(),
+        ..Default::default()
+    };
+    let file = VdbFile::open(&plan.input)?;
+    let density_only = RenderPlan {
+        emission_grid: GridChoice::Off,
+        temperature_grid: GridChoice::Off,
+        color_grid: GridChoice::Off,
+        shadow_cache: None,
+        ..plan.clone()
+    };
+    let t = Instant::now();
+    let grids = load_grids(&file, &density_only, false, &mut st)?;
+    st.stages
+        .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
+    let density = grids.density;
+    let sigma_t = Medium {
+        sigma_a: plan.sigma_a,
+        sigma_s: plan.sigma_s,
+        density_scale: plan.density_scale,
+        g: plan.g,
+    }
+    .sigma_t();
+    let hash = density.content_hash();
+    let t = Instant::now();
+    let (maps, map_stats) = bake_maps(&density_only, &density, hash, sigma_t, plan.quiet)?;
+    st.stages
+        .insert("shadows".into(), Stage::ran(t.elapsed().as_secs_f64()));
+    let t = Instant::now();
+    shadow_cache::write(
+        &plan.output,
+        hash,
+        &plan.lights,
+        &maps,
+        &map_stats,
+        plan.dsm_tolerance,
+        sigma_t,
+    )?;
+    st.stages
+        .insert("write".into(), Stage::ran(t.elapsed().as_secs_f64()));
+    st.shadow_map_memory_bytes = map_stats.iter().map(|s| s.bake.memory_bytes).sum();
+    st.density_memory_bytes = density.memory_bytes();
+    st.shadow_maps = map_stats;
+    st.lights = plan.lights.iter().map(|l| l.name.clone()).collect();
+    st.shadows = "dsm".into();
+    st.total_seconds = start.elapsed().as_secs_f64();
+    if let Some(path) = &plan.stats {
+        let text = serde_json::to_string_pretty(&st)?;
+        write_atomically(path, |tmp| {
+            std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display()))
+        })?;
+    }
+    Ok(st)
+}
+
 /// Fails before any work if an output's directory does not exist.
 fn check_output_dirs(plan: &RenderPlan) -> Result<()> {
     let outputs = [
