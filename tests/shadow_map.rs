@@ -229,3 +229,40 @@ fn shadow_cache_round_trips_and_refuses_a_mismatch() {
     assert!(e.contains("different density grid"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The ground plane's `shadow` layer under `sphere.vdb` (ρ = 1 for i²+j²+k² ≤ 20²,
+/// voxel 0.05) lit from straight above: under the centre the light crosses
+/// `∫ρ dk = 40 + 2·½` voxels, so the plane receives `e^{−σt·41·0.05}`; away from the
+/// sphere it receives everything. With `--shadows march` the same.
+#[test]
+fn ground_plane_receives_the_sphere_shadow() {
+    for shadows in ["dsm", "march"] {
+        let o = RenderOptions {
+            output: Some(std::env::temp_dir().join("murk-unused.exr")),
+            res: Some("33x33".into()),
+            camera: Some("ortho".into()),
+            ortho_width: Some(4.0),
+            eye: Some("0,5,0".into()),
+            look_at: Some("0,0,0".into()),
+            up: Some("0,0,-1".into()),
+            light: vec!["sun:0,1,0".into()],
+            ground: Some(-1.5),
+            shadows: Some(shadows.into()),
+            shadow_step: Some(0.05),
+            quiet: true,
+            ..Default::default()
+        };
+        let plan = RenderPlan::new(&o, fixture_path("sphere.vdb")).unwrap();
+        let frame = render_image(&plan).unwrap().frame;
+        let shadow = frame.channel("shadow.R").unwrap();
+        let centre = shadow[16 * 33 + 16] as f64;
+        let want = (-SIGMA * 41.0 * 0.05).exp();
+        assert!(
+            (centre - want).abs() < 1e-3,
+            "{shadows}: centre {centre}, want {want}"
+        );
+        assert_eq!(shadow[0], 1.0, "{shadows}: corner");
+        // Not visible: the beauty alpha there is the volume's alone (0 at the corner).
+        assert_eq!(frame.channel("A").unwrap()[0], 0.0);
+    }
+}

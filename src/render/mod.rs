@@ -2,6 +2,7 @@
 //! [`run`] does a whole render: load → build → render → write, timing every stage.
 
 pub mod camera;
+pub mod ground;
 pub mod light;
 pub mod options;
 pub mod pixels;
@@ -207,7 +208,10 @@ pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
     // Shadows: a map per light, baked once here (or read from a cache) and looked up by
     // every sample; or marched per sample.
     let sigma_t = medium.sigma_t();
-    let shadows_needed = scatters && plan.shadows != ShadowMode::None;
+    // The ground plane needs the lights' shadows even when the medium does not scatter.
+    let lit = !plan.lights.is_empty() && sigma_t.max_element() > 0.0;
+    let shadows_needed =
+        (scatters || (plan.ground.is_some() && lit)) && plan.shadows != ShadowMode::None;
     let mut maps = Vec::new();
     if shadows_needed && plan.shadows == ShadowMode::Dsm {
         let t = Instant::now();
@@ -261,6 +265,15 @@ pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
     let job = pixels::PixelJob {
         volume: &volume,
         lights: scatters.then_some(&lights as &dyn Illumination),
+        ground: plan.ground.map(|height| {
+            (
+                ground::Ground {
+                    height,
+                    visible: plan.ground_visible,
+                },
+                &lights as &dyn Illumination,
+            )
+        }),
         light_count,
         camera: &camera,
         settings: MarchSettings {
@@ -303,7 +316,11 @@ pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
     let n = plan.width * plan.height;
     let sum3 = |c: usize| -> Vec<f32> {
         (0..n)
-            .map(|i| passes.emission[c][i] + passes.scatter[c][i])
+            .map(|i| {
+                passes.emission[c][i]
+                    + passes.scatter[c][i]
+                    + passes.ground.as_ref().map_or(0.0, |g| g[c][i])
+            })
             .collect()
     };
     frame.add_channel(names::R, sum3(0))?;
@@ -327,6 +344,9 @@ pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
                 add_layer(&mut frame, &format!("scatter_{}", l.name), planes)?;
             }
         }
+    }
+    if let Some(shadow) = &passes.shadow {
+        add_layer(&mut frame, names::SHADOW, shadow)?;
     }
     let mut exr = plan.exr.clone();
     exr.world_to_camera = Some(camera.world_to_camera().as_mat4().to_cols_array_2d());

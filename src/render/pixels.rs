@@ -1,6 +1,7 @@
 //! The pixel loop: 16×16 tiles in parallel (rayon), each pixel integrated by the march.
 
 use super::camera::Camera;
+use super::ground::{ALBEDO, Ground};
 use crate::field::random::{mix64, unit_f64};
 use crate::integrate::{Illumination, MarchSettings, Scratch, Volume, WorldRay, march};
 use indicatif::ProgressBar;
@@ -21,6 +22,10 @@ pub struct PixelPasses {
     pub per_light: Vec<[Vec<f32>; 3]>,
     /// Camera-space depth where opacity crosses 0.5, +inf where it never does.
     pub depth: Vec<f32>,
+    /// With a ground plane: the fraction of light it receives (RGB), 1 off the plane.
+    pub shadow: Option<[Vec<f32>; 3]>,
+    /// With a visible ground plane: its radiance behind the volume (RGB, premultiplied).
+    pub ground: Option<[Vec<f32>; 3]>,
     pub rays: u64,
     pub samples: u64,
 }
@@ -37,6 +42,8 @@ pub fn unit_random(seed: u64, x: usize, y: usize, s: u32, k: u32) -> f64 {
 pub struct PixelJob<'a> {
     pub volume: &'a Volume<'a>,
     pub lights: Option<&'a dyn Illumination>,
+    /// A ground plane and the lights that reach it (with their shadows).
+    pub ground: Option<(Ground, &'a dyn Illumination)>,
     pub light_count: usize,
     pub camera: &'a Camera,
     pub settings: MarchSettings,
@@ -48,7 +55,10 @@ pub struct PixelJob<'a> {
 pub fn render_pixels(job: &PixelJob, progress: &ProgressBar) -> PixelPasses {
     let (w, h) = (job.camera.width, job.camera.height);
     let nl = job.light_count;
-    let stride = 1 + 3 + 3 + 3 * nl + 1;
+    // alpha, emission, scatter, per light, shadow, ground, depth.
+    let stride = 1 + 3 + 3 + 3 * nl + 3 + 3 + 1;
+    let (shadow_at, ground_at) = (7 + 3 * nl, 10 + 3 * nl);
+    let sigma_t = job.volume.medium.sigma_t();
     let tiles_x = w.div_ceil(TILE);
     let tiles = tiles_x * h.div_ceil(TILE);
     let frame = job.camera.frame();
@@ -79,16 +89,41 @@ pub fn render_pixels(job: &PixelJob, progress: &ProgressBar) -> PixelPasses {
                             };
                             let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
                             let u = unit_random(job.seed, x, y, s, 0);
-                            let r = march(
-                                job.volume,
-                                job.lights,
-                                &WorldRay::new(o, d),
-                                &job.settings,
-                                u,
-                                scratch,
-                            );
+                            let mut ray = WorldRay::new(o, d);
+                            let hit = job.ground.and_then(|(g, lights)| {
+                                let (t, n) = g.hit(ray.origin, ray.dir)?;
+                                Some((
+                                    g,
+                                    t,
+                                    g.light_at(ray.origin + ray.dir * t, n, lights, sigma_t),
+                                ))
+                            });
+                            let visible = hit.filter(|(g, _, _)| g.visible);
+                            if let Some((_, t, _)) = visible {
+                                ray.t_max = t;
+                            }
+                            let r = march(job.volume, job.lights, &ray, &job.settings, u, scratch);
                             tile_samples += r.samples;
-                            acc[0] += r.alpha();
+                            match hit {
+                                Some((_, _, light)) => {
+                                    for c in 0..3 {
+                                        acc[shadow_at + c] += light.fraction[c];
+                                    }
+                                }
+                                None => (0..3).for_each(|c| acc[shadow_at + c] += 1.0),
+                            }
+                            let mut half_t = r.half_opacity_t;
+                            if let Some((_, t, light)) = visible {
+                                // An opaque grey floor behind the volume.
+                                let radiance = light.irradiance * (ALBEDO / std::f64::consts::PI);
+                                for c in 0..3 {
+                                    acc[ground_at + c] += r.transmittance[c] * radiance[c];
+                                }
+                                acc[0] += 1.0;
+                                half_t = half_t.or(Some(t));
+                            } else {
+                                acc[0] += r.alpha();
+                            }
                             for c in 0..3 {
                                 acc[1 + c] += r.emission[c];
                                 acc[4 + c] += r.scatter[c];
@@ -98,7 +133,7 @@ pub fn render_pixels(job: &PixelJob, progress: &ProgressBar) -> PixelPasses {
                                     acc[7 + 3 * l + c] += v[c];
                                 }
                             }
-                            if let Some(t) = r.half_opacity_t {
+                            if let Some(t) = half_t {
                                 depth_sum += t * d.dot(frame.forward);
                                 depth_n += 1;
                             }
@@ -133,6 +168,13 @@ pub fn render_pixels(job: &PixelJob, progress: &ProgressBar) -> PixelPasses {
         scatter: [plane(), plane(), plane()],
         per_light: (0..nl).map(|_| [plane(), plane(), plane()]).collect(),
         depth: vec![f32::INFINITY; n],
+        shadow: job
+            .ground
+            .map(|_| [vec![1f32; n], vec![1f32; n], vec![1f32; n]]),
+        ground: job
+            .ground
+            .filter(|(g, _)| g.visible)
+            .map(|_| [plane(), plane(), plane()]),
         rays: (n as u64) * job.spp as u64,
         samples: samples.load(Ordering::Relaxed),
     };
@@ -154,6 +196,16 @@ pub fn render_pixels(job: &PixelJob, progress: &ProgressBar) -> PixelPasses {
                     }
                 }
                 p.depth[i] = px[stride - 1];
+                if let Some(sh) = &mut p.shadow {
+                    for c in 0..3 {
+                        sh[c][i] = px[shadow_at + c];
+                    }
+                }
+                if let Some(gr) = &mut p.ground {
+                    for c in 0..3 {
+                        gr[c][i] = px[ground_at + c];
+                    }
+                }
             }
         }
     }

@@ -151,7 +151,9 @@ pub fn bake_maps(
 /// The transmittance source of every light for a plan's shadow mode.
 pub fn light_shadows(mode: ShadowMode, maps: Vec<ShadowMap>, lights: usize) -> Vec<LightShadow> {
     match mode {
-        ShadowMode::Dsm => maps.into_iter().map(LightShadow::Map).collect(),
+        ShadowMode::Dsm if maps.len() == lights => maps.into_iter().map(LightShadow::Map).collect(),
+        // Not baked (nothing needs the lights' shadows): march, should anything ask.
+        ShadowMode::Dsm => (0..lights).map(|_| LightShadow::Marched).collect(),
         ShadowMode::March => (0..lights).map(|_| LightShadow::Marched).collect(),
         ShadowMode::None => (0..lights).map(|_| LightShadow::Unshadowed).collect(),
     }
