@@ -66,14 +66,18 @@ def alpha_error(ref_fits, test_fits):
 # ---------------------------------------------------------------- runs
 
 def run_record(out, time_file, murk_stats=None, vdb_log=None, extra=None):
-    """One render run: wall and CPU seconds (bash `time`, TIMEFORMAT='%R %U %S'), and the
-    renderer's own render-stage seconds."""
-    real, user, sys_ = (float(v) for v in open(time_file).read().split()[-3:])
-    rec = {"wall_s": real, "cpu_s": user + sys_}
+    """One render run: wall and CPU seconds and peak RSS (/usr/bin/time -f '%e %U %S %M'),
+    and the renderer's own render-stage seconds."""
+    real, user, sys_, rss_kb = (float(v) for v in open(time_file).read().split()[-4:])
+    rec = {"wall_s": real, "cpu_s": user + sys_, "peak_rss_bytes": rss_kb * 1024}
     if murk_stats:
         st = json.load(open(murk_stats))
         rec["render_s"] = st["stages"]["render"]["seconds"]
         rec["samples"] = st.get("samples")
+        sh = st["stages"].get("shadows", {})
+        rec["bake_s"] = sh.get("seconds") if sh.get("status") == "ran" else None
+        rec["map_bytes"] = st.get("shadow_map_memory_bytes") or None
+        rec["density_bytes"] = st.get("density_memory_bytes") or None
     if vdb_log:
         # vdb_render -v prints "ray-tracing <grid>..." then "...completed in X sec".
         text = open(vdb_log).read()
@@ -156,6 +160,7 @@ def render_table(cases, meta):
     steps = meta.get("steps", [])
     peers = (("vdb-default", "default"), ("vdb-matched", "matched"))
     configs = (
+        ("murk-dsm", "murk --shadows dsm"),
         ("murk-march", "murk --shadows march"),
         ("murk-none", "murk --shadows none"),
         ("vdb-default", f"vdb_render -cutoff {meta.get('vdb_cutoff_default')} (its default)"),
@@ -190,6 +195,27 @@ def render_table(cases, meta):
     return rows
 
 
+def dsm_table(cases, meta):
+    """The deep shadow map's targets: murk's whole run (load + bake + render + write)
+    against vdb_render's, and the map's memory against the density structure's."""
+    rows = []
+    for step in meta.get("steps", []):
+        vdb = f"render-vdb-default-s{step}"
+        for key in ("murk-dsm", "murk-march"):
+            c = f"render-{key}-s{step}"
+            if c not in cases:
+                continue
+            wall, cpu = med(cases, c, "wall_s"), med(cases, c, "cpu_s")
+            rows.append((step, key.replace("murk-", "murk --shadows "), fmt(med(cases, c, "bake_s"), "s"),
+                         fmt(wall, "s"), fmt(med(cases, vdb, "wall_s"), "s"), fmt(ratio(wall, med(cases, vdb, "wall_s")), "x"),
+                         fmt(ratio(cpu, med(cases, vdb, "cpu_s")), "x"), "≤ 0.10×" if key == "murk-dsm" else "",
+                         fmt(med(cases, c, "peak_rss_bytes"), "MiB"), fmt(med(cases, vdb, "peak_rss_bytes"), "MiB"),
+                         fmt(med(cases, c, "map_bytes"), "MiB"), fmt(med(cases, c, "density_bytes"), "MiB"),
+                         fmt(ratio(med(cases, c, "map_bytes"), med(cases, c, "density_bytes")), "x"),
+                         "≤ 0.25×" if key == "murk-dsm" else ""))
+    return rows
+
+
 def print_table(header, rows):
     print("| " + " | ".join(header) + " |")
     print("|" + "---|" * len(header))
@@ -221,6 +247,15 @@ def table(d):
         print()
         print_table(("step (voxels)", "renderer", "render stage", "wall", "CPU", "÷ vdb_render default",
                      "÷ vdb_render matched", "alpha RMSE", "alpha RMSE (covered px)", "alpha max err"), rows)
+    rows = dsm_table(cases, meta)
+    if rows:
+        print("Deep shadow map: whole processes (murk: load + bake + render + write) against vdb_render "
+              "(default cutoff), wall time, CPU time and peak RSS; the map's memory against the density "
+              "structure's.")
+        print()
+        print_table(("step (voxels)", "murk", "bake", "murk wall", "vdb_render wall", "wall ratio", "CPU ratio",
+                     "target", "murk peak RSS", "vdb_render peak RSS", "map memory", "density memory",
+                     "map / density", "target"), rows)
 
 
 def main():

@@ -8,9 +8,11 @@
 #         pyopenvdb.readAll (time, peak RSS), each in a fresh process; then trilinear
 #         samples per second, murk's value_at_index against OpenVDB-rs's BoxSampler with
 #         a cached ValueAccessor (benches/grid.rs).
-# render: fixtures/cloud.vdb at 960x540, murk (release) against vdb_render with the same
-#         camera, σ (murk's per world unit = vdb_render's per voxel / voxel size) and
-#         primary step in voxels; alpha error of both against a fine-step murk reference.
+# render: fixtures/cloud.vdb at 960x540, murk (release; --shadows dsm, march and none)
+#         against vdb_render with the same camera, σ (murk's per world unit = vdb_render's
+#         per voxel / voxel size) and primary step in voxels; alpha error of both against a
+#         fine-step murk reference; whole-process wall time and peak RSS; the shadow map's
+#         bake time and memory against the density structure's.
 #
 # Knobs (environment): BENCH_RUNS (3), BENCH_THREADS (nproc), BENCH_RES (960x540),
 # BENCH_STEPS ("1 0.5": primary steps in voxels), BENCH_SHADOW_STEP (1),
@@ -41,7 +43,7 @@ case "$WHAT" in
     load | render | all) ;;
     *) echo "usage: scripts/bench.sh [load|render|all]" >&2; exit 2 ;;
 esac
-for tool in cargo oiiotool vdb_render "$PY"; do
+for tool in cargo oiiotool vdb_render "$PY" /usr/bin/time; do
     command -v "$tool" >/dev/null || { echo "bench.sh: $tool not found" >&2; exit 2; }
 done
 
@@ -55,11 +57,10 @@ mkdir -p "$OUT"
 
 log() { echo "bench.sh: $*" >&2; }
 
-# Runs "$@" with bash's `time`: "real user sys" seconds go to the file named by $TIME_TO,
-# the command's stdout and stderr to $LOG_TO.
+# Runs "$@" under /usr/bin/time: "real user sys maxrss_kb" go to the file named by
+# $TIME_TO, the command's stdout and stderr to $LOG_TO.
 timed() {
-    local TIMEFORMAT='%R %U %S'
-    if ! { time "$@" >"$LOG_TO" 2>&1; } 2>"$TIME_TO"; then
+    if ! /usr/bin/time -o "$TIME_TO" -f '%e %U %S %M' "$@" >"$LOG_TO" 2>&1; then
         log "failed: $*"
         cat "$LOG_TO" >&2
         return 1
@@ -165,7 +166,7 @@ bench_render() {
 
     for step in $STEPS; do
         for run in $(seq "$RUNS"); do
-            for shadows in march none; do
+            for shadows in dsm march none; do
                 log "step $step: murk --shadows $shadows, run $run/$RUNS"
                 local name="murk-$shadows-s$step"
                 TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
