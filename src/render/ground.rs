@@ -30,7 +30,7 @@ impl Ground {
     /// camera's side.
     pub fn hit(&self, o: DVec3, d: DVec3) -> Option<(f64, DVec3)> {
         let t = (self.height - o.y) / d.y;
-        (t > 0.0 && t.is_finite()).then(|| {
+        (t > 0.0 && t.is_finite()).then_some({
             (
                 t,
                 if o.y >= self.height {

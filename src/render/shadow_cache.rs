@@ -25,6 +25,9 @@ use glam::{DMat4, DVec3, IVec3};
 use std::collections::BTreeMap;
 use std::path::Path;
 
+/// A grid's metadata, name → text.
+type GridMeta = BTreeMap<String, String>;
+
 fn vec_text(v: DVec3) -> String {
     format!("{:?},{:?},{:?}", v.x, v.y, v.z)
 }
@@ -161,9 +164,9 @@ pub fn read(
     let file = VdbFile::open(path)?;
     let bad = |what: String| anyhow!("{}: {what}", path.display());
     // light name → grid name → metadata
-    let mut by_light: BTreeMap<String, Vec<(String, BTreeMap<String, String>)>> = BTreeMap::new();
+    let mut by_light: BTreeMap<String, Vec<(String, GridMeta)>> = BTreeMap::new();
     for g in file.grids() {
-        let meta: BTreeMap<String, String> = g.metadata.iter().cloned().collect();
+        let meta: GridMeta = g.metadata.iter().cloned().collect();
         if let Some(l) = meta.get("murk:light") {
             by_light
                 .entry(l.clone())

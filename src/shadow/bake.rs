@@ -278,7 +278,7 @@ fn coarse_error(fine: &BrickSamples, level_fine: u8, unit: f64, sigmas: &[f64]) 
     let (h00, h10, h01, h11) = hermite(0.5);
     // τ reconstructed on column (i, j) (both even) at fine depth k.
     let column = |i: usize, j: usize, k: usize| -> f64 {
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             return fine.tau[idx(i, j, k)] as f64;
         }
         let (a, b) = (idx(i, j, k - 1), idx(i, j, k + 1));
@@ -287,7 +287,13 @@ fn coarse_error(fine: &BrickSamples, level_fine: u8, unit: f64, sigmas: &[f64]) 
             + step * (h10 * fine.rho[a] as f64 + h11 * fine.rho[b] as f64)
     };
     // Even neighbours of an index: itself if even, else both sides.
-    let nb = |i: usize| if i % 2 == 0 { [i, i] } else { [i - 1, i + 1] };
+    let nb = |i: usize| {
+        if i.is_multiple_of(2) {
+            [i, i]
+        } else {
+            [i - 1, i + 1]
+        }
+    };
     let mut worst: f64 = 0.0;
     for k in 0..m {
         for j in 0..m {
@@ -410,7 +416,9 @@ fn sample_level(
     for (idx, k) in keys.iter().enumerate() {
         stacks.entry((k.x, k.y)).or_default().push((k.z, idx));
     }
-    let stacks: Vec<((i32, i32), Vec<(i32, usize)>)> = stacks
+    // ((x, y) of the stack, [(z, index into keys)]).
+    type Stack = ((i32, i32), Vec<(i32, usize)>);
+    let stacks: Vec<Stack> = stacks
         .into_iter()
         .map(|(xy, mut v)| {
             v.sort_unstable();
