@@ -96,10 +96,7 @@ pub fn run(plan: &RenderPlan) -> Result<RenderStats> {
             .insert("write".into(), Stage::ran(t.elapsed().as_secs_f64()));
         st.total_seconds = start.elapsed().as_secs_f64();
         if let Some(path) = &plan.stats {
-            let text = serde_json::to_string_pretty(&st)?;
-            write_atomically(path, |tmp| {
-                std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display()))
-            })?;
+            write_stats(path, &st)?;
         }
         Ok(())
     })();
@@ -437,12 +434,17 @@ pub fn bake_shadow_file(plan: &RenderPlan) -> Result<RenderStats> {
     st.shadows = "dsm".into();
     st.total_seconds = start.elapsed().as_secs_f64();
     if let Some(path) = &plan.stats {
-        let text = serde_json::to_string_pretty(&st)?;
-        write_atomically(path, |tmp| {
-            std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display()))
-        })?;
+        write_stats(path, &st)?;
     }
     Ok(st)
+}
+
+/// Writes the stats as pretty JSON, atomically.
+fn write_stats(path: &Path, st: &RenderStats) -> Result<()> {
+    let text = serde_json::to_string_pretty(st)?;
+    write_atomically(path, |tmp| {
+        std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display()))
+    })
 }
 
 /// Fails before any work if an output's directory does not exist.

@@ -285,9 +285,7 @@ pub fn read(
             charts: chart_maps,
             select,
         };
-        report.bricks = map.brick_count();
-        report.points_per_level = map.points_per_level().to_vec();
-        report.memory_bytes = map.memory_bytes();
+        report.count(&map);
         out.push((map, report));
     }
     Ok(out)

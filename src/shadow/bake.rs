@@ -96,6 +96,15 @@ pub struct BakeReport {
     pub memory_bytes: usize,
 }
 
+impl BakeReport {
+    /// Fills in what `map` holds: bricks, samples per level, memory.
+    pub fn count(&mut self, map: &ShadowMap) {
+        self.bricks = map.brick_count();
+        self.points_per_level = map.points_per_level().to_vec();
+        self.memory_bytes = map.memory_bytes();
+    }
+}
+
 /// Bakes the map of one light over `density`.
 pub fn bake(
     density: &dyn Field,
@@ -249,9 +258,7 @@ fn bake_at(
         charts: maps,
         select,
     };
-    report.bricks = map.brick_count();
-    report.points_per_level = map.points_per_level().to_vec();
-    report.memory_bytes = map.memory_bytes();
+    report.count(&map);
     Some((map, report))
 }
 

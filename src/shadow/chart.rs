@@ -87,14 +87,9 @@ impl Chart {
                 let e1 = axes[(axes.iter().position(|&b| b == a).unwrap_or(0) + 1) % 3];
                 let e2 = e3.cross(e1);
                 charts.push(Chart {
-                    kind: ChartKind::Perspective {
-                        light,
-                        scale: (r_max / unit).max(1.0),
-                    },
                     e1,
                     e2,
-                    e3,
-                    unit,
+                    ..Chart::perspective(light, e3, r_max, unit)
                 });
             }
         }
