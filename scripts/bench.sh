@@ -24,6 +24,7 @@
 # (libopenvdb-tools), oiiotool (openimageio-tools). Not part of CI: run it by hand, on a
 # quiet machine if you can.
 set -euo pipefail
+set -a # variables reach the functions `timed` runs in a child bash
 
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 WHAT=${1:-all}
@@ -59,8 +60,10 @@ log() { echo "bench.sh: $*" >&2; }
 
 # Runs "$@" under /usr/bin/time: "real user sys maxrss_kb" go to the file named by
 # $TIME_TO, the command's stdout and stderr to $LOG_TO.
+# (The commands are often this script's functions: they and its variables are exported,
+# and run in a child bash.)
 timed() {
-    if ! /usr/bin/time -o "$TIME_TO" -f '%e %U %S %M' "$@" >"$LOG_TO" 2>&1; then
+    if ! /usr/bin/time -o "$TIME_TO" -f '%e %U %S %M' bash -c '"$@"' timed "$@" >"$LOG_TO" 2>&1; then
         log "failed: $*"
         cat "$LOG_TO" >&2
         return 1
@@ -130,6 +133,8 @@ vdb_render_run() { # OUT.exr STEP CUTOFF SHADOWSTEP [VDB]
         -absorb "$a,$a,$a" -scatter "$s,$s,$s" -light "$SUN,1,1,1" -step "$2" -shadowstep "$4" \
         -cutoff "$3" -cpus "$THREADS" -v
 }
+
+export -f vdb_sigma murk_render vdb_render_run
 
 # Alpha error of IMAGE against the reference, as JSON in $TMP/err.json.
 alpha_err() {
