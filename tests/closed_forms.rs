@@ -1,83 +1,16 @@
 //! The march against closed forms. Orthographic rays, pixel centres; `p` is the phase
 //! value, `E` the sun's irradiance, `μ` the cosine between the ray and the slab normal.
 
+mod common;
+
+use common::march::{Sun, fixture, medium, ray, rel};
 use glam::DVec3;
 use murk::field::shapes::{ConstantBox, ConstantSphere};
-use murk::field::{Field, VoxelGrid};
 use murk::integrate::blackbody::BlackbodyTable;
 use murk::integrate::phase::hg;
-use murk::integrate::{
-    Companion, Emission, Illumination, MarchSettings, Medium, RayResult, Scratch, Volume, WorldRay,
-    march,
-};
-use murk::shadow::{ShadowQuadrature, density_integral};
-use murk::vdb::VdbFile;
+use murk::integrate::{Companion, Emission, Volume};
 
 const STEPS: [f64; 4] = [0.25, 0.5, 1.0, 2.0];
-
-fn fixture(name: &str) -> VoxelGrid {
-    let path = format!("{}/fixtures/{name}", env!("CARGO_MANIFEST_DIR"));
-    VoxelGrid::load(&VdbFile::open(path).unwrap(), "density").unwrap()
-}
-
-fn grey(v: f64) -> DVec3 {
-    DVec3::splat(v)
-}
-
-fn medium(sigma_a: f64, sigma_s: f64, g: f64) -> Medium {
-    Medium {
-        sigma_a: grey(sigma_a),
-        sigma_s: grey(sigma_s),
-        density_scale: 1.0,
-        g,
-    }
-}
-
-/// A sun with shadows integrated by the shadow module (exactly, for these fields).
-struct Sun<'a> {
-    field: &'a dyn Field,
-    toward: DVec3,
-    irradiance: f64,
-}
-
-impl Illumination for Sun<'_> {
-    fn light_count(&self) -> usize {
-        1
-    }
-    fn incident(&self, _: usize, _: DVec3) -> (DVec3, DVec3) {
-        (grey(self.irradiance), -self.toward)
-    }
-    fn density_to_light(&self, _: usize, x: DVec3) -> f64 {
-        density_integral(
-            self.field,
-            x,
-            self.toward,
-            f64::INFINITY,
-            ShadowQuadrature::Exact,
-            1e30,
-        )
-    }
-}
-
-fn ray(vol: &Volume, sun: Option<&Sun>, o: DVec3, d: DVec3, step: f64, jitter: f64) -> RayResult {
-    let settings = MarchSettings {
-        step_voxels: step,
-        termination: 0.0,
-    };
-    let mut scratch = Scratch::new(1);
-    march(
-        vol,
-        sun.map(|s| s as &dyn Illumination),
-        &WorldRay::new(o, d),
-        &settings,
-        jitter,
-        &mut scratch,
-    )
-}
-
-fn rel(got: f64, want: f64) -> f64 {
-    (got - want).abs() / want.abs().max(1e-300)
-}
 
 /// Alpha through the slab fixture (voxels k = 0..19 at 0.05, value 1): the trilinear
 /// reconstruction ramps over one voxel on each side, and ∫ρ dz = 20 voxels = D = 1.0 world

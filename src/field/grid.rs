@@ -252,15 +252,35 @@ impl VoxelGrid {
     /// values sit at integer points and blend with the weights of the fractional part.
     #[inline]
     pub fn sample_channel(&self, p: DVec3, c: usize) -> f32 {
+        match self.stencil(p, c) {
+            Stencil::Constant(v) => v,
+            Stencil::Corners(v, t) => trilinear(&v, t.as_vec3()),
+        }
+    }
+
+    /// [`VoxelGrid::sample_channel`] with the blend done in f64 (the stored values are
+    /// f32): what the reference render's exact integrals use.
+    #[inline]
+    pub fn sample_channel_f64(&self, p: DVec3, c: usize) -> f64 {
+        match self.stencil(p, c) {
+            Stencil::Constant(v) => v as f64,
+            Stencil::Corners(v, t) => trilinear_f64(&v, t),
+        }
+    }
+
+    /// The eight voxel values around `p` and its fractional position among them, or the
+    /// value where all eight are one tile.
+    #[inline(always)]
+    fn stencil(&self, p: DVec3, c: usize) -> Stencil {
         if !(p.abs().max_element() < LOOKUP_LIMIT) || c >= self.channels {
-            return if c < self.channels {
+            return Stencil::Constant(if c < self.channels {
                 self.tile_values[c]
             } else {
                 0.0
-            };
+            });
         }
         let i = IVec3::new(floor_i32(p.x), floor_i32(p.y), floor_i32(p.z));
-        let t = (p - i.as_dvec3()).as_vec3();
+        let t = p - i.as_dvec3();
         let g = i + self.transform.origin;
         let ch = self.channels;
         let mut v = [0.0f32; 8];
@@ -268,7 +288,9 @@ impl VoxelGrid {
         if (g.x & 7) != 7 && (g.y & 7) != 7 && (g.z & 7) != 7 {
             // All eight corners in one leaf or tile.
             match base_slot {
-                Slot::Tile(tile) => return self.tile_values[tile as usize * ch + c],
+                Slot::Tile(tile) => {
+                    return Stencil::Constant(self.tile_values[tile as usize * ch + c]);
+                }
                 Slot::Leaf(l) => {
                     let base = l as usize * LEAF_VOXELS + leaf_offset(g);
                     let vals = &self.leaf_values;
@@ -301,7 +323,7 @@ impl VoxelGrid {
                 };
             }
         }
-        trilinear(&v, t)
+        Stencil::Corners(v, t)
     }
 
     /// Trilinear RGB / vector value at a local index point (channels 0..3; a scalar grid
@@ -411,6 +433,24 @@ fn floor_i32(x: f64) -> i32 {
     i - ((x < i as f64) as i32)
 }
 
+/// What a trilinear lookup needs: one value, or eight corners and the fraction.
+enum Stencil {
+    Constant(f32),
+    Corners([f32; 8], DVec3),
+}
+
+/// [`trilinear`] in f64.
+#[inline]
+fn trilinear_f64(v: &[f32; 8], t: DVec3) -> f64 {
+    let lerp = |a: f64, b: f64, s: f64| a + (b - a) * s;
+    let v = v.map(|x| x as f64);
+    let c00 = lerp(v[0], v[1], t.z);
+    let c01 = lerp(v[2], v[3], t.z);
+    let c10 = lerp(v[4], v[5], t.z);
+    let c11 = lerp(v[6], v[7], t.z);
+    lerp(lerp(c00, c01, t.y), lerp(c10, c11, t.y), t.x)
+}
+
 #[inline]
 pub(crate) fn trilinear(v: &[f32; 8], t: Vec3) -> f32 {
     // v[k]: corner (k>>2 & 1, k>>1 & 1, k & 1) in (x, y, z).
@@ -466,7 +506,7 @@ impl Field for VoxelGrid {
             budget += (d[a] * (t1 - t0)).abs() + 1.0;
         }
         if !(budget < 1e8) {
-            return gauss_legendre_2(|t| self.value_at_index(ray.at(t)) as f64, t0, t1);
+            return gauss_legendre_2(|t| self.sample_channel_f64(ray.at(t), 0), t0, t1);
         }
         let face_t = |cell: &[f64; 3], a: usize| -> f64 {
             if d[a] > 0.0 {
@@ -483,7 +523,7 @@ impl Field for VoxelGrid {
             let next = [face_t(&cell, 0), face_t(&cell, 1), face_t(&cell, 2)];
             let tn = next[0].min(next[1]).min(next[2]).min(t1);
             if tn > t {
-                sum += gauss_legendre_2(|s| self.value_at_index(ray.at(s)) as f64, t, tn);
+                sum += gauss_legendre_2(|s| self.sample_channel_f64(ray.at(s), 0), t, tn);
                 t = tn;
             }
             if t >= t1 {
@@ -496,7 +536,7 @@ impl Field for VoxelGrid {
             }
         }
         if t < t1 {
-            sum += gauss_legendre_2(|s| self.value_at_index(ray.at(s)) as f64, t, t1);
+            sum += gauss_legendre_2(|s| self.sample_channel_f64(ray.at(s), 0), t, t1);
         }
         sum
     }

@@ -424,6 +424,40 @@ impl VoxelGrid {
     }
 }
 
+impl VoxelGrid {
+    /// A scalar grid from active voxels `(ijk, value)` (file index space), through the
+    /// same builder a decoded file goes through (NaN, ±Inf and negatives become 0). For
+    /// tests and the stability battery, which need grids no fixture holds.
+    pub fn from_voxels(
+        name: &str,
+        voxels: impl IntoIterator<Item = (IVec3, f32)>,
+        index_to_world: DMat4,
+    ) -> Result<VoxelGrid, String> {
+        /// A leaf's values and its active mask.
+        type Leaf = (Box<[f32; 512]>, [u64; 8]);
+        let mut leaves: HashMap<[i32; 3], Leaf> = HashMap::new();
+        for (ijk, v) in voxels {
+            let origin = (ijk >> 3_i32) << 3_i32;
+            let (values, mask) = leaves
+                .entry(origin.to_array())
+                .or_insert_with(|| (Box::new([0.0; 512]), [0; 8]));
+            let l = ijk - origin;
+            let offset = (l.x << 6 | l.y << 3 | l.z) as usize;
+            values[offset] = v;
+            mask[offset >> 6] |= 1 << (offset & 63);
+        }
+        let mut keys: Vec<_> = leaves.keys().copied().collect();
+        keys.sort();
+        let mut b = GridBuilder::new();
+        b.begin(1, &[0.0])?;
+        for k in keys {
+            let (values, mask) = &leaves[&k];
+            b.leaf(IVec3::from_array(k), &values[..], mask)?;
+        }
+        b.finish(name, index_to_world)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -19,9 +19,14 @@
 //! non-negative. In a homogeneous medium lit by a sun τ_l *is* linear along the ray, so
 //! the closed forms (slab, sphere, camera inside) come out exact at any step.
 //!
-//! In cells where the majorant is small (σt·max ρ·step below [`THIN_STEP_DEPTH`]),
-//! steps grow until they reach that optical depth: the source term there changes little
-//! per step, and opacity does not depend on the step anyway. Not with emission active.
+//! In cells where the majorant is small (σt·max ρ·step below [`THIN_STEP_DEPTH`] scaled
+//! by the step, so that the error still falls as step²), steps grow until they reach
+//! that optical depth: the source term there changes little per step, and opacity does
+//! not depend on the step anyway. Not with emission active.
+//!
+//! Opacity is `1 − e^{−τ}` from the summed optical depth τ (as `−expm1(−τ)`), not from
+//! a product of per-step transmittances, so a million steps of depth 1e-8 give
+//! `1 − e^{−0.01}` to the last digits.
 //!
 //! The march stops once every channel's transmittance is below `termination` (default
 //! 1e-4), setting T to 0: the radiance dropped is at most `termination × (the largest
@@ -29,7 +34,7 @@
 //! with albedo ≤ 1.
 
 use super::medium::{ColorTint, Emission, Medium};
-use super::optics::phi;
+use super::optics::{one_minus_exp, phi};
 use super::phase::hg;
 use crate::accel::{IndexRay, Spans};
 use crate::field::Field;
@@ -45,9 +50,12 @@ pub trait Illumination: Sync {
     fn density_to_light(&self, light: usize, x: DVec3) -> f64;
 }
 
-/// Largest optical depth (majorant × step) a step may cover before it is no longer
-/// lengthened in thin cells.
+/// Largest optical depth (majorant × step) a step of the default length (0.5 voxel) may
+/// cover before it is no longer lengthened in thin cells; it scales with the step.
 pub const THIN_STEP_DEPTH: f64 = 0.01;
+
+/// The source term's step of the reference render, in voxels.
+pub const REFERENCE_STEP: f64 = 1.0 / 64.0;
 
 /// Step, jitter and termination of the march.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -67,11 +75,29 @@ impl Default for MarchSettings {
     }
 }
 
+impl MarchSettings {
+    /// The reference render's march: [`REFERENCE_STEP`], never terminated early.
+    pub fn reference() -> Self {
+        MarchSettings {
+            step_voxels: REFERENCE_STEP,
+            termination: 0.0,
+        }
+    }
+
+    /// Optical depth a lengthened step in a thin cell may reach: [`THIN_STEP_DEPTH`] at
+    /// the default step, proportional to the step.
+    pub fn thin_step_depth(&self) -> f64 {
+        THIN_STEP_DEPTH * (self.step_voxels / 0.5)
+    }
+}
+
 /// What one ray gathered.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RayResult {
     /// Transmittance through the whole volume (RGB).
     pub transmittance: DVec3,
+    /// Optical depth through the whole volume (RGB), summed; +inf once terminated.
+    pub optical_depth: DVec3,
     pub emission: DVec3,
     /// Sum over lights of the single-scattered radiance.
     pub scatter: DVec3,
@@ -82,10 +108,11 @@ pub struct RayResult {
 }
 
 impl RayResult {
-    /// Opacity: 1 − the mean transmittance of the three channels.
+    /// Opacity: the mean over the three channels of `1 − e^{−τ}`, from the summed
+    /// optical depth (exact for tiny τ, where `1 − T` would cancel).
     pub fn alpha(&self) -> f64 {
-        (1.0 - (self.transmittance.x + self.transmittance.y + self.transmittance.z) / 3.0)
-            .clamp(0.0, 1.0)
+        let tau = self.optical_depth;
+        ((one_minus_exp(tau.x) + one_minus_exp(tau.y) + one_minus_exp(tau.z)) / 3.0).clamp(0.0, 1.0)
     }
 }
 
@@ -174,6 +201,7 @@ pub fn march(
         return out;
     }
     let h = settings.step_voxels.max(1e-6) / speed;
+    let thin_depth = settings.thin_step_depth();
     let sigma_t = vol.medium.sigma_t();
     let sigma_t_max = sigma_t.max_element();
     let sigma_s = vol.medium.sigma_s_scaled();
@@ -198,8 +226,8 @@ pub fn march(
         // flame does not follow density.
         let h_span = if emission.is_none() {
             let per_step = sigma_t_max * span.range.max as f64 * h;
-            if per_step > 0.0 && per_step < THIN_STEP_DEPTH {
-                h * (THIN_STEP_DEPTH / per_step)
+            if per_step > 0.0 && per_step < thin_depth {
+                h * (thin_depth / per_step)
             } else {
                 h
             }
@@ -280,12 +308,14 @@ pub fn march(
             }
             if t_now.max_element() < settings.termination {
                 t_now = DVec3::ZERO;
+                tau = DVec3::INFINITY;
                 break 'spans;
             }
             a = b;
         }
     }
     out.transmittance = t_now;
+    out.optical_depth = tau;
     for v in &scratch.per_light[..n_lights] {
         out.scatter += *v;
     }

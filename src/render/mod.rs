@@ -18,11 +18,8 @@ pub use plan::RenderPlan;
 use crate::field::Field;
 use crate::field::union::FieldUnion;
 use crate::integrate::blackbody::BlackbodyTable;
-use crate::integrate::{
-    ColorTint, Companion, Emission, Illumination, MarchSettings, Medium, Volume,
-};
+use crate::integrate::{ColorTint, Companion, Emission, Illumination, Medium, Volume};
 use crate::output::{Frame, names, write_atomically, write_exr, write_preview};
-use crate::shadow::ShadowQuadrature;
 use crate::vdb::VdbFile;
 use anyhow::{Context, Result, anyhow};
 use camera::{Camera, Projection};
@@ -254,7 +251,7 @@ pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
         lights: &plan.lights,
         density: &density,
         shadows: light_shadows(plan.shadows, maps, plan.lights.len()),
-        quadrature: ShadowQuadrature::Step(plan.shadow_step),
+        quadrature: plan.shadow_quadrature(),
         // Past T = termination the light's contribution is dropped, as the camera ray's is.
         enough: (1.0 / plan.termination).ln().max(1.0) / sigma_t_min,
     };
@@ -273,10 +270,7 @@ pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
         }),
         light_count,
         camera: &camera,
-        settings: MarchSettings {
-            step_voxels: plan.step,
-            termination: plan.termination,
-        },
+        settings: plan.march_settings(),
         spp: plan.spp,
         seed: plan.seed,
     };

@@ -124,7 +124,9 @@ pub struct RenderOptions {
     #[arg(long = "ground-visible")]
     #[serde(default)]
     pub ground_visible: bool,
-    /// Reference quality: f64 throughout, exact optical depth for shadows, a tiny source step.
+    /// Reference quality: exact optical depth (f64, per voxel) for camera and shadow rays,
+    /// a 1/64-voxel source step (or --step), no early termination. Implies --shadows march;
+    /// refuses --shadows dsm|none and a non-zero --termination.
     #[arg(long)]
     #[serde(default)]
     pub reference: bool,

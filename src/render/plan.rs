@@ -4,7 +4,10 @@
 use super::camera::Projection;
 use super::light::{DEFAULT_LIGHT, Light, parse_vec3};
 use super::options::RenderOptions;
+use crate::integrate::MarchSettings;
+use crate::integrate::march::REFERENCE_STEP;
 use crate::output::{Background, ExrCompression, ExrOptions, PreviewOptions};
+use crate::shadow::ShadowQuadrature;
 use glam::DVec3;
 use std::path::PathBuf;
 
@@ -75,7 +78,8 @@ pub struct RenderPlan {
     /// Height of the ground plane, if any.
     pub ground: Option<f64>,
     pub ground_visible: bool,
-    /// Reference quality (f64, exact shadow optical depth, tiny source step).
+    /// Reference quality: exact shadow optical depth, a tiny source step, no termination
+    /// (see [`RenderPlan::march_settings`], [`RenderPlan::shadow_quadrature`]).
     pub reference: bool,
     pub step: f64,
     pub shadow_step: f64,
@@ -196,7 +200,8 @@ impl RenderPlan {
                 }
             }
         }
-        let shadows = match o.shadows.as_deref().unwrap_or("dsm") {
+        let default_shadows = if o.reference { "march" } else { "dsm" };
+        let shadows = match o.shadows.as_deref().unwrap_or(default_shadows) {
             "dsm" => ShadowMode::Dsm,
             "march" => ShadowMode::March,
             "none" => ShadowMode::None,
@@ -206,9 +211,22 @@ impl RenderPlan {
                 ));
             }
         };
-        let termination = o.termination.unwrap_or(1e-4);
+        let termination = o
+            .termination
+            .unwrap_or(if o.reference { 0.0 } else { 1e-4 });
         if !(0.0..1.0).contains(&termination) {
             return Err(format!("--termination {termination} must lie in [0, 1)"));
+        }
+        if o.reference && shadows != ShadowMode::March {
+            return Err(format!(
+                "--reference marches exact shadow rays: it cannot be combined with --shadows {}",
+                o.shadows.as_deref().unwrap_or("")
+            ));
+        }
+        if o.reference && termination != 0.0 {
+            return Err(format!(
+                "--reference never stops a ray early: it cannot be combined with --termination {termination}"
+            ));
         }
         let spp = o.spp.unwrap_or(1);
         if spp == 0 || spp > 4096 {
@@ -288,7 +306,11 @@ impl RenderPlan {
             },
             ground_visible: o.ground_visible,
             reference: o.reference,
-            step: positive(o.step, 0.5, "--step")?,
+            step: positive(
+                o.step,
+                if o.reference { REFERENCE_STEP } else { 0.5 },
+                "--step",
+            )?,
             shadow_step: positive(o.shadow_step, 1.0, "--shadow-step")?,
             termination,
             spp,
@@ -304,5 +326,26 @@ impl RenderPlan {
             stats: o.stats.clone(),
             quiet: o.quiet,
         })
+    }
+}
+
+impl RenderPlan {
+    /// The camera ray's march: `--step` and `--termination` (the reference's when
+    /// `--reference`).
+    pub fn march_settings(&self) -> MarchSettings {
+        MarchSettings {
+            step_voxels: self.step,
+            termination: self.termination,
+        }
+    }
+
+    /// How marched shadow rays integrate density: exactly (per voxel, two-point
+    /// Gauss–Legendre) for `--reference`, else the midpoint rule at `--shadow-step`.
+    pub fn shadow_quadrature(&self) -> ShadowQuadrature {
+        if self.reference {
+            ShadowQuadrature::Exact
+        } else {
+            ShadowQuadrature::Step(self.shadow_step)
+        }
     }
 }

@@ -2,6 +2,8 @@
 //! oiiotool) run as a reader would, failing the test when a tool is missing.
 #![allow(dead_code)]
 
+pub mod march;
+
 use std::path::Path;
 use std::process::Command;
 
