@@ -2,6 +2,7 @@
 
 mod info;
 mod render;
+mod report;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -41,6 +42,17 @@ enum Command {
         #[command(flatten)]
         options: Box<murk::render::RenderOptions>,
     },
+    /// Run a fixed battery of stiff and extreme cases; print a pass/fail table and write
+    /// stability.json.
+    #[command(name = "check-stability", after_help = report::STABILITY_EXAMPLES)]
+    CheckStability {
+        /// Directory for stability.json (created if missing).
+        #[arg(long, value_name = "DIR", default_value = ".")]
+        out: PathBuf,
+        /// Print the JSON instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Render a .vdb (or a scene .toml that names one) to a multi-layer EXR.
     #[command(after_help = render::EXAMPLES)]
     Render {
@@ -72,6 +84,11 @@ pub fn run() -> i32 {
         }
     };
     let result = match cli.command {
+        Command::CheckStability { out, json } => match report::check_stability(&out, json) {
+            Ok(true) => Ok(()),
+            Ok(false) => return 1,
+            Err(e) => Err(e),
+        },
         Command::Info { file, stats, json } => info::run(&file, stats, json),
         Command::Render { input, options } => render::run(&input, *options),
         Command::BakeShadows { input, options } => render::bake(&input, *options),

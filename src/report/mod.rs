@@ -1,6 +1,9 @@
 //! Reports on the renderer itself: error against run time (`murk converge`) and
 //! numerical stability on stiff and extreme inputs (`murk check-stability`).
 
+pub mod check;
+pub mod stability;
+
 /// Least-squares slope of `y` against `x` (e.g. log error against log step: the order
 /// of convergence). NaN with fewer than two distinct `x`.
 pub fn fit_slope(points: &[(f64, f64)]) -> f64 {
