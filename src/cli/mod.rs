@@ -53,6 +53,21 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Error against run time: sweep step, shadow-map tolerance and termination, time
+    /// each render, compare with the reference; write converge.csv, .md and .png.
+    #[command(after_help = report::CONVERGE_EXAMPLES)]
+    Converge {
+        /// A .vdb file, or a scene .toml.
+        input: PathBuf,
+        /// Directory for converge.csv, converge.md and converge.png (created if missing).
+        #[arg(long, value_name = "DIR", default_value = ".")]
+        out: PathBuf,
+        /// Runs per setting; the median time is reported.
+        #[arg(long, value_name = "N", default_value_t = 3)]
+        runs: usize,
+        #[command(flatten)]
+        options: Box<murk::render::RenderOptions>,
+    },
     /// Render a .vdb (or a scene .toml that names one) to a multi-layer EXR.
     #[command(after_help = render::EXAMPLES)]
     Render {
@@ -84,6 +99,12 @@ pub fn run() -> i32 {
         }
     };
     let result = match cli.command {
+        Command::Converge {
+            input,
+            out,
+            runs,
+            options,
+        } => report::converge(&input, *options, &out, runs),
         Command::CheckStability { out, json } => match report::check_stability(&out, json) {
             Ok(true) => Ok(()),
             Ok(false) => return 1,

@@ -2,7 +2,7 @@
 
 use anyhow::{Result, anyhow};
 use murk::render::{RenderOptions, RenderPlan, bake_shadow_file, run as render};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 pub const EXAMPLES: &str = "Examples:
   murk render fixtures/cloud.vdb -o cloud.exr --preview cloud.png
@@ -22,22 +22,27 @@ The map stores the integral of density toward each light, so it depends on the d
 where the lights are, not on their colour or intensity or on sigma. Render with the same --light
 flags (in the same order, so the names sun0, point0, ... match).";
 
-/// The plan of a render or bake: options from the flags over a scene file, if given.
-fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> {
+/// The options of a render: the flags over a scene file, if given, and the .vdb input.
+pub fn options_for(input: &Path, options: RenderOptions) -> Result<(RenderOptions, PathBuf)> {
     let is_scene = input
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    let (options, vdb) = if is_scene {
+    if is_scene {
         let scene = RenderOptions::from_scene_file(input).map_err(|e| anyhow!(e))?;
         let merged = options.over(scene);
         let vdb = merged
             .input
             .clone()
             .ok_or_else(|| anyhow!("{}: the scene names no `input` .vdb file", input.display()))?;
-        (merged, vdb)
+        Ok((merged, vdb))
     } else {
-        (options, input.to_path_buf())
-    };
+        Ok((options, input.to_path_buf()))
+    }
+}
+
+/// The plan of a render or bake: options from the flags over a scene file, if given.
+fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> {
+    let (options, vdb) = options_for(input, options)?;
     let quiet = options.quiet;
     Ok((
         RenderPlan::new(&options, vdb).map_err(|e| anyhow!(e))?,

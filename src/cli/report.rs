@@ -2,8 +2,14 @@
 
 use super::print_stdout;
 use anyhow::{Result, anyhow};
+use indicatif::{ProgressBar, ProgressStyle};
 use murk::output::write_atomically;
+use murk::render::RenderOptions;
+use murk::report::converge::{self, ConvergeSettings};
+use murk::report::converge_table::{csv, markdown, summarise, summary_table};
+use murk::report::plot::{COLOURS, write_plot};
 use murk::report::stability::{run_battery, table};
+use std::io::IsTerminal;
 use std::path::Path;
 
 pub const STABILITY_EXAMPLES: &str = "Examples:
@@ -11,6 +17,14 @@ pub const STABILITY_EXAMPLES: &str = "Examples:
   murk check-stability --out docs/accuracy --json
 
 Exit status 0 when every case passes, 1 when one fails, 2 on an error.";
+
+pub const CONVERGE_EXAMPLES: &str = "Examples:
+  murk converge fixtures/cloud.vdb --out docs/accuracy
+  murk converge fixtures/cloud.vdb --res 96x54 --runs 1 --out /tmp/conv
+  murk converge fixtures/scene.toml --light sun:1,1,0:1,1,1:4
+
+Render flags set the scene (lights, sigma, camera); --step, --dsm-tolerance, --termination and
+--shadows are what the sweeps vary, so they are overridden. Default resolution 160x90.";
 
 /// Writes `text` to `dir/name` atomically, creating `dir` if needed.
 pub fn write_text(dir: &Path, name: &str, text: &str) -> Result<()> {
@@ -44,4 +58,67 @@ pub fn check_stability(out: &Path, json: bool) -> Result<bool> {
         ))?;
     }
     Ok(pass)
+}
+
+/// `murk converge`: sweeps, times and compares; writes converge.csv, converge.md and
+/// converge.png in `out` and prints the summary.
+pub fn converge(input: &Path, options: RenderOptions, out: &Path, runs: usize) -> Result<()> {
+    if runs == 0 {
+        return Err(anyhow!("--runs must be at least 1"));
+    }
+    let (mut options, vdb) = super::render::options_for(input, options)?;
+    if options.res.is_none() {
+        options.res = Some("160x90".into());
+    }
+    std::fs::create_dir_all(out)
+        .map_err(|e| anyhow!("{}: cannot create the directory: {e}", out.display()))?;
+    let progress = if options.quiet || !std::io::stderr().is_terminal() {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(1)
+    };
+    progress.set_style(
+        ProgressStyle::with_template(
+            "{spinner} converge [{bar:40}] {pos}/{len} renders {elapsed} (eta {eta}) {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let (reference, rows) = converge::run(&options, &vdb, &ConvergeSettings { runs }, &progress)?;
+    progress.finish_and_clear();
+    let summary = summarise(&rows);
+    let plan = murk::render::RenderPlan::new(
+        &RenderOptions {
+            output: Some("x.exr".into()),
+            ..options.clone()
+        },
+        vdb.clone(),
+    )
+    .map_err(|e| anyhow!(e))?;
+    write_text(out, "converge.csv", &csv(&reference, &rows))?;
+    let text = write_plot(&out.join("converge.png"), &rows)?;
+    let mut md = markdown(
+        &vdb.display().to_string(),
+        (plan.width, plan.height),
+        &reference,
+        &rows,
+        &summary,
+    );
+    if !text {
+        md += &format!(
+            "\nNo font was found, so the plot has no text: lines are {}.\n",
+            COLOURS
+                .iter()
+                .zip(["step", "dsm_tolerance", "termination", "default"])
+                .map(|((c, _), s)| format!("{s} {c}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    write_text(out, "converge.md", &md)?;
+    print_stdout(&format!(
+        "{}\nwritten {}, converge.md, converge.png\n",
+        summary_table(&summary),
+        out.join("converge.csv").display()
+    ))?;
+    Ok(())
 }

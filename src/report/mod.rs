@@ -2,6 +2,9 @@
 //! numerical stability on stiff and extreme inputs (`murk check-stability`).
 
 pub mod check;
+pub mod converge;
+pub mod converge_table;
+pub mod plot;
 pub mod stability;
 
 /// Least-squares slope of `y` against `x` (e.g. log error against log step: the order

@@ -1,0 +1,322 @@
+//! `murk converge`: error against run time. Renders the input at a sweep of step
+//! sizes, shadow-map tolerances and termination thresholds, times each (median of N
+//! runs, shadow bake and render apart), and compares every image with the reference
+//! render (`--reference`) on radiance and alpha.
+//!
+//! Each sweep varies one setting and keeps the others fine, so that its error is that
+//! setting's own and its order of convergence can be fitted:
+//! - `step`: the march step, with exact marched shadows and no termination (the
+//!   reference's settings but the step);
+//! - `dsm_tolerance`: the deep shadow map's tolerance, at step 1/16 voxel, no termination;
+//! - `termination`: the termination threshold, with exact marched shadows at step 0.5.
+//!
+//! The row `default` is the render with murk's defaults (step 0.5, shadow map at 1e-3,
+//! termination 1e-4).
+
+use super::check::plan_scatter_bound;
+use crate::output::{Frame, is_depth_channel, names};
+use crate::render::stats::RenderStats;
+use crate::render::{RenderOptions, RenderPlan, render_image};
+use anyhow::{Result, anyhow};
+use indicatif::ProgressBar;
+use serde::Serialize;
+use std::path::Path;
+
+/// The swept values.
+pub const STEPS: [f64; 7] = [4.0, 2.0, 1.0, 0.5, 0.25, 0.125, 0.0625];
+pub const DSM_TOLERANCES: [f64; 5] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5];
+pub const TERMINATIONS: [f64; 6] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6];
+
+/// The step of the shadow-map sweep.
+pub const DSM_SWEEP_STEP: f64 = 0.0625;
+/// The step of the termination sweep.
+pub const TERMINATION_SWEEP_STEP: f64 = 0.5;
+
+/// One render configuration of a sweep.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Point {
+    /// `step`, `dsm_tolerance`, `termination`, `default` or `reference`.
+    pub sweep: &'static str,
+    /// The swept setting's value.
+    pub value: f64,
+    pub step: Option<f64>,
+    pub dsm_tolerance: Option<f64>,
+    pub termination: Option<f64>,
+    /// Exact marched shadows (the reference's), else the deep shadow map.
+    pub exact_shadows: bool,
+}
+
+/// Every point of every sweep, then `default`.
+pub fn sweep_points() -> Vec<Point> {
+    let point = |sweep, value, step, dsm_tolerance, termination, exact_shadows| Point {
+        sweep,
+        value,
+        step: Some(step),
+        dsm_tolerance,
+        termination: Some(termination),
+        exact_shadows,
+    };
+    let mut v = Vec::new();
+    for s in STEPS {
+        v.push(point("step", s, s, None, 0.0, true));
+    }
+    for t in DSM_TOLERANCES {
+        v.push(point(
+            "dsm_tolerance",
+            t,
+            DSM_SWEEP_STEP,
+            Some(t),
+            0.0,
+            false,
+        ));
+    }
+    for t in TERMINATIONS {
+        v.push(point(
+            "termination",
+            t,
+            TERMINATION_SWEEP_STEP,
+            None,
+            t,
+            true,
+        ));
+    }
+    v.push(Point {
+        sweep: "default",
+        value: f64::NAN,
+        step: None,
+        dsm_tolerance: None,
+        termination: None,
+        exact_shadows: false,
+    });
+    v
+}
+
+/// A measured point: its settings as rendered, times, and error against the reference.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Measured {
+    pub sweep: String,
+    pub value: f64,
+    pub step: f64,
+    pub dsm_tolerance: f64,
+    pub termination: f64,
+    pub shadows: String,
+    /// Median over the runs of the shadow-map bake (0 when marched).
+    pub bake_seconds: f64,
+    /// Median over the runs of the render stage.
+    pub render_seconds: f64,
+    pub total_seconds: f64,
+    pub runs: usize,
+    /// `‖L − L_ref‖₂ / ‖L_ref‖₂` over R, G, B of every pixel.
+    pub rel_rmse: f64,
+    pub max_alpha_error: f64,
+    pub nan_inf: u64,
+    /// Pixels with α outside [0, 1], negative radiance or radiance above its bound.
+    pub bound_violations: u64,
+}
+
+/// How converge runs.
+#[derive(Clone, Debug)]
+pub struct ConvergeSettings {
+    pub runs: usize,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn stage(stats: &RenderStats, name: &str) -> f64 {
+    stats.stages.get(name).map_or(0.0, |s| s.seconds)
+}
+
+/// The plan of a point: the user's options with the point's settings, quiet.
+fn plan_of(options: &RenderOptions, input: &Path, p: &Point) -> Result<RenderPlan> {
+    let mut o = options.clone();
+    o.quiet = true;
+    o.output = Some(input.with_extension("converge.exr"));
+    o.preview = None;
+    o.stats = None;
+    o.step = p.step;
+    o.dsm_tolerance = p.dsm_tolerance.or(o.dsm_tolerance);
+    o.reference = p.exact_shadows;
+    // The reference refuses a termination; a sweep point sets it on the plan.
+    o.termination = None;
+    o.shadows = match (p.exact_shadows, p.sweep) {
+        (true, _) => None,
+        (false, "default") => o.shadows,
+        (false, _) => Some("dsm".into()),
+    };
+    let mut plan = RenderPlan::new(&o, input.to_path_buf()).map_err(|e| anyhow!(e))?;
+    if let Some(t) = p.termination {
+        plan.termination = t;
+    }
+    Ok(plan)
+}
+
+/// Renders the reference once and every point `runs` times; `progress` counts renders.
+pub fn run(
+    options: &RenderOptions,
+    input: &Path,
+    settings: &ConvergeSettings,
+    progress: &ProgressBar,
+) -> Result<(Measured, Vec<Measured>)> {
+    let runs = settings.runs.max(1);
+    let points = sweep_points();
+    progress.set_length(1 + (points.len() * runs) as u64);
+    let reference_point = Point {
+        sweep: "reference",
+        value: f64::NAN,
+        step: None,
+        dsm_tolerance: None,
+        termination: None,
+        exact_shadows: true,
+    };
+    progress.set_message("reference");
+    let ref_plan = plan_of(options, input, &reference_point)?;
+    let reference = render_image(&ref_plan)?;
+    progress.inc(1);
+    let ref_frame = reference.frame;
+    let ref_row = Measured {
+        sweep: "reference".into(),
+        value: f64::NAN,
+        step: ref_plan.step,
+        dsm_tolerance: f64::NAN,
+        termination: ref_plan.termination,
+        shadows: "march (exact)".into(),
+        bake_seconds: stage(&reference.stats, "shadows"),
+        render_seconds: stage(&reference.stats, "render"),
+        total_seconds: stage(&reference.stats, "shadows") + stage(&reference.stats, "render"),
+        runs: 1,
+        rel_rmse: 0.0,
+        max_alpha_error: 0.0,
+        nan_inf: count_nan_inf(&ref_frame),
+        bound_violations: 0,
+    };
+    let mut rows = Vec::new();
+    for p in &points {
+        let plan = plan_of(options, input, p)?;
+        progress.set_message(format!("{} {}", p.sweep, fmt_value(p.value)));
+        let (mut bakes, mut renders) = (Vec::new(), Vec::new());
+        let mut frame = None;
+        for _ in 0..runs {
+            let image = render_image(&plan)?;
+            bakes.push(stage(&image.stats, "shadows"));
+            renders.push(stage(&image.stats, "render"));
+            let emits = image
+                .stats
+                .stages
+                .get("emission")
+                .is_some_and(|s| s.status == "ran");
+            frame = Some((image.frame, emits));
+            progress.inc(1);
+        }
+        let (frame, emits) = frame.expect("at least one run");
+        let bound = if emits {
+            f64::INFINITY
+        } else {
+            plan_scatter_bound(&plan)
+        };
+        let (bake, render) = (median(bakes), median(renders));
+        rows.push(Measured {
+            sweep: p.sweep.into(),
+            value: p.value,
+            step: plan.step,
+            dsm_tolerance: plan.dsm_tolerance,
+            termination: plan.termination,
+            shadows: if p.exact_shadows {
+                "march (exact)".into()
+            } else if plan.shadows == crate::render::plan::ShadowMode::Dsm {
+                "dsm".into()
+            } else {
+                format!("{:?}", plan.shadows).to_lowercase()
+            },
+            bake_seconds: bake,
+            render_seconds: render,
+            total_seconds: bake + render,
+            runs,
+            rel_rmse: rel_rmse(&frame, &ref_frame),
+            max_alpha_error: max_alpha_error(&frame, &ref_frame),
+            nan_inf: count_nan_inf(&frame),
+            bound_violations: bound_violations(&frame, bound),
+        });
+    }
+    Ok((ref_row, rows))
+}
+
+/// A swept value as the tables print it.
+pub fn fmt_value(v: f64) -> String {
+    if v.is_nan() {
+        "-".into()
+    } else if v == 0.0 {
+        "0".into()
+    } else if (1e-2..1e3).contains(&v) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+fn rgb(f: &Frame) -> [&[f32]; 3] {
+    [names::R, names::G, names::B].map(|n| f.channel(n).unwrap_or(&[]))
+}
+
+/// `‖L − L_ref‖₂ / ‖L_ref‖₂` over R, G, B.
+pub fn rel_rmse(got: &Frame, want: &Frame) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for (g, w) in rgb(got).iter().zip(rgb(want)) {
+        for (a, b) in g.iter().zip(w) {
+            let (a, b) = (*a as f64, *b as f64);
+            num += (a - b) * (a - b);
+            den += b * b;
+        }
+    }
+    if den > 0.0 {
+        (num / den).sqrt()
+    } else {
+        num.sqrt()
+    }
+}
+
+pub fn max_alpha_error(got: &Frame, want: &Frame) -> f64 {
+    match (got.channel(names::A), want.channel(names::A)) {
+        (Some(g), Some(w)) => g
+            .iter()
+            .zip(w)
+            .map(|(a, b)| (*a as f64 - *b as f64).abs())
+            .fold(0.0, f64::max),
+        _ => f64::NAN,
+    }
+}
+
+/// NaN or ±Inf in any channel but depth (whose +inf means "never opaque").
+pub fn count_nan_inf(f: &Frame) -> u64 {
+    f.channels()
+        .iter()
+        .filter(|c| !is_depth_channel(c.name()))
+        .map(|c| c.data().iter().filter(|v| !v.is_finite()).count() as u64)
+        .sum()
+}
+
+/// Pixels with α outside [0, 1], or R, G or B negative or above `bound`.
+pub fn bound_violations(f: &Frame, bound: f64) -> u64 {
+    let a = f.channel(names::A).unwrap_or(&[]);
+    let [r, g, b] = rgb(f);
+    (0..f.pixel_count())
+        .filter(|&i| {
+            let alpha = a.get(i).copied().unwrap_or(0.0);
+            let bad_alpha = !(0.0..=1.0).contains(&alpha);
+            let bad_l = [r, g, b].iter().any(|c| {
+                let l = c.get(i).copied().unwrap_or(0.0) as f64;
+                l < 0.0 || l > bound * (1.0 + 1e-6)
+            });
+            bad_alpha || bad_l
+        })
+        .count() as u64
+}

@@ -1,0 +1,151 @@
+//! `converge.png`: error against time on log–log axes, one line per sweep (plotters).
+//!
+//! Text needs a TrueType font; plotters is built without system font lookup (a fresh
+//! machine may have no fontconfig), so the first of a few common font files found is
+//! registered. With none, the plot is drawn without text and `converge.md` names the
+//! colours.
+
+use super::converge::Measured;
+use super::converge_table::SWEEPS;
+use crate::output::write_atomically;
+use anyhow::{Result, anyhow};
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// Line colours, in [`SWEEPS`] order, then the `default` point.
+pub const COLOURS: [(&str, RGBColor); 4] = [
+    ("blue", RGBColor(31, 119, 180)),
+    ("orange", RGBColor(255, 127, 14)),
+    ("green", RGBColor(44, 160, 44)),
+    ("red", RGBColor(214, 39, 40)),
+];
+
+const FONT_FILES: [&str; 4] = [
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+    "/Library/Fonts/Arial.ttf",
+];
+
+/// Registers a font once; whether one was found.
+fn font() -> bool {
+    static FOUND: OnceLock<bool> = OnceLock::new();
+    *FOUND.get_or_init(|| {
+        for path in FONT_FILES {
+            if let Ok(bytes) = std::fs::read(path) {
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
+                    return true;
+                }
+            }
+        }
+        false
+    })
+}
+
+const SIZE: (u32, u32) = (900, 600);
+
+/// A tick label with at most three significant digits.
+fn significant(v: f64) -> String {
+    let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// Draws the plot into an RGB buffer.
+fn draw(rows: &[Measured], buffer: &mut [u8]) -> Result<bool> {
+    let text = font();
+    let points: Vec<(f64, f64)> = rows
+        .iter()
+        .map(|r| (r.total_seconds, r.rel_rmse))
+        .filter(|(t, e)| *t > 0.0 && *e > 0.0 && t.is_finite() && e.is_finite())
+        .collect();
+    let (mut t0, mut t1, mut e0, mut e1) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
+    for (t, e) in &points {
+        (t0, t1, e0, e1) = (t0.min(*t), t1.max(*t), e0.min(*e), e1.max(*e));
+    }
+    if points.is_empty() {
+        (t0, t1, e0, e1) = (1e-3, 1.0, 1e-6, 1.0);
+    }
+    let (t0, t1, e0, e1) = (t0 / 1.3, t1 * 1.3, e0 / 2.0, e1 * 2.0);
+    let err = |e: &dyn std::fmt::Display| anyhow!("drawing converge.png: {e}");
+    let root = BitMapBackend::with_buffer(buffer, SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let mut builder = ChartBuilder::on(&root);
+    builder.margin(20);
+    if text {
+        builder
+            .caption("relative RMSE against time (log–log)", ("sans-serif", 22))
+            .x_label_area_size(45)
+            .y_label_area_size(70);
+    }
+    let mut chart = builder
+        .build_cartesian_2d((t0..t1).log_scale(), (e0..e1).log_scale())
+        .map_err(|e| err(&e))?;
+    let mut mesh = chart.configure_mesh();
+    if text {
+        mesh.x_desc("time per frame (s): shadow bake + render")
+            .y_desc("relative RMSE vs reference")
+            .x_label_formatter(&|v| significant(*v))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .label_style(("sans-serif", 14));
+    } else {
+        mesh.x_labels(0).y_labels(0);
+    }
+    mesh.draw().map_err(|e| err(&e))?;
+    let series = SWEEPS
+        .iter()
+        .map(|s| s.to_string())
+        .chain(["default".to_string()]);
+    for (sweep, (_, colour)) in series.zip(COLOURS) {
+        let mut line: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| r.sweep == sweep && r.total_seconds > 0.0 && r.rel_rmse > 0.0)
+            .map(|r| (r.total_seconds, r.rel_rmse))
+            .collect();
+        line.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let style = colour.stroke_width(2);
+        let drawn = chart
+            .draw_series(LineSeries::new(line.clone(), style))
+            .map_err(|e| err(&e))?;
+        if text {
+            drawn.label(sweep.clone()).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+            });
+        }
+        chart
+            .draw_series(line.iter().map(|p| Circle::new(*p, 4, colour.filled())))
+            .map_err(|e| err(&e))?;
+    }
+    if text {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(text)
+}
+
+/// Writes the plot as a PNG (atomically); returns whether it has text.
+pub fn write_plot(path: &Path, rows: &[Measured]) -> Result<bool> {
+    let mut buffer = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
+    let text = draw(rows, &mut buffer)?;
+    let image = image::RgbImage::from_raw(SIZE.0, SIZE.1, buffer)
+        .ok_or_else(|| anyhow!("drawing converge.png: buffer of the wrong size"))?;
+    write_atomically(path, |tmp| {
+        image
+            .save_with_format(tmp, image::ImageFormat::Png)
+            .map_err(|e| anyhow!("{}: {e}", path.display()))
+    })?;
+    Ok(text)
+}
