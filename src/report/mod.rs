@@ -20,3 +20,6 @@ pub fn fit_slope(points: &[(f64, f64)]) -> f64 {
     let sxx: f64 = points.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
     if sxx > 0.0 { sxy / sxx } else { f64::NAN }
 }
+
+#[cfg(test)]
+mod tests;

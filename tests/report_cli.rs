@@ -1,0 +1,188 @@
+//! `murk check-stability` and `murk converge` end to end: exit status, the files they
+//! write, and that those parse and hold finite numbers that say what they should.
+
+use serde_json::Value;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const MURK: &str = env!("CARGO_BIN_EXE_murk");
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("report-{name}"));
+    let _ = fs::remove_dir_all(&dir);
+    fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn murk(args: &[&str]) -> Output {
+    Command::new(MURK).args(args).output().unwrap()
+}
+
+fn cloud() -> String {
+    format!("{}/fixtures/cloud.vdb", env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn check_stability_passes_and_writes_its_table_as_json() {
+    let dir = scratch("stability");
+    let out = dir.join("out");
+    let o = murk(&["check-stability", "--out", out.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        stdout.contains("| case | result |") && stdout.contains("10/10 cases pass"),
+        "{stdout}"
+    );
+    let json: Value =
+        serde_json::from_str(&fs::read_to_string(out.join("stability.json")).unwrap()).unwrap();
+    assert_eq!(json["pass"], true);
+    let cases = json["cases"].as_array().unwrap();
+    let names: Vec<&str> = cases.iter().map(|c| c["name"].as_str().unwrap()).collect();
+    assert_eq!(
+        names,
+        [
+            "stiff_slab",
+            "thin_media",
+            "bad_voxels",
+            "sheet_30deg",
+            "parallel_grazing",
+            "camera_inside",
+            "translated",
+            "empty_grid",
+            "single_voxel",
+            "hot_temperature"
+        ]
+    );
+    for c in cases {
+        let name = c["name"].as_str().unwrap();
+        assert_eq!(c["pass"], true, "{name}: {c}");
+        assert_eq!(c["nan_inf"], 0, "{name}");
+        let num = |k: &str| {
+            c[k].as_f64()
+                .unwrap_or_else(|| panic!("{name}: {k} is {}", c[k]))
+        };
+        assert!(num("alpha_min") >= 0.0 && num("alpha_max") <= 1.0, "{name}");
+        assert!(num("radiance_max") <= num("radiance_bound"), "{name}");
+        assert!(num("max_error") <= num("tolerance"), "{name}");
+        assert!(num("samples") > 0.0, "{name}");
+    }
+    // --json prints the same document.
+    let o = murk(&["check-stability", "--out", out.to_str().unwrap(), "--json"]);
+    let printed: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(printed["cases"].as_array().unwrap().len(), 10);
+}
+
+#[test]
+fn converge_writes_csv_markdown_and_png() {
+    let dir = scratch("converge");
+    let out = dir.join("conv");
+    let o = murk(&[
+        "converge",
+        &cloud(),
+        "--res",
+        "32x18",
+        "--runs",
+        "1",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(stdout.contains("fitted order"), "{stdout}");
+
+    let csv = fs::read_to_string(out.join("converge.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(
+        header,
+        [
+            "sweep",
+            "value",
+            "step",
+            "dsm_tolerance",
+            "termination",
+            "shadows",
+            "bake_seconds",
+            "render_seconds",
+            "total_seconds",
+            "runs",
+            "rel_rmse",
+            "max_alpha_error",
+            "nan_inf",
+            "bound_violations"
+        ]
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 1 + 7 + 5 + 6 + 1, "{csv}");
+    assert_eq!(rows[0][0], "reference");
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let num = |r: &[&str], name: &str| -> f64 { r[col(name)].parse().unwrap() };
+    for r in &rows {
+        assert_eq!(r.len(), header.len());
+        for name in ["total_seconds", "rel_rmse", "max_alpha_error"] {
+            let v = num(r, name);
+            assert!(v.is_finite() && v >= 0.0, "{name} {v} in {r:?}");
+        }
+        assert_eq!(num(r, "nan_inf"), 0.0, "{r:?}");
+        assert_eq!(num(r, "bound_violations"), 0.0, "{r:?}");
+    }
+    // The step sweep converges: each halving of the step cuts the error.
+    let step: Vec<f64> = rows
+        .iter()
+        .filter(|r| r[0] == "step")
+        .map(|r| num(r, "rel_rmse"))
+        .collect();
+    assert!(step.windows(2).all(|w| w[1] < w[0]), "{step:?}");
+    // The termination sweep: α error stays below the threshold (a ray dropped at T < t
+    // loses at most t of opacity).
+    for r in rows.iter().filter(|r| r[0] == "termination") {
+        assert!(
+            num(r, "max_alpha_error") <= num(r, "termination") * 1.01 + 1e-6,
+            "{r:?}"
+        );
+    }
+
+    let md = fs::read_to_string(out.join("converge.md")).unwrap();
+    assert!(
+        md.contains("| sweep | fitted order |") && md.contains("converge.png"),
+        "{md}"
+    );
+    let png = fs::read(out.join("converge.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG\r\n\x1a\n") && png.len() > 1000);
+}
+
+#[test]
+fn converge_refuses_bad_input_in_one_line() {
+    let dir = scratch("converge-bad");
+    let missing = dir.join("nope.vdb");
+    let o = murk(&[
+        "converge",
+        missing.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("nope.vdb"), "{err}");
+    let o = murk(&[
+        "converge",
+        &cloud(),
+        "--runs",
+        "0",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!dir.join("converge.csv").exists());
+}
