@@ -128,9 +128,38 @@ impl ChartMap {
         )
     }
 
-    /// The brick holding lattice point `q`, if the map has one.
+    /// The brick holding lattice point `q`, if the map has one. Bricks are closed boxes:
+    /// a point on a face shared with a missing brick belongs to the one that exists, so
+    /// the lookup is continuous across the edge of the map.
     pub fn brick_at(&self, q: DVec3) -> Option<&Brick> {
-        let b = (q / BRICK as f64).floor();
+        let s = q / BRICK as f64;
+        let b = s.floor();
+        if let Some(brick) = self.brick_with_key(b) {
+            return Some(brick);
+        }
+        // On a face (or edge, or corner) the lower neighbours hold the point too.
+        let on_face = s.cmpeq(b);
+        if !on_face.any() {
+            return None;
+        }
+        (1..8u32)
+            .map(|m| {
+                let d = DVec3::new(
+                    f64::from(m & 1),
+                    f64::from((m >> 1) & 1),
+                    f64::from((m >> 2) & 1),
+                );
+                (m, b - d)
+            })
+            .filter(|(m, _)| {
+                (m & 1 == 0 || on_face.test(0))
+                    && (m & 2 == 0 || on_face.test(1))
+                    && (m & 4 == 0 || on_face.test(2))
+            })
+            .find_map(|(_, k)| self.brick_with_key(k))
+    }
+
+    fn brick_with_key(&self, b: DVec3) -> Option<&Brick> {
         let lo = self.lo.as_dvec3();
         if !(b.cmpge(lo).all() && b.cmplt(lo + self.dims.as_dvec3()).all()) {
             return None;
