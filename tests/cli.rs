@@ -10,6 +10,10 @@ use std::process::{Command, Output};
 use exr::prelude::read_all_flat_layers_from_file;
 use serde_json::Value;
 
+mod common;
+
+use common::examples;
+
 const MURK: &str = env!("CARGO_BIN_EXE_murk");
 
 fn root() -> &'static Path {
@@ -52,52 +56,6 @@ fn listing(dir: &Path) -> BTreeSet<String> {
 
 // ------------------------------------------------------------------------------------
 // 5. The examples in --help.
-
-/// The command lines under `Examples:` in a help text, without the leading `murk`.
-fn examples(help: &str) -> Vec<Vec<String>> {
-    let mut lines = help.lines().skip_while(|l| l.trim() != "Examples:");
-    assert!(lines.next().is_some(), "no `Examples:` section in:\n{help}");
-    let found: Vec<Vec<String>> = lines
-        .take_while(|l| !l.trim().is_empty())
-        .filter_map(|l| l.trim().strip_prefix("murk "))
-        .map(split_words)
-        .collect();
-    assert!(
-        !found.is_empty(),
-        "`Examples:` lists no `murk ...` command:\n{help}"
-    );
-    found
-}
-
-/// Splits a command line into words, honouring '...' and "..." quotes.
-fn split_words(line: &str) -> Vec<String> {
-    let (mut words, mut word, mut quote, mut in_word) = (Vec::new(), String::new(), None, false);
-    for c in line.chars() {
-        match (quote, c) {
-            (Some(q), c) if c == q => quote = None,
-            (Some(_), c) => word.push(c),
-            (None, '\'' | '"') => {
-                quote = Some(c);
-                in_word = true;
-            }
-            (None, c) if c.is_whitespace() => {
-                if in_word {
-                    words.push(std::mem::take(&mut word));
-                    in_word = false;
-                }
-            }
-            (None, c) => {
-                word.push(c);
-                in_word = true;
-            }
-        }
-    }
-    assert!(quote.is_none(), "unbalanced quote in `{line}`");
-    if in_word {
-        words.push(word);
-    }
-    words
-}
 
 fn help(sub: &str) -> String {
     let out = murk(root(), &[sub.to_owned(), "--help".to_owned()]);

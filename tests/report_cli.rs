@@ -1,6 +1,9 @@
 //! `murk check-stability` and `murk converge` end to end: exit status, the files they
 //! write, and that those parse and hold finite numbers that say what they should.
 
+mod common;
+
+use common::examples;
 use serde_json::Value;
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -185,4 +188,46 @@ fn converge_refuses_bad_input_in_one_line() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(!dir.join("converge.csv").exists());
+}
+
+/// Every example under `--help` runs (from a scratch directory, fixtures by absolute
+/// path) and writes what it says.
+#[test]
+fn help_examples_run() {
+    for (sub, files) in [
+        ("check-stability", &["stability.json"][..]),
+        ("converge", &["converge.csv", "converge.md", "converge.png"]),
+    ] {
+        let help = murk(&[sub, "--help"]);
+        assert!(help.status.success());
+        let dir = scratch(&format!("examples-{sub}"));
+        for example in examples(&String::from_utf8_lossy(&help.stdout)) {
+            assert_eq!(example[0], sub);
+            let args: Vec<String> = example
+                .iter()
+                .map(|a| match a.strip_prefix("fixtures/") {
+                    Some(_) => format!("{}/{a}", env!("CARGO_MANIFEST_DIR")),
+                    None => a.clone(),
+                })
+                .collect();
+            let o = Command::new(MURK)
+                .args(&args)
+                .current_dir(&dir)
+                .output()
+                .unwrap();
+            assert!(
+                o.status.success(),
+                "murk {}: {}",
+                example.join(" "),
+                String::from_utf8_lossy(&o.stderr)
+            );
+            let out = example
+                .iter()
+                .position(|a| a == "--out")
+                .map_or(dir.clone(), |i| dir.join(&example[i + 1]));
+            for f in files {
+                assert!(out.join(f).is_file(), "murk {}: no {f}", example.join(" "));
+            }
+        }
+    }
 }

@@ -19,12 +19,12 @@ pub const STABILITY_EXAMPLES: &str = "Examples:
 Exit status 0 when every case passes, 1 when one fails, 2 on an error.";
 
 pub const CONVERGE_EXAMPLES: &str = "Examples:
-  murk converge fixtures/cloud.vdb --out docs/accuracy
-  murk converge fixtures/cloud.vdb --res 96x54 --runs 1 --out /tmp/conv
-  murk converge fixtures/scene.toml --light sun:1,1,0:1,1,1:4
+  murk converge fixtures/cloud.vdb --res 64x36 --runs 1 --out converge
+  murk converge fixtures/scene.toml --res 48x27 --runs 1 --light sun:1,1,0:1,1,1:4 --out converge-side
 
+With no --res and --runs: 160x90 and the median of 3 runs (about a minute on the demo cloud).
 Render flags set the scene (lights, sigma, camera); --step, --dsm-tolerance, --termination and
---shadows are what the sweeps vary, so they are overridden. Default resolution 160x90.";
+--shadows are what the sweeps vary, so they are overridden.";
 
 /// Writes `text` to `dir/name` atomically, creating `dir` if needed.
 pub fn write_text(dir: &Path, name: &str, text: &str) -> Result<()> {

@@ -6,6 +6,7 @@ pub mod converge;
 pub mod converge_table;
 pub mod plot;
 pub mod stability;
+pub mod stability_rendered;
 
 /// Least-squares slope of `y` against `x` (e.g. log error against log step: the order
 /// of convergence). NaN with fewer than two distinct `x`.

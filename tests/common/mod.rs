@@ -51,3 +51,49 @@ pub fn exrheader_channels(header: &str) -> Vec<(String, String)> {
         })
         .collect()
 }
+
+/// The command lines under `Examples:` in a help text, without the leading `murk`.
+pub fn examples(help: &str) -> Vec<Vec<String>> {
+    let mut lines = help.lines().skip_while(|l| l.trim() != "Examples:");
+    assert!(lines.next().is_some(), "no `Examples:` section in:\n{help}");
+    let found: Vec<Vec<String>> = lines
+        .take_while(|l| !l.trim().is_empty())
+        .filter_map(|l| l.trim().strip_prefix("murk "))
+        .map(split_words)
+        .collect();
+    assert!(
+        !found.is_empty(),
+        "`Examples:` lists no `murk ...` command:\n{help}"
+    );
+    found
+}
+
+/// Splits a command line into words, honouring '...' and "..." quotes.
+pub fn split_words(line: &str) -> Vec<String> {
+    let (mut words, mut word, mut quote, mut in_word) = (Vec::new(), String::new(), None, false);
+    for c in line.chars() {
+        match (quote, c) {
+            (Some(q), c) if c == q => quote = None,
+            (Some(_), c) => word.push(c),
+            (None, '\'' | '"') => {
+                quote = Some(c);
+                in_word = true;
+            }
+            (None, c) if c.is_whitespace() => {
+                if in_word {
+                    words.push(std::mem::take(&mut word));
+                    in_word = false;
+                }
+            }
+            (None, c) => {
+                word.push(c);
+                in_word = true;
+            }
+        }
+    }
+    assert!(quote.is_none(), "unbalanced quote in `{line}`");
+    if in_word {
+        words.push(word);
+    }
+    words
+}
