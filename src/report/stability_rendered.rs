@@ -3,6 +3,7 @@
 //! empty grid, a single voxel, a very hot temperature grid.
 
 use super::check::{CaseResult, Check, plan_scatter_bound};
+use crate::integrate::blackbody::BlackbodyTable;
 use crate::output::Frame;
 use crate::render::{RenderOptions, RenderPlan, render_image};
 use crate::vdb::{FloatGridOut, write_float_grids};
@@ -192,9 +193,13 @@ pub fn hot_temperature(pad: &Scratchpad) -> Result<CaseResult> {
         ],
     )?;
     let (f, plan) = render(&path, |_| {})?;
-    // ε per world unit: (T/1000)⁴ × intensity, colour normalised to ≤ 1 per channel;
-    // the longest chord is the diagonal of the bounds grown by the stencil's voxel.
-    let eps = (1e5f64 / 1000.0).powi(4) * plan.blackbody_intensity;
+    // ε per world unit: the blackbody colour (luminance-normalised, so a channel may
+    // exceed 1) × (T/1000)⁴ × intensity, as the render's own table gives it; the longest
+    // chord is the diagonal of the bounds grown by the stencil's voxel.
+    let rgb = BlackbodyTable::new(200.0, 40000.0, 2048).rgb_normalized(1e5);
+    let eps = rgb.iter().fold(0.0f64, |m, c| m.max(*c))
+        * (1e5f64 / 1000.0).powi(4)
+        * plan.blackbody_intensity;
     let chord = DVec3::splat(17.0 * 0.05).length();
     let mut check = Check::new(plan_scatter_bound(&plan) + eps * chord, 0.0);
     check.frame(&f);
