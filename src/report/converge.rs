@@ -137,7 +137,7 @@ fn stage(stats: &RenderStats, name: &str) -> f64 {
 }
 
 /// The plan of a point: the user's options with the point's settings, quiet.
-fn plan_of(options: &RenderOptions, input: &Path, p: &Point) -> Result<RenderPlan> {
+pub(super) fn plan_of(options: &RenderOptions, input: &Path, p: &Point) -> Result<RenderPlan> {
     let mut o = options.clone();
     o.quiet = true;
     o.output = Some(input.with_extension("converge.exr"));
@@ -148,11 +148,9 @@ fn plan_of(options: &RenderOptions, input: &Path, p: &Point) -> Result<RenderPla
     o.reference = p.exact_shadows;
     // The reference refuses a termination; a sweep point sets it on the plan.
     o.termination = None;
-    o.shadows = match (p.exact_shadows, p.sweep) {
-        (true, _) => None,
-        (false, "default") => o.shadows,
-        (false, _) => Some("dsm".into()),
-    };
+    // Exact shadows come with the reference's settings; every other point (`default`
+    // included) uses the deep shadow map, murk's default.
+    o.shadows = (!p.exact_shadows).then(|| "dsm".to_string());
     let mut plan = RenderPlan::new(&o, input.to_path_buf()).map_err(|e| anyhow!(e))?;
     if let Some(t) = p.termination {
         plan.termination = t;

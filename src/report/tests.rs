@@ -66,3 +66,69 @@ fn time_to_reach_and_error_at_time_interpolate_in_log_log() {
     assert_eq!(error_at_time(&c, 0.5), None);
     assert_eq!(error_at_time(&c, 20.0), None);
 }
+
+/// Each sweep point renders what it says: the shadow-map sweep with the map at each
+/// tolerance, the step and termination sweeps with exact marched shadows, `default`
+/// with murk's defaults whatever flags were given.
+#[test]
+fn sweep_points_plan_what_they_sweep() {
+    use super::converge::{DSM_SWEEP_STEP, TERMINATION_SWEEP_STEP, plan_of, sweep_points};
+    use crate::integrate::MarchSettings;
+    use crate::render::RenderOptions;
+    use crate::render::plan::ShadowMode;
+    use crate::shadow::ShadowQuadrature;
+    let user = RenderOptions {
+        step: Some(3.0),
+        termination: Some(0.2),
+        shadows: Some("none".into()),
+        ..Default::default()
+    };
+    let input = std::path::Path::new("cloud.vdb");
+    let points = sweep_points();
+    assert_eq!(points.len(), 7 + 5 + 6 + 1);
+    for p in &points {
+        let plan = plan_of(&user, input, p).unwrap();
+        match p.sweep {
+            "step" => {
+                assert_eq!(
+                    plan.march_settings(),
+                    MarchSettings {
+                        step_voxels: p.value,
+                        termination: 0.0
+                    }
+                );
+                assert_eq!(
+                    (plan.shadows, plan.shadow_quadrature()),
+                    (ShadowMode::March, ShadowQuadrature::Exact)
+                );
+            }
+            "dsm_tolerance" => {
+                assert_eq!(plan.shadows, ShadowMode::Dsm);
+                assert_eq!(plan.dsm_tolerance, p.value);
+                assert_eq!(
+                    plan.march_settings(),
+                    MarchSettings {
+                        step_voxels: DSM_SWEEP_STEP,
+                        termination: 0.0
+                    }
+                );
+            }
+            "termination" => {
+                assert_eq!(
+                    plan.march_settings(),
+                    MarchSettings {
+                        step_voxels: TERMINATION_SWEEP_STEP,
+                        termination: p.value
+                    }
+                );
+                assert_eq!(plan.shadow_quadrature(), ShadowQuadrature::Exact);
+            }
+            "default" => {
+                assert_eq!(plan.march_settings(), MarchSettings::default());
+                assert_eq!((plan.shadows, plan.dsm_tolerance), (ShadowMode::Dsm, 1e-3));
+            }
+            other => panic!("unknown sweep {other}"),
+        }
+        assert!(plan.quiet);
+    }
+}
