@@ -20,7 +20,7 @@
 # check), BENCH_GRID_SIZE (264), BENCH_SAMPLE_REPS (5),
 # BENCH_KEEP=1 keeps the temporary directory (images, raw JSON).
 #
-# Needs: cargo, /usr/bin/python3 with pyopenvdb and numpy (python3-openvdb), vdb_render
+# Needs: cargo, /usr/bin/time (Debian package `time`), /usr/bin/python3 with pyopenvdb and numpy (python3-openvdb), vdb_render
 # (libopenvdb-tools), oiiotool (openimageio-tools). Not part of CI: run it by hand, on a
 # quiet machine if you can.
 set -euo pipefail
