@@ -72,10 +72,26 @@ impl BakeSettings {
         BakeSettings {
             tolerance,
             sigma_t,
-            max_level: MAX_LEVEL,
+            max_level: finest_level(tolerance),
             max_bricks: 4 << 20,
-            max_values: 256 << 20,
+            max_values: 64 << 20,
         }
+    }
+}
+
+/// The finest level a bake at `tolerance` may refine to. Down to 1e-3 (the default) one
+/// sample per voxel: on the demo cloud that bounds the mean transmittance error by about
+/// 2e-3, and the error left sits where τ has a kink across the light (columns grazing a
+/// density edge), which bilinear interpolation fits only linearly in the spacing. Tighter
+/// tolerances buy half (below 1e-3) and a quarter (below 1e-4) of a voxel in the bricks
+/// that still fail, at up to 8× and 64× their memory.
+pub fn finest_level(tolerance: f64) -> u8 {
+    if tolerance >= 1e-3 {
+        VOXEL_LEVEL
+    } else if tolerance >= 1e-4 {
+        VOXEL_LEVEL + 1
+    } else {
+        MAX_LEVEL
     }
 }
 

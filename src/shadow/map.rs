@@ -18,11 +18,9 @@ use glam::{DVec3, IVec3};
 
 /// Lattice steps per brick side.
 pub const BRICK: i32 = 16;
-/// The finest level: `BRICK / 2^MAX_LEVEL` = one lattice step (one voxel). Half a step
-/// was tried: on the demo cloud it took 7× the memory for 4× less pointwise error, and
-/// the error left is at columns grazing the cloud's silhouette, where τ across the light
-/// grows like the square root of the distance and no finite lattice fits it.
-pub const MAX_LEVEL: u8 = 4;
+/// The finest level any brick may reach: a quarter lattice step. Which level a bake may
+/// go to depends on its tolerance (see `BakeSettings::new`).
+pub const MAX_LEVEL: u8 = 6;
 /// Levels 0..=MAX_LEVEL.
 pub const LEVELS: usize = MAX_LEVEL as usize + 1;
 
