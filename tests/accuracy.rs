@@ -27,7 +27,6 @@ use common::march::{Sun, fixture, grey, medium, ray, ray_with, rel};
 use glam::{DMat4, DVec3, IVec3};
 use murk::field::VoxelGrid;
 use murk::field::shapes::ConstantSphere;
-use murk::integrate::blackbody::BlackbodyTable;
 use murk::integrate::phase::hg;
 use murk::integrate::{Companion, Emission, MarchSettings, RayResult, Volume};
 use murk::render::plan::ShadowMode;
@@ -47,16 +46,7 @@ fn s1_emission_absorption_slab() {
     let slab = fixture("slab.vdb");
     let (s, b) = (0.7, 0.3);
     for sigma in [1e-8, 1e-5, 1e-3, 0.5, 4.0, 100.0, 1e4] {
-        let emission = Emission {
-            grid: Some(Companion::new(&slab, &slab)),
-            color: DVec3::ONE,
-            intensity: sigma * s,
-            temperature: None,
-            temperature_scale: 1.0,
-            temperature_offset: 0.0,
-            blackbody_intensity: 0.0,
-            table: BlackbodyTable::new(1000.0, 2000.0, 2),
-        };
+        let emission = Emission::grey(Companion::new(&slab, &slab), sigma * s);
         let vol = Volume {
             density: &slab,
             medium: medium(sigma, 0.0, 0.0),

@@ -6,7 +6,6 @@ mod common;
 use common::march::{Sun, fixture, medium, ray, rel};
 use glam::DVec3;
 use murk::field::shapes::{ConstantBox, ConstantSphere};
-use murk::integrate::blackbody::BlackbodyTable;
 use murk::integrate::phase::hg;
 use murk::integrate::{Companion, Emission, Volume};
 
@@ -82,16 +81,7 @@ fn emission_absorption_slab() {
     let slab = fixture("slab.vdb");
     let s = 0.7;
     for sigma in [1e-8, 1e-3, 0.5, 4.0, 1e4] {
-        let emission = Emission {
-            grid: Some(Companion::new(&slab, &slab)),
-            color: DVec3::ONE,
-            intensity: sigma * s,
-            temperature: None,
-            temperature_scale: 1.0,
-            temperature_offset: 0.0,
-            blackbody_intensity: 0.0,
-            table: BlackbodyTable::new(1000.0, 2000.0, 2),
-        };
+        let emission = Emission::grey(Companion::new(&slab, &slab), sigma * s);
         let vol = Volume {
             density: &slab,
             medium: medium(sigma, 0.0, 0.0),

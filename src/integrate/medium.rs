@@ -126,7 +126,21 @@ pub struct Emission<'a> {
     pub table: BlackbodyTable,
 }
 
-impl Emission<'_> {
+impl<'a> Emission<'a> {
+    /// Grey emission `intensity × grid` and no blackbody term.
+    pub fn grey(grid: Companion<'a>, intensity: f64) -> Self {
+        Emission {
+            grid: Some(grid),
+            color: DVec3::ONE,
+            intensity,
+            temperature: None,
+            temperature_scale: 1.0,
+            temperature_offset: 0.0,
+            blackbody_intensity: 0.0,
+            table: BlackbodyTable::new(1000.0, 2000.0, 2),
+        }
+    }
+
     pub fn is_active(&self) -> bool {
         (self.grid.is_some() && self.intensity > 0.0 && self.color.max_element() > 0.0)
             || (self.temperature.is_some() && self.blackbody_intensity > 0.0)

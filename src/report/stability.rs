@@ -13,7 +13,6 @@ use super::stability_rendered::{
 };
 use crate::field::shapes::{ConstantBox, ConstantSphere};
 use crate::field::{Field, VoxelGrid};
-use crate::integrate::blackbody::BlackbodyTable;
 use crate::integrate::phase::hg;
 use crate::integrate::{
     Companion, Emission, Illumination, MarchSettings, Medium, RayResult, Scratch, Volume, WorldRay,
@@ -140,16 +139,7 @@ fn thin_media() -> CaseResult {
     .expect("a valid box");
     let steps = 1_000_000.0;
     let sigma_t = 0.01;
-    let emission = Emission {
-        grid: Some(Companion::new(&slab, &slab)),
-        color: DVec3::ONE,
-        intensity: sigma_t * 0.5,
-        temperature: None,
-        temperature_scale: 1.0,
-        temperature_offset: 0.0,
-        blackbody_intensity: 0.0,
-        table: BlackbodyTable::new(1000.0, 2000.0, 2),
-    };
+    let emission = Emission::grey(Companion::new(&slab, &slab), sigma_t * 0.5);
     let vol = Volume {
         emission: Some(emission),
         ..volume(&slab, grey_medium(sigma_t, 0.0, 0.0))
