@@ -105,84 +105,8 @@ fn emission_absorption_slab() {
     }
 }
 
-/// Single scattering on a homogeneous sphere (R = 1), three sun positions:
-/// - sun behind the camera: L = σs·p·E(1 − e^{−2σt ℓ})/(2σt);
-/// - sun behind the sphere: L = σs·p·E·ℓ·e^{−σt ℓ};
-/// - camera at the centre, sun behind it, h = √(R² − b²): L = σs·p·E·e^{−σt h}(1 − e^{−2σt h})/(2σt),
-///   α = 1 − e^{−σt h}.
-#[test]
-fn single_scattering_on_a_sphere() {
-    let r = 1.0;
-    let c = DVec3::ZERO;
-    let sphere = ConstantSphere::new(c, r, 1.0, 0.05).unwrap();
-    let (sigma_a, sigma_s, e, g) = (0.4, 1.1, 3.0, 0.3);
-    let sigma_t = sigma_a + sigma_s;
-    let vol = Volume {
-        density: &sphere,
-        medium: medium(sigma_a, sigma_s, g),
-        emission: None,
-        color: None,
-        traversal: &sphere,
-    };
-    let behind_camera = Sun {
-        field: &sphere,
-        toward: DVec3::Z,
-        irradiance: e,
-    };
-    let behind_sphere = Sun {
-        field: &sphere,
-        toward: DVec3::NEG_Z,
-        irradiance: e,
-    };
-    for b in [0.0, 0.4, 0.8, 0.99] {
-        let ell = 2.0 * (r * r - b * b).sqrt();
-        let h = ell / 2.0;
-        let o = DVec3::new(b, 0.0, 4.0);
-        for step in STEPS {
-            let back = ray(&vol, Some(&behind_camera), o, DVec3::NEG_Z, step, 0.5)
-                .scatter
-                .x;
-            let want =
-                sigma_s * hg(-1.0, g) * e * -(-2.0 * sigma_t * ell).exp_m1() / (2.0 * sigma_t);
-            assert!(
-                rel(back, want) <= 1e-5,
-                "behind camera b {b} step {step}: {back} vs {want}"
-            );
-
-            let front = ray(&vol, Some(&behind_sphere), o, DVec3::NEG_Z, step, 0.5)
-                .scatter
-                .x;
-            let want = sigma_s * hg(1.0, g) * e * ell * (-sigma_t * ell).exp();
-            assert!(
-                rel(front, want) <= 1e-5,
-                "behind sphere b {b} step {step}: {front} vs {want}"
-            );
-
-            let inside = ray(
-                &vol,
-                Some(&behind_camera),
-                DVec3::new(b, 0.0, 0.0),
-                DVec3::NEG_Z,
-                step,
-                0.5,
-            );
-            let want =
-                sigma_s * hg(-1.0, g) * e * (-sigma_t * h).exp() * -(-2.0 * sigma_t * h).exp_m1()
-                    / (2.0 * sigma_t);
-            assert!(
-                rel(inside.scatter.x, want) <= 1e-5,
-                "inside b {b} step {step}: {} vs {want}",
-                inside.scatter.x
-            );
-            let want_alpha = -(-sigma_t * h).exp_m1();
-            assert!(
-                rel(inside.alpha(), want_alpha) <= 1e-9,
-                "inside α b {b}: {} vs {want_alpha}",
-                inside.alpha()
-            );
-        }
-    }
-}
+// Single scattering on a homogeneous sphere: `s2_homogeneous_sphere` in accuracy.rs,
+// at every step of the default march and by the reference.
 
 /// A box lit from the side is a check that shadows are applied where the closed form is
 /// simple: a thin slab of the box seen edge-on… instead, the bounds every result must
