@@ -131,10 +131,14 @@ impl IndexRay {
 /// trilinear reconstruction along a ray inside one voxel is one).
 #[inline]
 pub fn gauss_legendre_2(f: impl Fn(f64) -> f64, t0: f64, t1: f64) -> f64 {
-    const G: f64 = 0.211_324_865_405_187_1; // (1 − 1/√3)/2
+    const G: f64 = 0.5 - GL2_HALF_OFFSET;
     let ds = t1 - t0;
     0.5 * ds * (f(t0 + G * ds) + f(t1 - G * ds))
 }
+
+/// Where the two Gauss–Legendre nodes sit, as a fraction of the interval from its
+/// middle: `±1/(2√3)`.
+pub const GL2_HALF_OFFSET: f64 = 0.288_675_134_594_812_9;
 
 /// What [`Field::integral`] gives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
