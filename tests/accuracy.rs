@@ -48,11 +48,8 @@ fn s1_emission_absorption_slab() {
     for sigma in [1e-8, 1e-5, 1e-3, 0.5, 4.0, 100.0, 1e4] {
         let emission = Emission::grey(Companion::new(&slab, &slab), sigma * s);
         let vol = Volume {
-            density: &slab,
-            medium: medium(sigma, 0.0, 0.0),
             emission: Some(emission),
-            color: None,
-            traversal: &slab,
+            ..Volume::of(&slab, medium(sigma, 0.0, 0.0))
         };
         for mu in [1.0f64, 0.6] {
             let d = DVec3::new((1.0 - mu * mu).sqrt(), 0.0, -mu);
@@ -91,13 +88,7 @@ fn s2_homogeneous_sphere() {
     let sphere = ConstantSphere::new(DVec3::ZERO, r, 1.0, 0.05).unwrap();
     let (sigma_a, sigma_s, e, g) = (0.4, 1.1, 3.0, 0.3);
     let sigma_t = sigma_a + sigma_s;
-    let vol = Volume {
-        density: &sphere,
-        medium: medium(sigma_a, sigma_s, g),
-        emission: None,
-        color: None,
-        traversal: &sphere,
-    };
+    let vol = Volume::of(&sphere, medium(sigma_a, sigma_s, g));
     let sun = |toward| Sun {
         field: &sphere,
         toward,
@@ -208,13 +199,7 @@ fn s3_case(
 fn s3_stratified_slab_with_a_grazing_sun() {
     let slab = stratified(0.02, 0.12);
     let (sigma_a, sigma_s, g) = (0.3, 1.2, 0.4);
-    let vol = Volume {
-        density: &slab.grid,
-        medium: medium(sigma_a, sigma_s, g),
-        emission: None,
-        color: None,
-        traversal: &slab.grid,
-    };
+    let vol = Volume::of(&slab.grid, medium(sigma_a, sigma_s, g));
     for mu_v in [1.0f64, 0.8, 0.5] {
         let (o, d, sun, l, alpha) = s3_case(&slab, sigma_a, sigma_s, g, mu_v);
         let r = reference(&vol, Some(&sun), o, d);
@@ -241,13 +226,7 @@ fn s3_stratified_slab_with_a_grazing_sun() {
 fn s3_default_march_is_exact_at_every_step() {
     let slab = stratified(0.02, 0.12);
     let (sigma_a, sigma_s, g) = (0.3, 1.2, 0.4);
-    let vol = Volume {
-        density: &slab.grid,
-        medium: medium(sigma_a, sigma_s, g),
-        emission: None,
-        color: None,
-        traversal: &slab.grid,
-    };
+    let vol = Volume::of(&slab.grid, medium(sigma_a, sigma_s, g));
     let (o, d, sun, l, alpha) = s3_case(&slab, sigma_a, sigma_s, g, 0.8);
     for step in [4.0, 2.0, 1.0, 0.5, 0.25] {
         let r = ray(&vol, Some(&sun), o, d, step, 0.5);
@@ -278,13 +257,7 @@ fn marching_converges_with_order_two_on_a_smooth_field() {
         })
     });
     let blob = VoxelGrid::from_voxels("density", voxels, DMat4::from_scale(grey(0.05))).unwrap();
-    let vol = Volume {
-        density: &blob,
-        medium: medium(0.5, 8.0, 0.2),
-        emission: None,
-        color: None,
-        traversal: &blob,
-    };
+    let vol = Volume::of(&blob, medium(0.5, 8.0, 0.2));
     let sun = Sun {
         field: &blob,
         toward: DVec3::new(1.0, 0.6, 0.2).normalize(),
@@ -331,13 +304,7 @@ fn s4_one_voxel_sheet_at_thirty_degrees() {
         .flat_map(|i| (-64..64).map(move |j| (IVec3::new(i, j, 0), rho)))
         .collect::<Vec<_>>();
     let sheet = VoxelGrid::from_voxels("density", voxels, DMat4::from_scale(grey(h))).unwrap();
-    let vol = Volume {
-        density: &sheet,
-        medium: medium(sigma_t, 0.0, 0.0),
-        emission: None,
-        color: None,
-        traversal: &sheet,
-    };
+    let vol = Volume::of(&sheet, medium(sigma_t, 0.0, 0.0));
     let theta = 30f64.to_radians();
     let d = DVec3::new(theta.sin() * 0.6, theta.sin() * 0.8, -theta.cos());
     let want = (-sigma_t * rho as f64 * h / theta.cos()).exp();

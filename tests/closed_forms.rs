@@ -19,13 +19,7 @@ const STEPS: [f64; 4] = [0.25, 0.5, 1.0, 2.0];
 fn slab_alpha_is_exact_at_every_step() {
     let slab = fixture("slab.vdb");
     for sigma_t in [0.3, 1.5, 6.0] {
-        let vol = Volume {
-            density: &slab,
-            medium: medium(sigma_t, 0.0, 0.0),
-            emission: None,
-            color: None,
-            traversal: &slab,
-        };
+        let vol = Volume::of(&slab, medium(sigma_t, 0.0, 0.0));
         for mu in [1.0f64, 0.8, 0.5] {
             let d = DVec3::new((1.0 - mu * mu).sqrt(), 0.0, -mu);
             let want = -(-sigma_t * 1.0 / mu).exp_m1();
@@ -54,13 +48,7 @@ fn sphere_alpha_is_exact_along_every_chord() {
     let r = 1.0;
     let sphere = ConstantSphere::new(DVec3::new(0.1, -0.2, 0.3), r, 1.0, 0.05).unwrap();
     let sigma_t = 2.0;
-    let vol = Volume {
-        density: &sphere,
-        medium: medium(sigma_t, 0.0, 0.0),
-        emission: None,
-        color: None,
-        traversal: &sphere,
-    };
+    let vol = Volume::of(&sphere, medium(sigma_t, 0.0, 0.0));
     for b in [0.0, 0.3, 0.7, 0.95, 0.999] {
         let ell = 2.0 * (r * r - b * b).sqrt();
         let want = -(-sigma_t * ell).exp_m1();
@@ -83,11 +71,8 @@ fn emission_absorption_slab() {
     for sigma in [1e-8, 1e-3, 0.5, 4.0, 1e4] {
         let emission = Emission::grey(Companion::new(&slab, &slab), sigma * s);
         let vol = Volume {
-            density: &slab,
-            medium: medium(sigma, 0.0, 0.0),
             emission: Some(emission),
-            color: None,
-            traversal: &slab,
+            ..Volume::of(&slab, medium(sigma, 0.0, 0.0))
         };
         let mu: f64 = 0.6;
         let d = DVec3::new((1.0 - mu * mu).sqrt(), 0.0, -mu);
@@ -115,13 +100,7 @@ fn emission_absorption_slab() {
 fn extreme_optical_thickness_stays_finite_and_bounded() {
     let cube = ConstantBox::new(DVec3::splat(-0.5), DVec3::splat(0.5), 1.0, 0.05).unwrap();
     for sigma_t in [1e-10, 1e-4, 1.0, 1e3, 1e6] {
-        let vol = Volume {
-            density: &cube,
-            medium: medium(sigma_t * 0.2, sigma_t * 0.8, 0.0),
-            emission: None,
-            color: None,
-            traversal: &cube,
-        };
+        let vol = Volume::of(&cube, medium(sigma_t * 0.2, sigma_t * 0.8, 0.0));
         let sun = Sun {
             field: &cube,
             toward: DVec3::new(1.0, 1.0, 0.3).normalize(),

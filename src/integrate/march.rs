@@ -128,6 +128,20 @@ pub struct Volume<'a> {
     pub traversal: &'a dyn Field,
 }
 
+impl<'a> Volume<'a> {
+    /// A density field in `medium`, with no emission and no colour, traversed where the
+    /// density is not zero.
+    pub fn of(density: &'a dyn Field, medium: Medium) -> Self {
+        Volume {
+            density,
+            medium,
+            emission: None,
+            color: None,
+            traversal: density,
+        }
+    }
+}
+
 /// Per-thread buffers, so the per-ray loop does not allocate.
 #[derive(Clone, Debug, Default)]
 pub struct Scratch {

@@ -33,16 +33,6 @@ fn grey_medium(sigma_a: f64, sigma_s: f64, g: f64) -> Medium {
     }
 }
 
-fn volume<'a>(field: &'a dyn Field, medium: Medium) -> Volume<'a> {
-    Volume {
-        density: field,
-        medium,
-        emission: None,
-        color: None,
-        traversal: field,
-    }
-}
-
 /// The render's lights over `field`, with exact marched shadows (the reference's).
 fn marched_lights<'a>(lights: &'a [Light], field: &'a dyn Field) -> SceneLights<'a> {
     SceneLights {
@@ -101,7 +91,7 @@ fn stiff_slab() -> CaseResult {
     let mut exponent = -10;
     while exponent <= 6 {
         let sigma_t = 10f64.powi(exponent) / ds;
-        let vol = volume(
+        let vol = Volume::of(
             &slab,
             grey_medium(sigma_t * (1.0 - albedo), sigma_t * albedo, g),
         );
@@ -142,7 +132,7 @@ fn thin_media() -> CaseResult {
     let emission = Emission::grey(Companion::new(&slab, &slab), sigma_t * 0.5);
     let vol = Volume {
         emission: Some(emission),
-        ..volume(&slab, grey_medium(sigma_t, 0.0, 0.0))
+        ..Volume::of(&slab, grey_medium(sigma_t, 0.0, 0.0))
     };
     // 20 voxels deep: 1e6 steps of 2e-5 voxel, each of optical depth 1e-8.
     let r = trace(
@@ -187,7 +177,7 @@ fn sheet_at_thirty_degrees() -> Result<CaseResult> {
         DMat4::from_scale(DVec3::splat(h)),
     )
     .map_err(|e| anyhow!(e))?;
-    let vol = volume(&sheet, grey_medium(sigma_t, 0.0, 0.0));
+    let vol = Volume::of(&sheet, grey_medium(sigma_t, 0.0, 0.0));
     let theta = 30f64.to_radians();
     let want = (-sigma_t * rho as f64 * h / theta.cos()).exp();
     let mut check = Check::new(0.0, 1e-9);
@@ -221,7 +211,7 @@ fn parallel_and_grazing() -> Result<CaseResult> {
     let slab = VoxelGrid::from_voxels("density", voxels, DMat4::from_scale(DVec3::splat(0.05)))
         .map_err(|e| anyhow!(e))?;
     let (sigma_a, sigma_s, g) = (0.3, 1.7, 0.2);
-    let vol = volume(&slab, grey_medium(sigma_a, sigma_s, g));
+    let vol = Volume::of(&slab, grey_medium(sigma_a, sigma_s, g));
     let lights = sun("sun:0.3,0.2,1:1,1,1:3");
     let sl = marched_lights(&lights, &slab);
     let mut check = Check::new(scatter_bound(&lights, sigma_a, sigma_s, g), 1e-9);
@@ -295,7 +285,7 @@ fn camera_inside() -> CaseResult {
     let (sigma_a, sigma_s, e, g) = (0.4, 1.1, 3.0, 0.3);
     let sigma_t = sigma_a + sigma_s;
     let lights = sun("sun:0,0,1:1,1,1:3");
-    let vol = volume(&sphere, grey_medium(sigma_a, sigma_s, g));
+    let vol = Volume::of(&sphere, grey_medium(sigma_a, sigma_s, g));
     let sl = marched_lights(&lights, &sphere);
     let mut check = Check::new(scatter_bound(&lights, sigma_a, sigma_s, g), 1e-9);
     for b in [0.0f64, 0.3, 0.6, 0.9, 0.99] {
