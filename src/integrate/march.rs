@@ -193,6 +193,16 @@ impl WorldRay {
     }
 }
 
+/// `f` of each channel; with `grey` (all channels equal by construction) once.
+#[inline(always)]
+fn per_channel(grey: bool, f: impl Fn(usize) -> f64) -> DVec3 {
+    if grey {
+        DVec3::splat(f(0))
+    } else {
+        DVec3::new(f(0), f(1), f(2))
+    }
+}
+
 /// Integrates one ray.
 /// `jitter` in [0, 1) shortens the first segment of every cell; 0.5 gives midpoints of a
 /// regular grid of segments.
@@ -218,6 +228,8 @@ pub fn march(
     let thin_depth = settings.thin_step_depth();
     let sigma_t = vol.medium.sigma_t();
     let sigma_t_max = sigma_t.max_element();
+    // A grey medium: every channel's arithmetic is the same, so do it once.
+    let grey = sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z;
     let sigma_s = vol.medium.sigma_s_scaled();
     let scatter_lights = lights.filter(|l| l.light_count() > 0 && vol.medium.scatters());
     let n_lights = scatter_lights.map_or(0, |l| l.light_count());
@@ -271,11 +283,7 @@ pub fn march(
             };
             out.samples += 1;
             let st = sigma_t * rho;
-            let w = DVec3::new(
-                ds * phi(st.x * ds),
-                ds * phi(st.y * ds),
-                ds * phi(st.z * ds),
-            );
+            let w = per_channel(grey, |c| ds * phi(st[c] * ds));
             let xw = origin + dir * mid;
             if let Some(e) = emission {
                 let eps = e.mean(&ray, a, b, p, xw);
@@ -297,11 +305,8 @@ pub fn march(
                     scratch.light_tau[l] = Some(tau1);
                     let (irradiance, travel) = ls.incident(l, xw);
                     let phase = hg(travel.dot(-dir), vol.medium.g);
-                    let weight = DVec3::new(
-                        exp_source_weight(st.x, tau0.x, tau1.x, ds),
-                        exp_source_weight(st.y, tau0.y, tau1.y, ds),
-                        exp_source_weight(st.z, tau0.z, tau1.z, ds),
-                    );
+                    let weight =
+                        per_channel(grey, |c| exp_source_weight(st[c], tau0[c], tau1[c], ds));
                     scratch.per_light[l] +=
                         t_now * sigma_s_here * rho * phase * irradiance * weight;
                 }
@@ -309,7 +314,7 @@ pub fn march(
             }
             let t_before = t_now;
             tau += st * ds;
-            t_now = DVec3::new((-tau.x).exp(), (-tau.y).exp(), (-tau.z).exp());
+            t_now = per_channel(grey, |c| (-tau[c]).exp());
             let (m0, m1) = (t_before.element_sum() / 3.0, t_now.element_sum() / 3.0);
             if out.half_opacity_t.is_none() && m0 > 0.5 && m1 <= 0.5 {
                 let rate = (m0 / m1).ln() / ds;
