@@ -422,9 +422,7 @@ impl VoxelGrid {
         b.finish(&unique, decoded.index_to_world)
             .map_err(|p| VdbError::grid(file.path(), &unique, p))
     }
-}
 
-impl VoxelGrid {
     /// A scalar grid from active voxels `(ijk, value)` (file index space), through the
     /// same builder a decoded file goes through (NaN, ±Inf and negatives become 0). For
     /// tests and the stability battery, which need grids no fixture holds.

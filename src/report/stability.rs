@@ -88,6 +88,7 @@ fn stiff_slab() -> CaseResult {
     let (e, g, albedo) = (2.0, 0.3, 0.8);
     let ds = 0.5 * 0.05;
     let mut check = Check::new(scatter_bound(&lights, 1.0 - albedo, albedo, g), 1e-6);
+    let sl = marched_lights(&lights, &slab);
     let mut exponent = -10;
     while exponent <= 6 {
         let sigma_t = 10f64.powi(exponent) / ds;
@@ -95,7 +96,6 @@ fn stiff_slab() -> CaseResult {
             &slab,
             grey_medium(sigma_t * (1.0 - albedo), sigma_t * albedo, g),
         );
-        let sl = marched_lights(&lights, &slab);
         for o in [DVec3::new(0.1, 0.2, 3.0), DVec3::new(-1.37, 0.53, 3.0)] {
             let r = trace(&vol, Some(&sl), o, DVec3::NEG_Z, &exact(0.5));
             check.ray(&r);
