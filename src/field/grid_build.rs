@@ -17,7 +17,10 @@ const DENSE_ROOT_LIMIT: i64 = 1 << 18;
 #[derive(Default)]
 pub struct GridBuilder {
     channels: usize,
+    /// Negative values are bad (a scalar grid that is not `signed`).
     scalar: bool,
+    /// The grid holds a signed quantity (a slope), so negatives are data.
+    signed: bool,
     root: HashMap<[i32; 3], u32>,
     upper_slots: Vec<u32>,
     lower_slots: Vec<u32>,
@@ -263,7 +266,7 @@ fn build_root_index(root: &HashMap<[i32; 3], u32>) -> RootIndex {
 impl TreeSink for GridBuilder {
     fn begin(&mut self, channels: usize, background: &[f32]) -> Result<(), String> {
         self.channels = channels;
-        self.scalar = channels == 1;
+        self.scalar = channels == 1 && !self.signed;
         self.stats.min = vec![f64::INFINITY; channels];
         self.stats.max = vec![f64::NEG_INFINITY; channels];
         self.stats.sum = vec![0.0; channels];
@@ -405,6 +408,23 @@ impl VoxelGrid {
 
     /// Decodes grid `name` of an opened file into a render structure.
     pub fn load(file: &VdbFile, name: &str) -> Result<VoxelGrid, VdbError> {
+        Self::load_with(file, name, GridBuilder::new())
+    }
+
+    /// [`VoxelGrid::load`] for a grid of a signed quantity: NaN and ±Inf still become 0,
+    /// negative values are kept.
+    pub fn load_signed(file: &VdbFile, name: &str) -> Result<VoxelGrid, VdbError> {
+        Self::load_with(
+            file,
+            name,
+            GridBuilder {
+                signed: true,
+                ..GridBuilder::new()
+            },
+        )
+    }
+
+    fn load_with(file: &VdbFile, name: &str, builder: GridBuilder) -> Result<VoxelGrid, VdbError> {
         let info = file.grid(name)?;
         if info.kind == ValueKind::Unsupported {
             return Err(VdbError::grid(
@@ -416,7 +436,7 @@ impl VoxelGrid {
                 ),
             ));
         }
-        let mut b = GridBuilder::new();
+        let mut b = builder;
         let decoded = file.decode(name, &mut b)?;
         let unique = info.unique_name.clone();
         b.finish(&unique, decoded.index_to_world)
