@@ -9,6 +9,7 @@ use murk::field::shapes::ConstantBox;
 use murk::field::{Field, VoxelGrid};
 use murk::render::light::Light;
 use murk::render::{RenderOptions, RenderPlan, render_image, shadow_cache};
+use murk::shadow::map::MAX_LEVEL;
 use murk::shadow::{BakeSettings, LightGeometry, bake};
 use murk::vdb::VdbFile;
 use std::path::PathBuf;
@@ -140,47 +141,54 @@ fn demo_cloud_dsm_matches_marched_shadows() {
     assert!(r_none > 1.5 * r_dsm, "{r_none} vs {r_dsm}");
 }
 
-/// The map's pointwise error on three fixtures, measured against exact marched rays at
-/// 10,000 points inside the density: most points are within the tolerance, and the
-/// mean error is at its order. (The worst points sit on columns grazing hard density
-/// edges; README gives the numbers.)
+/// The tolerance holds pointwise on three fixtures: at 10,000 random points inside the
+/// density, the map's transmittance differs from an exact marched shadow ray by at most
+/// the tolerance, in every channel. Three suns each: the default one (oblique to every
+/// voxel face: Hermite across), one along a voxel axis (linear across both ways) and
+/// one parallel to one family of voxel faces (linear one way, Hermite the other).
 #[test]
-fn pointwise_error_on_three_fixtures() {
-    for (name, sun) in [
-        ("cloud.vdb", DVec3::new(0.6, 1.0, 0.5)),
-        ("levelset_fog.vdb", DVec3::new(-0.3, 1.0, 0.2)),
-        ("pyro.vdb", DVec3::new(0.2, 1.0, -0.7)),
-    ] {
+fn tolerance_holds_at_sampled_points_on_three_fixtures() {
+    for name in ["cloud.vdb", "levelset_fog.vdb", "pyro.vdb"] {
         let g = fixture(name);
-        let light = LightGeometry::Sun {
-            travel: -sun.normalize(),
-        };
-        let (map, _) = bake(&g, light, &settings());
-        let r = murk::shadow::verify(&map, &g, light, DVec3::splat(SIGMA), TOL, 10_000, 11);
-        assert_eq!(r.points, 10_000, "{name}");
-        assert!(r.mean_error < 4.0 * TOL, "{name}: {r:?}");
-        assert!(r.max_error < 0.1, "{name}: {r:?}");
+        for sun in [
+            DVec3::new(0.6, 1.0, 0.5),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(0.6, 1.0, 0.0),
+        ] {
+            let light = LightGeometry::Sun {
+                travel: -sun.normalize(),
+            };
+            let (map, _) = bake(&g, light, &settings());
+            let r = murk::shadow::verify(&map, &g, light, DVec3::splat(SIGMA), TOL, 10_000, 11);
+            assert_eq!(r.points, 10_000, "{name}");
+            assert!(r.max_error <= TOL, "{name}, sun {sun}: {r:?}");
+            assert_eq!(r.over_tolerance, 0, "{name}, sun {sun}: {r:?}");
+        }
     }
 }
 
-/// A tighter tolerance buys accuracy: on the demo cloud the bricks that miss 1e-4 at one
-/// sample per voxel refine to half a voxel, and the pointwise error against exact
-/// shadow rays falls (about fourfold: the interpolation error goes as the spacing²).
+/// A tighter tolerance buys accuracy: on the pyro fixture the bricks that miss 1e-4 at
+/// half a voxel refine to a quarter, and the pointwise error against exact shadow rays
+/// falls with it (the Hermite blend's error goes as the spacing³ or faster).
 #[test]
-fn tighter_tolerance_refines_below_a_voxel_and_lowers_the_error() {
-    let g = fixture("cloud.vdb");
+fn tighter_tolerance_refines_below_half_a_voxel_and_lowers_the_error() {
+    let g = fixture("pyro.vdb");
     let light = LightGeometry::Sun {
         travel: -DVec3::new(0.6, 1.0, 0.5).normalize(),
     };
-    let mut mean = Vec::new();
+    let mut errors = Vec::new();
     for tol in [1e-3, 1e-4] {
         let (map, report) = bake(&g, light, &BakeSettings::new(tol, DVec3::splat(SIGMA)));
-        let sub_voxel: u64 = report.points_per_level[5..].iter().sum();
-        assert_eq!(sub_voxel > 0, tol < 1e-3, "{tol}: {report:?}");
+        let quarter = report.points_per_level[MAX_LEVEL as usize];
+        assert_eq!(quarter > 0, tol < 1e-3, "{tol}: {report:?}");
         let r = murk::shadow::verify(&map, &g, light, DVec3::splat(SIGMA), tol, 10_000, 5);
-        mean.push(r.mean_error);
+        errors.push(r);
     }
-    assert!(mean[1] < 0.4 * mean[0], "mean errors {mean:?}");
+    assert!(
+        errors[1].mean_error < 0.3 * errors[0].mean_error,
+        "{errors:?}"
+    );
+    assert!(errors[1].max_error < 2e-4, "{errors:?}");
 }
 
 /// A baked map written as a VDB cache reads back to the same values, opens in OpenVDB's
@@ -193,7 +201,9 @@ fn shadow_cache_round_trips_and_refuses_a_mismatch() {
     let cloud = fixture("cloud.vdb");
     let sun = Light::parse("sun:0.6,1,0.5:1,1,1:6", "sun0".into()).unwrap();
     let point = Light::parse("point:3,2,1:1,1,1:40", "point0".into()).unwrap();
-    let lights = vec![sun.clone(), point.clone()];
+    // Straight down: a voxel-aligned chart, blended linearly across.
+    let overhead = Light::parse("sun:0,1,0:1,1,1:6", "sun1".into()).unwrap();
+    let lights = vec![sun.clone(), point.clone(), overhead];
     let mut maps = Vec::new();
     let mut stats = Vec::new();
     for l in &lights {

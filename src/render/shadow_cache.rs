@@ -4,7 +4,10 @@
 //! A cache is an ordinary `.vdb` file. For every light, chart and level in use it holds a
 //! float grid `dsm_<light>_c<chart>_L<level>` of `∫ρ ds` toward the light (density ×
 //! world length; optical depth is σt × this) whose index space is that level's lattice,
-//! and a float grid `dsm_<light>_c<chart>_bricks` holding `level + 1` at each brick. For a
+//! and a float grid `dsm_<light>_c<chart>_bricks` holding `level + 1` at each brick.
+//! Beside each level's grid, `…_L<level>_dx`, `_dy` and `_dxy` hold the map's slopes of
+//! that integral across the light (per lattice step) and its twist; the density slope
+//! along the light is read from the density itself. For a
 //! sun the transforms are the true light-space → world maps, so Houdini or Blender show
 //! the grids where they belong; a point light's charts are perspective, which an affine
 //! transform cannot express, so their grids sit in lattice space and the chart is in the
@@ -15,7 +18,7 @@ use super::light::Light;
 use super::shadows::ShadowMapStats;
 use crate::field::{Field, VoxelGrid};
 use crate::shadow::BakeReport;
-use crate::shadow::chart::{Chart, ChartKind};
+use crate::shadow::chart::{Chart, ChartKind, LateralBlend};
 use crate::shadow::map::{
     BRICK, BrickSamples, ChartMap, ChartSelect, LEVELS, ShadowMap, side, spacing,
 };
@@ -55,6 +58,31 @@ fn lattice_transform(chart: &Chart, step: f64) -> DMat4 {
     )
 }
 
+/// The quantities a cache stores per level: grid name suffix, index into
+/// [`BrickSamples::planes`], and what it is.
+const STORED: [(&str, usize, &str); 4] = [
+    (
+        "",
+        0,
+        "integral of density toward the light, world units; optical depth = sigma_t x value",
+    ),
+    (
+        "_dx",
+        2,
+        "d/dx of the integral across the light, per lattice step (x = murk:chart_e1)",
+    ),
+    (
+        "_dy",
+        3,
+        "d/dy of the integral across the light, per lattice step (y = murk:chart_e2)",
+    ),
+    (
+        "_dxy",
+        4,
+        "d2/dxdy of the integral across the light, per lattice step squared",
+    ),
+];
+
 fn grid_name(light: &str, chart: usize, what: &str) -> String {
     format!("dsm_{light}_c{chart}_{what}")
 }
@@ -77,17 +105,24 @@ pub fn write(
                 ChartKind::Parallel { origin } => ("parallel", origin, 0.0),
                 ChartKind::Perspective { light, scale } => ("perspective", light, scale),
             };
-            let meta = |level: Option<u8>| {
+            let meta = |level: Option<u8>, quantity: &str| {
                 let mut m = vec![
                     ("murk:light".to_string(), light.name.clone()),
                     ("murk:placement".into(), light.placement()),
                     ("murk:density_hash".into(), format!("{density_hash:016x}")),
-                    (
-                        "murk:quantity".into(),
-                        "integral of density toward the light, world units; optical depth = sigma_t x value".into(),
-                    ),
+                    ("murk:quantity".into(), quantity.into()),
                     ("murk:chart".into(), format!("{ci}/{}", map.charts.len())),
                     ("murk:chart_kind".into(), kind.into()),
+                    (
+                        "murk:lateral_blend".into(),
+                        chart
+                            .lateral
+                            .map(|b| match b {
+                                LateralBlend::Hermite => "hermite",
+                                LateralBlend::Linear => "linear",
+                            })
+                            .join(","),
+                    ),
                     ("murk:chart_e1".into(), vec_text(chart.e1)),
                     ("murk:chart_e2".into(), vec_text(chart.e2)),
                     ("murk:chart_e3".into(), vec_text(chart.e3)),
@@ -114,32 +149,34 @@ pub fn write(
                     .iter()
                     .map(|b| (b.key, b.level as f32 + 1.0))
                     .collect(),
-                metadata: meta(None),
+                metadata: meta(None, "level + 1 of each brick of the shadow map"),
             });
             for level in 0..LEVELS as u8 {
                 let n = 1i32 << level;
                 let m = side(level);
-                let mut voxels = Vec::new();
-                for b in cm.bricks.iter().filter(|b| b.level == level) {
-                    let v = cm.brick_values(b);
-                    for k in 0..m {
-                        for j in 0..m {
-                            for i in 0..m {
-                                let ijk = b.key * n + IVec3::new(i as i32, j as i32, k as i32);
-                                voxels.push((ijk, v[i + m * (j + m * k)]));
+                for (suffix, plane, quantity) in STORED {
+                    let mut voxels = Vec::new();
+                    for b in cm.bricks.iter().filter(|b| b.level == level) {
+                        let v = cm.brick_planes(b)[plane];
+                        for k in 0..m {
+                            for j in 0..m {
+                                for i in 0..m {
+                                    let ijk = b.key * n + IVec3::new(i as i32, j as i32, k as i32);
+                                    voxels.push((ijk, v[i + m * (j + m * k)]));
+                                }
                             }
                         }
                     }
+                    if voxels.is_empty() {
+                        break;
+                    }
+                    grids.push(FloatGridOut {
+                        name: grid_name(&light.name, ci, &format!("L{level}{suffix}")),
+                        index_to_world: lattice_transform(chart, spacing(level)),
+                        voxels,
+                        metadata: meta(Some(level), quantity),
+                    });
                 }
-                if voxels.is_empty() {
-                    continue;
-                }
-                grids.push(FloatGridOut {
-                    name: grid_name(&light.name, ci, &format!("L{level}")),
-                    index_to_world: lattice_transform(chart, spacing(level)),
-                    voxels,
-                    metadata: meta(Some(level)),
-                });
             }
         }
     }
@@ -234,7 +271,8 @@ pub fn read(
                 .and_then(|v| v.parse::<usize>().ok())
                 .unwrap_or(0);
             let bricks_grid = VoxelGrid::load(&file, &name)?;
-            let mut levels: Vec<Option<VoxelGrid>> = vec![None; LEVELS];
+            // Per level: its stored grids, in STORED order.
+            let mut levels: Vec<Option<[VoxelGrid; 4]>> = vec![None; LEVELS];
             let mut bricks = Vec::new();
             let keys = active_voxels(&bricks_grid)
                 .ok_or_else(|| bad(format!("grid {name}: its bricks span too large a region")))?;
@@ -248,22 +286,37 @@ pub fn read(
                 }
                 let level = level as u8;
                 if levels[level as usize].is_none() {
-                    levels[level as usize] = Some(VoxelGrid::load(
-                        &file,
-                        &grid_name(&light.name, ci, &format!("L{level}")),
-                    )?);
+                    // τ is never negative; its slopes are signed.
+                    let load = |(suffix, plane, _): (&str, usize, &str)| {
+                        let name = grid_name(&light.name, ci, &format!("L{level}{suffix}"));
+                        if plane == 0 {
+                            VoxelGrid::load(&file, &name)
+                        } else {
+                            VoxelGrid::load_signed(&file, &name)
+                        }
+                    };
+                    levels[level as usize] = Some([
+                        load(STORED[0])?,
+                        load(STORED[1])?,
+                        load(STORED[2])?,
+                        load(STORED[3])?,
+                    ]);
                 }
-                let g = levels[level as usize].as_ref().expect("loaded above");
+                let [tau, tau_x, tau_y, tau_xy] =
+                    levels[level as usize].as_ref().expect("loaded above");
                 let n = 1i32 << level;
                 let m = side(level);
-                let mut samples = BrickSamples::default();
+                let mut samples = BrickSamples::with_capacity(m * m * m);
                 for k in 0..m {
                     for j in 0..m {
                         for i in 0..m {
                             let ijk = key * n + IVec3::new(i as i32, j as i32, k as i32);
-                            samples.tau.push(g.voxel_value(ijk, 0));
+                            samples.tau.push(tau.voxel_value(ijk, 0));
                             let q = ijk.as_dvec3() * spacing(level);
                             samples.rho.push(density.value_at_world(chart.to_world(q)));
+                            samples.tau_x.push(tau_x.voxel_value(ijk, 0));
+                            samples.tau_y.push(tau_y.voxel_value(ijk, 0));
+                            samples.tau_xy.push(tau_xy.voxel_value(ijk, 0));
                         }
                     }
                 }
@@ -313,11 +366,22 @@ fn chart_from(meta: &BTreeMap<String, String>) -> Option<Chart> {
         },
         _ => return None,
     };
+    let blend = |s: &str| match s {
+        "linear" => Some(LateralBlend::Linear),
+        "hermite" => Some(LateralBlend::Hermite),
+        _ => None,
+    };
+    let lateral = match meta.get("murk:lateral_blend").map(|s| s.split_once(',')) {
+        Some(Some((x, y))) => [blend(x)?, blend(y)?],
+        Some(None) => return None,
+        None => [LateralBlend::Hermite; 2],
+    };
     let orthonormal = [e1, e2, e3].iter().all(|e| (e.length() - 1.0).abs() < 1e-9)
         && e1.dot(e2).abs() < 1e-9
         && e1.dot(e3).abs() < 1e-9;
     orthonormal.then_some(Chart {
         kind,
+        lateral,
         e1,
         e2,
         e3,

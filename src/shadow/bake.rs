@@ -7,17 +7,21 @@
 //!    lateral lattice position and brick stack, integrated exactly (two-point
 //!    Gauss–Legendre per voxel crossing) and read off at every sample depth on the way,
 //!    so each sample reuses the sum of the one before it.
+//!    Four more columns, at `(x ± ε, y ± ε)`, give τ's slopes across the light and its
+//!    twist by central differences (ε = 1/64 step: τ is C¹, its second derivatives are
+//!    bounded, so these are averages over a 1/32-step square).
 //! 3. Adaptivity: each brick is tried at level 0 (one sample per corner). Its samples at
 //!    the next level are computed, and the coarse level is kept if the map's
-//!    reconstruction from it (Hermite along the column, bilinear across) reproduces them
-//!    within half the tolerance, in transmittance `e^{−σt·∫ρ ds}` for every channel.
-//!    Otherwise the brick moves one level finer, down to one lattice step. Deep inside a thick cloud transmittance is small, so errors in
+//!    reconstruction from it ([`reconstruct`]: Hermite along the column and across)
+//!    reproduces them within half the tolerance, in transmittance `e^{−σt·∫ρ ds}` for
+//!    every channel. Otherwise the brick moves one level finer, down to the finest level
+//!    the tolerance allows. Deep inside a thick cloud transmittance is small, so errors in
 //!    optical depth cost little there and the bricks stay coarse.
 
 use super::chart::{Chart, Column};
 use super::map::{
-    BRICK, BrickSamples, ChartMap, ChartSelect, LEVELS, MAX_LEVEL, ShadowMap, hermite, side,
-    spacing,
+    BRICK, BrickSamples, ChartMap, ChartSelect, LEVELS, MAX_LEVEL, ShadowMap, VOXEL_LEVEL,
+    reconstruct, side, spacing,
 };
 use super::march::exact_integral;
 use crate::accel::{IndexRay, Spans, nonzero_blocks};
@@ -26,8 +30,10 @@ use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use std::collections::{BTreeMap, HashSet};
 
-/// The level whose samples are one lattice step (one voxel) apart.
-const VOXEL_LEVEL: u8 = 4;
+/// Lateral offset (lattice steps) of the four columns whose differences give τ's slopes
+/// and twist across the light.
+const SLOPE_OFFSET: f64 = 1.0 / 64.0;
+const CHECK_FRACTION: f64 = 0.5;
 
 /// Where a light is, as far as shadows care.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,7 +69,7 @@ pub struct BakeSettings {
     pub max_level: u8,
     /// Largest number of bricks (over all charts) before the lattice is made coarser.
     pub max_bricks: usize,
-    /// Largest number of values held before refinement stops.
+    /// Largest number of samples held before refinement stops.
     pub max_values: usize,
 }
 
@@ -74,21 +80,18 @@ impl BakeSettings {
             sigma_t,
             max_level: finest_level(tolerance),
             max_bricks: 4 << 20,
-            max_values: 64 << 20,
+            max_values: 16 << 20,
         }
     }
 }
 
-/// The finest level a bake at `tolerance` may refine to. Down to 1e-3 (the default) one
-/// sample per voxel: on the demo cloud that bounds the mean transmittance error by about
-/// 2e-3, and the error left sits where τ has a kink across the light (columns grazing a
-/// density edge), which bilinear interpolation fits only linearly in the spacing. Tighter
-/// tolerances buy half (below 1e-3) and a quarter (below 1e-4) of a voxel in the bricks
-/// that still fail, at up to 8× and 64× their memory.
+/// The finest level a bake at `tolerance` may refine to. Down to 1e-3 (the default) half
+/// a voxel: with the map's Hermite blend that holds the fixtures' transmittance error
+/// under 1e-3 at every point measured (one sample per voxel misses it at 1–8 % of the
+/// points, where τ curves sharply across the light). Tighter tolerances may go to a
+/// quarter voxel in the bricks that still fail.
 pub fn finest_level(tolerance: f64) -> u8 {
     if tolerance >= 1e-3 {
-        VOXEL_LEVEL
-    } else if tolerance >= 1e-4 {
         VOXEL_LEVEL + 1
     } else {
         MAX_LEVEL
@@ -161,6 +164,7 @@ fn block_corners(density: &dyn Field, limit: usize) -> Option<Vec<[DVec3; 8]>> {
 
 /// The charts of a light around the blocks, with the lateral limit of each.
 fn charts_for(
+    density: &dyn Field,
     light: LightGeometry,
     blocks: &[[DVec3; 8]],
     unit: f64,
@@ -173,7 +177,10 @@ fn charts_for(
     let center = (lo + hi) * 0.5;
     match light {
         LightGeometry::Sun { travel } => (
-            vec![Chart::parallel(travel, center, unit)],
+            vec![
+                Chart::voxel_aligned(travel, density.transform(), center, unit)
+                    .unwrap_or_else(|| Chart::parallel(travel, center, unit)),
+            ],
             ChartSelect::Single,
             f64::INFINITY,
         ),
@@ -214,7 +221,7 @@ fn bake_at(
     unit: f64,
 ) -> Option<(ShadowMap, BakeReport)> {
     let blocks = block_corners(density, settings.max_bricks)?;
-    let (charts, select, lateral_limit) = charts_for(light, &blocks, unit);
+    let (charts, select, lateral_limit) = charts_for(density, light, &blocks, unit);
     let mut report = BakeReport {
         lattice_step: unit,
         charts: charts.len(),
@@ -290,54 +297,47 @@ fn channels(sigma_t: DVec3) -> Vec<f64> {
     v
 }
 
-/// Largest transmittance error of reconstructing `fine` (level ℓ+1 samples) from its
-/// even-index samples (level ℓ), as the map would: Hermite along the column (z), with
-/// the slope `ρ × step`, and bilinear across.
-fn coarse_error(fine: &BrickSamples, level_fine: u8, unit: f64, sigmas: &[f64]) -> f64 {
+/// Largest transmittance error of reconstructing `fine` (level ℓ+1 samples) from
+/// `coarse` (its even-index samples, level ℓ) as the map would ([`reconstruct`]).
+fn coarse_error(
+    fine: &BrickSamples,
+    coarse: &BrickSamples,
+    level_fine: u8,
+    chart: &Chart,
+    sigmas: &[f64],
+) -> f64 {
     let m = side(level_fine);
-    let idx = |i: usize, j: usize, k: usize| i + m * (j + m * k);
-    // World length of one coarse step along the column.
-    let step = 2.0 * spacing(level_fine) * unit;
-    let (h00, h10, h01, h11) = hermite(0.5);
-    // τ reconstructed on column (i, j) (both even) at fine depth k.
-    let column = |i: usize, j: usize, k: usize| -> f64 {
-        if k.is_multiple_of(2) {
-            return fine.tau[idx(i, j, k)] as f64;
-        }
-        let (a, b) = (idx(i, j, k - 1), idx(i, j, k + 1));
-        h00 * fine.tau[a] as f64
-            + h01 * fine.tau[b] as f64
-            + step * (h10 * fine.rho[a] as f64 + h11 * fine.rho[b] as f64)
-    };
-    // Even neighbours of an index: itself if even, else both sides.
-    let nb = |i: usize| {
-        if i.is_multiple_of(2) {
-            [i, i]
-        } else {
-            [i - 1, i + 1]
-        }
-    };
+    let mc = side(level_fine - 1);
+    let h = spacing(level_fine - 1);
+    let planes = coarse.planes();
+    // The coarse cell holding fine index i, and the place in it (0, ½ or 1).
+    let cell = |i: usize| (i / 2).min(mc - 2);
+    let frac = |i: usize| (i as f64 - 2.0 * cell(i) as f64) / 2.0;
     let mut worst: f64 = 0.0;
     for k in 0..m {
         for j in 0..m {
             for i in 0..m {
+                let at = i + m * (j + m * k);
                 // At voxel spacing and finer, only where there is density, and on the
                 // bottom face (points downstream of the brick read it): nothing else looks
                 // the map up. (Coarser samples could step over density: all count.)
                 if (i % 2 == 0 && j % 2 == 0 && k % 2 == 0)
-                    || (level_fine >= VOXEL_LEVEL && k + 1 < m && fine.rho[idx(i, j, k)] <= 0.0)
+                    || (level_fine >= VOXEL_LEVEL && k + 1 < m && fine.rho[at] <= 0.0)
                 {
                     continue;
                 }
-                let mut sum = 0.0;
-                for y in nb(j) {
-                    for x in nb(i) {
-                        sum += column(x, y, k);
-                    }
-                }
-                let (coarse, exact) = (sum / 4.0, fine.tau[idx(i, j, k)] as f64);
+                let got = reconstruct(
+                    planes,
+                    mc,
+                    [cell(i), cell(j), cell(k)],
+                    DVec3::new(frac(i), frac(j), frac(k)),
+                    h,
+                    chart.unit,
+                    chart.lateral,
+                );
+                let exact = fine.tau[at] as f64;
                 for &s in sigmas {
-                    worst = worst.max(((-s * coarse).exp() - (-s * exact).exp()).abs());
+                    worst = worst.max(((-s * got).exp() - (-s * exact).exp()).abs());
                 }
             }
         }
@@ -349,16 +349,11 @@ fn coarse_error(fine: &BrickSamples, level_fine: u8, unit: f64, sigmas: &[f64]) 
 fn coarsen(fine: &BrickSamples, level_fine: u8) -> BrickSamples {
     let m = side(level_fine);
     let mc = side(level_fine - 1);
-    let mut out = BrickSamples {
-        tau: Vec::with_capacity(mc * mc * mc),
-        rho: Vec::with_capacity(mc * mc * mc),
-    };
+    let mut out = BrickSamples::with_capacity(mc * mc * mc);
     for k in 0..mc {
         for j in 0..mc {
             for i in 0..mc {
-                let f = 2 * i + m * (2 * j + m * 2 * k);
-                out.tau.push(fine.tau[f]);
-                out.rho.push(fine.rho[f]);
+                out.push_sample(fine, 2 * i + m * (2 * j + m * 2 * k));
             }
         }
     }
@@ -393,15 +388,16 @@ fn refine(
         let fine_level = trial + 1;
         let mut next = Vec::new();
         for (key, fine) in pending {
+            let coarse = coarsen(&fine, fine_level);
             if sigmas.is_empty()
-                || coarse_error(&fine, fine_level, chart.unit, &sigmas) <= 0.5 * settings.tolerance
+                || coarse_error(&fine, &coarse, fine_level, chart, &sigmas)
+                    <= CHECK_FRACTION * settings.tolerance
             {
-                let coarse = coarsen(&fine, fine_level);
-                held += coarse.tau.len();
+                held += coarse.len();
                 done.push((key, trial, coarse));
             } else if fine_level >= max_level {
                 report.bricks_over_tolerance += 1;
-                held += fine.tau.len();
+                held += fine.len();
                 done.push((key, fine_level, fine));
             } else {
                 next.push((key, fine));
@@ -451,11 +447,7 @@ fn sample_level(
     let results: Vec<Vec<(usize, BrickSamples)>> = stacks
         .par_iter()
         .map(|((bx, by), bricks)| {
-            let blank = BrickSamples {
-                tau: vec![0f32; m * m * m],
-                rho: vec![0f32; m * m * m],
-            };
-            let mut values = vec![blank; bricks.len()];
+            let mut values = vec![BrickSamples::zeros(m * m * m); bricks.len()];
             let start = stack_start.get(&(*bx, *by)).copied().unwrap_or(bricks[0].0) as f64 * b;
             let mut depths = Vec::with_capacity(bricks.len() * m);
             for &(bz, _) in bricks {
@@ -463,25 +455,35 @@ fn sample_level(
                     depths.push((bz as f64 * b + k as f64 * s) * chart.unit);
                 }
             }
-            let mut sums = Vec::with_capacity(depths.len());
+            let t0 = match chart.kind {
+                super::chart::ChartKind::Parallel { .. } => start * chart.unit,
+                super::chart::ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
+            };
+            // The column and its four neighbours at (±ε, ±ε): ++, +−, −+, −−.
+            let e = SLOPE_OFFSET;
+            let offsets = [(0.0, 0.0), (e, e), (e, -e), (-e, e), (-e, -e)];
+            let mut sums: [Vec<(f64, f64)>; 5] =
+                std::array::from_fn(|_| Vec::with_capacity(depths.len()));
             for j in 0..m {
                 for i in 0..m {
                     let x = *bx as f64 * b + i as f64 * s;
                     let y = *by as f64 * b + j as f64 * s;
-                    sums.clear();
-                    let column = chart.column(x, y);
-                    let t0 = match chart.kind {
-                        super::chart::ChartKind::Parallel { .. } => start * chart.unit,
-                        super::chart::ChartKind::Perspective { .. } => {
-                            (start * chart.unit).max(0.0)
-                        }
-                    };
-                    cumulative_integrals(density, column, t0, &depths, &mut sums);
+                    for (c, (sum, (ox, oy))) in sums.iter_mut().zip(offsets).enumerate() {
+                        sum.clear();
+                        let column = chart.column(x + ox, y + oy);
+                        cumulative_integrals(density, column, t0, &depths, c == 0, sum);
+                    }
                     for (n, v) in values.iter_mut().enumerate() {
                         for k in 0..m {
-                            let (tau, rho) = sums[n * m + k];
-                            v.tau[i + m * (j + m * k)] = tau as f32;
-                            v.rho[i + m * (j + m * k)] = rho as f32;
+                            let d = n * m + k;
+                            let at = i + m * (j + m * k);
+                            let (tau, rho) = sums[0][d];
+                            let [pp, pm, mp, mm] = [1, 2, 3, 4].map(|c| sums[c][d].0);
+                            v.tau[at] = tau as f32;
+                            v.rho[at] = rho as f32;
+                            v.tau_x[at] = ((pp + pm - mp - mm) / (4.0 * e)) as f32;
+                            v.tau_y[at] = ((pp - pm + mp - mm) / (4.0 * e)) as f32;
+                            v.tau_xy[at] = ((pp - pm - mp + mm) / (4.0 * e * e)) as f32;
                         }
                     }
                 }
@@ -489,7 +491,7 @@ fn sample_level(
             bricks.iter().map(|&(_, idx)| idx).zip(values).collect()
         })
         .collect();
-    report.columns += (stacks.len() * m * m) as u64;
+    report.columns += (stacks.len() * m * m * 5) as u64;
     let mut out = vec![BrickSamples::default(); keys.len()];
     for (idx, v) in results.into_iter().flatten() {
         out[idx] = v;
@@ -498,17 +500,24 @@ fn sample_level(
 }
 
 /// `(∫ρ dt, ρ)` along `column` from `t_start` to each of `targets` (ascending): the
-/// integral exact, the density at the target.
+/// integral exact, the density at the target (0 unless `with_density`).
 pub fn cumulative_integrals(
     density: &dyn Field,
     column: Column,
     t_start: f64,
     targets: &[f64],
+    with_density: bool,
     out: &mut Vec<(f64, f64)>,
 ) {
     let Some(&t_end) = targets.last() else { return };
     let ray = IndexRay::new(density, column.origin, column.dir);
-    let rho_at = |t: f64| density.value_at_index(ray.at(t)) as f64;
+    let rho_at = |t: f64| {
+        if with_density {
+            density.value_at_index(ray.at(t)) as f64
+        } else {
+            0.0
+        }
+    };
     let mut sum = 0.0;
     let mut k = 0;
     if t_end > t_start {

@@ -22,10 +22,25 @@ pub enum ChartKind {
     Perspective { light: DVec3, scale: f64 },
 }
 
+/// How a map blends τ across the light, between its columns, along one lateral axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LateralBlend {
+    /// Bicubic Hermite from τ and its stored slopes: for columns at any angle to the
+    /// density's voxels, where τ is C¹ across the light.
+    Hermite,
+    /// Linear: along a lateral axis that is a voxel axis perpendicular to the light, with
+    /// the columns through the voxel centres. The light then never crosses that axis's
+    /// voxel faces, so τ is exactly linear along it between the centres and has kinks at
+    /// them, which Hermite slopes would blur.
+    Linear,
+}
+
 /// One light-space chart. `e3` points along the columns (away from the light).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Chart {
     pub kind: ChartKind,
+    /// The blend along `e1` and along `e2`.
+    pub lateral: [LateralBlend; 2],
     pub e1: DVec3,
     pub e2: DVec3,
     pub e3: DVec3,
@@ -55,6 +70,7 @@ impl Chart {
         let (e1, e2, e3) = frame_around(travel);
         Chart {
             kind: ChartKind::Parallel { origin },
+            lateral: [LateralBlend::Hermite; 2],
             e1,
             e2,
             e3,
@@ -62,10 +78,57 @@ impl Chart {
         }
     }
 
+    /// The chart of a sun whose light is parallel to the faces of the density's voxels
+    /// along one or two of their axes: those axes become lateral axes with columns
+    /// through the voxel centres, one lattice step per voxel, blended linearly (along
+    /// both when the light travels along a voxel axis). `None` unless the index→world map
+    /// is a rotation and a uniform scale of `unit` and the light is parallel to some
+    /// voxel faces.
+    pub fn voxel_aligned(
+        travel: DVec3,
+        transform: &crate::field::IndexToWorld,
+        near: DVec3,
+        unit: f64,
+    ) -> Option<Chart> {
+        let o = transform.index_to_world(DVec3::ZERO);
+        let axes = [DVec3::X, DVec3::Y, DVec3::Z].map(|a| transform.index_to_world(a) - o);
+        let uniform = axes
+            .iter()
+            .all(|a| (a.length() - unit).abs() <= 1e-9 * unit);
+        let orthogonal = (0..3).all(|i| axes[i].dot(axes[(i + 1) % 3]).abs() <= 1e-9 * unit * unit);
+        if !(uniform && orthogonal) {
+            return None;
+        }
+        let e3 = travel.normalize();
+        let across: Vec<usize> = (0..3)
+            .filter(|&k| (axes[k].dot(e3) / unit).abs() <= 1e-12)
+            .collect();
+        let (e1, lateral) = match across.as_slice() {
+            [k] => (
+                axes[*k] / unit,
+                [LateralBlend::Linear, LateralBlend::Hermite],
+            ),
+            [k, _] => (axes[*k] / unit, [LateralBlend::Linear; 2]),
+            _ => return None,
+        };
+        let e2 = e3.cross(e1);
+        // A voxel centre near `near`, so lattice coordinates stay small.
+        let origin = transform.index_to_world(transform.world_to_index(near).round());
+        Some(Chart {
+            kind: ChartKind::Parallel { origin },
+            lateral,
+            e1,
+            e2,
+            e3,
+            unit,
+        })
+    }
+
     /// A perspective chart from `light` looking along `axis`, one step ≤ `unit` within `r_max`.
     pub fn perspective(light: DVec3, axis: DVec3, r_max: f64, unit: f64) -> Chart {
         let (e1, e2, e3) = frame_around(axis);
         Chart {
+            lateral: [LateralBlend::Hermite; 2],
             kind: ChartKind::Perspective {
                 light,
                 scale: (r_max / unit).max(1.0),
