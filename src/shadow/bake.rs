@@ -7,9 +7,10 @@
 //!    lateral lattice position and brick stack, integrated exactly (two-point
 //!    Gauss–Legendre per voxel crossing) and read off at every sample depth on the way,
 //!    so each sample reuses the sum of the one before it.
-//!    Four more columns, at `(x ± ε, y ± ε)`, give τ's slopes across the light and its
-//!    twist by central differences (ε = 1/64 step: τ is C¹, its second derivatives are
-//!    bounded, so these are averages over a 1/32-step square).
+//!    Up to three more columns, at `(x + ε, y)`, `(x, y + ε)` and `(x + ε, y + ε)`, give
+//!    τ's slopes across the light and its twist by forward differences (ε = 1/1024 step:
+//!    τ is C¹ and its second derivatives are bounded, so these are off by O(ε)), only
+//!    along the lateral axes the chart blends with Hermite.
 //! 3. Adaptivity: each brick is tried at level 0 (one sample per corner). Its samples at
 //!    the next level are computed, and the coarse level is kept if the map's
 //!    reconstruction from it ([`reconstruct`]: Hermite along the column and across)
@@ -18,7 +19,7 @@
 //!    the tolerance allows. Deep inside a thick cloud transmittance is small, so errors in
 //!    optical depth cost little there and the bricks stay coarse.
 
-use super::chart::{Chart, Column};
+use super::chart::{Chart, Column, LateralBlend};
 use super::map::{
     BRICK, BrickSamples, ChartMap, ChartSelect, LEVELS, MAX_LEVEL, ShadowMap, VOXEL_LEVEL,
     reconstruct, side, spacing,
@@ -32,7 +33,7 @@ use std::collections::{BTreeMap, HashSet};
 
 /// Lateral offset (lattice steps) of the four columns whose differences give τ's slopes
 /// and twist across the light.
-const SLOPE_OFFSET: f64 = 1.0 / 64.0;
+const SLOPE_OFFSET: f64 = 1.0 / 1024.0;
 const CHECK_FRACTION: f64 = 0.5;
 
 /// Where a light is, as far as shadows care.
@@ -459,10 +460,13 @@ fn sample_level(
                 super::chart::ChartKind::Parallel { .. } => start * chart.unit,
                 super::chart::ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
             };
-            // The column and its four neighbours at (±ε, ±ε): ++, +−, −+, −−.
+            // The column and its neighbours at (ε, 0), (0, ε) and (ε, ε), those the blend
+            // needs: slopes only along Hermite axes, the twist only if both are.
             let e = SLOPE_OFFSET;
-            let offsets = [(0.0, 0.0), (e, e), (e, -e), (-e, e), (-e, -e)];
-            let mut sums: [Vec<(f64, f64)>; 5] =
+            let [hx, hy] = chart.lateral.map(|b| b == LateralBlend::Hermite);
+            let offsets = [(0.0, 0.0), (e, 0.0), (0.0, e), (e, e)];
+            let wanted = [true, hx, hy, hx && hy];
+            let mut sums: [Vec<(f64, f64)>; 4] =
                 std::array::from_fn(|_| Vec::with_capacity(depths.len()));
             for j in 0..m {
                 for i in 0..m {
@@ -470,20 +474,23 @@ fn sample_level(
                     let y = *by as f64 * b + j as f64 * s;
                     for (c, (sum, (ox, oy))) in sums.iter_mut().zip(offsets).enumerate() {
                         sum.clear();
-                        let column = chart.column(x + ox, y + oy);
-                        cumulative_integrals(density, column, t0, &depths, c == 0, sum);
+                        if wanted[c] {
+                            let column = chart.column(x + ox, y + oy);
+                            cumulative_integrals(density, column, t0, &depths, c == 0, sum);
+                        }
                     }
                     for (n, v) in values.iter_mut().enumerate() {
                         for k in 0..m {
                             let d = n * m + k;
                             let at = i + m * (j + m * k);
                             let (tau, rho) = sums[0][d];
-                            let [pp, pm, mp, mm] = [1, 2, 3, 4].map(|c| sums[c][d].0);
+                            let at_offset = |c: usize| if wanted[c] { sums[c][d].0 } else { tau };
+                            let [px, py, pxy] = [1, 2, 3].map(at_offset);
                             v.tau[at] = tau as f32;
                             v.rho[at] = rho as f32;
-                            v.tau_x[at] = ((pp + pm - mp - mm) / (4.0 * e)) as f32;
-                            v.tau_y[at] = ((pp - pm + mp - mm) / (4.0 * e)) as f32;
-                            v.tau_xy[at] = ((pp - pm - mp + mm) / (4.0 * e * e)) as f32;
+                            v.tau_x[at] = ((px - tau) / e) as f32;
+                            v.tau_y[at] = ((py - tau) / e) as f32;
+                            v.tau_xy[at] = ((pxy - px - py + tau) / (e * e)) as f32;
                         }
                     }
                 }
@@ -491,7 +498,13 @@ fn sample_level(
             bricks.iter().map(|&(_, idx)| idx).zip(values).collect()
         })
         .collect();
-    report.columns += (stacks.len() * m * m * 5) as u64;
+    let per_column = 1 + chart
+        .lateral
+        .iter()
+        .filter(|b| **b == LateralBlend::Hermite)
+        .count();
+    let per_column = per_column + usize::from(per_column == 3);
+    report.columns += (stacks.len() * m * m * per_column) as u64;
     let mut out = vec![BrickSamples::default(); keys.len()];
     for (idx, v) in results.into_iter().flatten() {
         out[idx] = v;
