@@ -282,11 +282,29 @@ impl VoxelGrid {
             });
         }
         let i = IVec3::new(floor_i32(p.x), floor_i32(p.y), floor_i32(p.z));
-        let t = p - i.as_dvec3();
+        self.stencil_in(i, p - i.as_dvec3(), c, &mut LeafCache::new())
+    }
+
+    /// The slot of the 8³ block holding global voxel `g`, from `cache` when the last
+    /// lookup was in the same block.
+    #[inline(always)]
+    fn lookup_cached(&self, g: IVec3, cache: &mut LeafCache) -> Slot {
+        let key = g >> 3_i32;
+        if key != cache.key {
+            cache.slot = self.lookup(g);
+            cache.key = key;
+        }
+        cache.slot
+    }
+
+    /// [`VoxelGrid::stencil`] of the cell whose lowest corner is local voxel `i`, at
+    /// fraction `t` in it (`c` a valid channel, `i` within the lookup limit).
+    #[inline(always)]
+    fn stencil_in(&self, i: IVec3, t: DVec3, c: usize, cache: &mut LeafCache) -> Stencil {
         let g = i + self.transform.origin;
         let ch = self.channels;
         let mut v = [0.0f32; 8];
-        let base_slot = self.lookup(g);
+        let base_slot = self.lookup_cached(g, cache);
         if (g.x & 7) != 7 && (g.y & 7) != 7 && (g.z & 7) != 7 {
             // All eight corners in one leaf or tile.
             match base_slot {
@@ -435,6 +453,21 @@ fn floor_i32(x: f64) -> i32 {
     i - ((x < i as f64) as i32)
 }
 
+/// The block (`global >> 3`) and slot of the last lookup along a ray.
+struct LeafCache {
+    key: IVec3,
+    slot: Slot,
+}
+
+impl LeafCache {
+    fn new() -> Self {
+        LeafCache {
+            key: IVec3::MIN,
+            slot: Slot::Tile(0),
+        }
+    }
+}
+
 /// What a trilinear lookup needs: one value, or eight corners and the fraction.
 enum Stencil {
     Constant(f32),
@@ -497,32 +530,41 @@ impl Field for VoxelGrid {
         }
         let p = ray.at(t0);
         let d = ray.dir;
-        let mut cell = [0f64; 3];
+        let mut start = [0f64; 3];
         let mut budget = 16.0;
         for a in 0..3 {
-            cell[a] = if d[a] < 0.0 {
+            start[a] = if d[a] < 0.0 {
                 p[a].ceil() - 1.0
             } else {
                 p[a].floor()
             };
             budget += (d[a] * (t1 - t0)).abs() + 1.0;
         }
-        if !(budget < 1e8) {
+        if !(budget < 1e8) || !(p.abs().max_element() < LOOKUP_LIMIT - 1e8) {
             return gauss_legendre_2(|t| self.sample_channel_f64(ray.at(t), 0), t0, t1);
         }
-        let face_t = |cell: &[f64; 3], a: usize| -> f64 {
+        let mut cell = IVec3::new(start[0] as i32, start[1] as i32, start[2] as i32);
+        let step = IVec3::new(
+            d.x.signum() as i32,
+            d.y.signum() as i32,
+            d.z.signum() as i32,
+        );
+        let inv = DVec3::ONE / d;
+        // Where the ray leaves `cell` through its faces across axis `a`.
+        let face_t = |cell: IVec3, a: usize| -> f64 {
             if d[a] > 0.0 {
-                (cell[a] + 1.0 - ray.origin[a]) / d[a]
+                (cell[a] as f64 + 1.0 - ray.origin[a]) * inv[a]
             } else if d[a] < 0.0 {
-                (cell[a] - ray.origin[a]) / d[a]
+                (cell[a] as f64 - ray.origin[a]) * inv[a]
             } else {
                 f64::INFINITY
             }
         };
+        let mut cache = LeafCache::new();
         // One voxel cell: its eight corners are read once for both Gauss–Legendre nodes.
-        let cell_integral = |a: f64, b: f64| -> f64 {
-            let mid = 0.5 * (a + b);
-            match self.stencil(ray.at(mid), 0) {
+        let mut cell_integral = |cell: IVec3, a: f64, b: f64| -> f64 {
+            let mid = ray.at(0.5 * (a + b));
+            match self.stencil_in(cell, mid - cell.as_dvec3(), 0, &mut cache) {
                 Stencil::Constant(v) => v as f64 * (b - a),
                 Stencil::Corners(v, t) => {
                     let off = d * (GL2_HALF_OFFSET * (b - a));
@@ -530,13 +572,13 @@ impl Field for VoxelGrid {
                 }
             }
         };
+        let mut next = [face_t(cell, 0), face_t(cell, 1), face_t(cell, 2)];
         let mut t = t0;
         let mut sum = 0.0;
         for _ in 0..budget as u64 {
-            let next = [face_t(&cell, 0), face_t(&cell, 1), face_t(&cell, 2)];
             let tn = next[0].min(next[1]).min(next[2]).min(t1);
             if tn > t {
-                sum += cell_integral(t, tn);
+                sum += cell_integral(cell, t, tn);
                 t = tn;
             }
             if t >= t1 {
@@ -544,12 +586,13 @@ impl Field for VoxelGrid {
             }
             for a in 0..3 {
                 if next[a] <= t {
-                    cell[a] += d[a].signum();
+                    cell[a] += step[a];
+                    next[a] = face_t(cell, a);
                 }
             }
         }
         if t < t1 {
-            sum += cell_integral(t, t1);
+            sum += cell_integral(cell, t, t1);
         }
         sum
     }
