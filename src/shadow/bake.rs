@@ -1,7 +1,7 @@
 //! Baking a deep shadow map: which bricks exist, and at which level each one holds its
 //! values.
 //!
-//! 1. Every 16³-voxel block where the density is not zero (stencil included) is mapped
+//! 1. Every 8³-voxel block where the density is not zero (stencil included) is mapped
 //!    into each light-space chart; the bricks its lattice box touches exist.
 //! 2. Values are `∫ρ ds` from the light, computed by marching *columns*: one light ray per
 //!    lateral lattice position and brick stack, integrated exactly (two-point
@@ -86,13 +86,14 @@ impl BakeSettings {
     }
 }
 
-/// The finest level a bake at `tolerance` may refine to. Down to 1e-3 (the default) half
-/// a voxel: with the map's Hermite blend that holds the fixtures' transmittance error
-/// under 1e-3 at every point measured (one sample per voxel misses it at 1–8 % of the
-/// points, where τ curves sharply across the light). Tighter tolerances may go to a
-/// quarter voxel in the bricks that still fail.
+/// The finest level a bake at `tolerance` may refine to. With the map's Hermite blend,
+/// one sample per voxel leaves at most ~3.5e-3 of transmittance error on the fixtures
+/// (where τ curves sharply across the light), half a voxel ~6e-4 and a quarter ~1e-4:
+/// so one voxel from 5e-3 up, half a voxel down to 1e-3 (the default), a quarter below.
 pub fn finest_level(tolerance: f64) -> u8 {
-    if tolerance >= 1e-3 {
+    if tolerance >= 5e-3 {
+        VOXEL_LEVEL
+    } else if tolerance >= 1e-3 {
         VOXEL_LEVEL + 1
     } else {
         MAX_LEVEL
@@ -106,7 +107,7 @@ pub struct BakeReport {
     pub lattice_step: f64,
     pub charts: usize,
     pub bricks: usize,
-    /// Values held at each level (level 0 = one per 16³ brick corner).
+    /// Samples held at each level (0: one per 8³ brick corner; 3: one per voxel).
     pub points_per_level: Vec<u64>,
     /// Bricks kept at a level that did not meet the tolerance check (finest level, or the
     /// value budget ran out).
@@ -146,7 +147,7 @@ pub fn bake(
     }
 }
 
-/// The 8 world corners of every non-empty 16³ block of the density; `None` past `limit`.
+/// The 8 world corners of every non-empty 8³ block of the density; `None` past `limit`.
 fn block_corners(density: &dyn Field, limit: usize) -> Option<Vec<[DVec3; 8]>> {
     let tr = density.transform();
     let mut out = Vec::new();
