@@ -157,7 +157,7 @@ pub fn write(
                 for (suffix, plane, quantity) in STORED {
                     let mut voxels = Vec::new();
                     for b in cm.bricks.iter().filter(|b| b.level == level) {
-                        let v = cm.brick_planes(b)[plane];
+                        let v = cm.brick_quantity(b, plane);
                         for k in 0..m {
                             for j in 0..m {
                                 for i in 0..m {

@@ -312,6 +312,7 @@ fn coarse_error(
     let mc = side(level_fine - 1);
     let h = spacing(level_fine - 1);
     let planes = coarse.planes();
+    let planes = &planes;
     // The coarse cell holding fine index i, and the place in it (0, ½ or 1).
     let cell = |i: usize| (i / 2).min(mc - 2);
     let frac = |i: usize| (i as f64 - 2.0 * cell(i) as f64) / 2.0;

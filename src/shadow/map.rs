@@ -119,7 +119,42 @@ impl BrickSamples {
     }
 }
 
-/// τ inside one cell of a brick's samples. `planes` are the brick's quantities (as
+/// Read access to a brick's samples: quantity `q` (in [`BrickSamples::planes`] order) of
+/// sample `k`.
+pub trait Samples {
+    fn get(&self, q: usize, k: usize) -> f64;
+}
+
+impl Samples for [&[f32]; QUANTITIES] {
+    #[inline(always)]
+    fn get(&self, q: usize, k: usize) -> f64 {
+        self[q][k] as f64
+    }
+}
+
+/// A brick as the map stores it: τ in f32, the other quantities as 16-bit integers
+/// scaled per brick and quantity (τ needs f32's digits; the slopes enter the blend
+/// weighted by at most 0.15 of a sample step, where 1/65,534 of their range is noise).
+pub struct PackedBrick<'a> {
+    tau: &'a [f32],
+    /// Quantities 1..QUANTITIES, `n` each.
+    packed: &'a [i16],
+    scales: [f32; QUANTITIES - 1],
+    n: usize,
+}
+
+impl Samples for PackedBrick<'_> {
+    #[inline(always)]
+    fn get(&self, q: usize, k: usize) -> f64 {
+        if q == 0 {
+            self.tau[k] as f64
+        } else {
+            self.packed[(q - 1) * self.n + k] as f64 * self.scales[q - 1] as f64
+        }
+    }
+}
+
+/// τ inside one cell of a brick's samples. `samples` are the brick's quantities (as
 /// [`BrickSamples::planes`]), `m` its samples a side, `cell` the cell's lowest sample,
 /// `f` ∈ [0, 1]³ the point's place in the cell, `h` the lattice steps between samples
 /// and `unit` the world length of one step.
@@ -129,7 +164,7 @@ impl BrickSamples {
 /// (or linear along an axis where `lateral` says so).
 #[inline]
 pub fn reconstruct(
-    planes: [&[f32]; QUANTITIES],
+    samples: &impl Samples,
     m: usize,
     cell: [usize; 3],
     f: DVec3,
@@ -137,7 +172,6 @@ pub fn reconstruct(
     unit: f64,
     lateral: [LateralBlend; 2],
 ) -> f64 {
-    let [tau, rho, tau_x, tau_y, tau_xy] = planes;
     let base = cell[0] + m * (cell[1] + m * cell[2]);
     let dz = m * m;
     let (z0, zs0, z1, zs1) = hermite(f.z);
@@ -145,14 +179,13 @@ pub fn reconstruct(
     let step = h * unit;
     let column = |d: usize| -> [f64; 4] {
         let (a, b) = (base + d, base + d + dz);
-        let lin = |p: &[f32]| p[a] as f64 + (p[b] as f64 - p[a] as f64) * f.z;
+        let v = |q: usize, k: usize| samples.get(q, k);
+        let lin = |q: usize| v(q, a) + (v(q, b) - v(q, a)) * f.z;
         [
-            z0 * tau[a] as f64
-                + z1 * tau[b] as f64
-                + step * (zs0 * rho[a] as f64 + zs1 * rho[b] as f64),
-            h * lin(tau_x),
-            h * lin(tau_y),
-            h * h * lin(tau_xy),
+            z0 * v(0, a) + z1 * v(0, b) + step * (zs0 * v(1, a) + zs1 * v(1, b)),
+            h * lin(2),
+            h * lin(3),
+            h * h * lin(4),
         ]
     };
     let weights = |blend: LateralBlend, t: f64| match blend {
@@ -170,12 +203,15 @@ pub fn reconstruct(
         + corner(column(m + 1), (x1, xs1), (y1, ys1))
 }
 
-/// One brick: its lattice position (in bricks), its level and where its values start.
+/// One brick: its lattice position (in bricks), its level, where its samples start
+/// and the scales of its packed quantities.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Brick {
     pub key: IVec3,
     pub level: u8,
+    /// Index of its first τ sample; its packed quantities start at `(QUANTITIES − 1)×`.
     pub offset: u32,
+    scales: [f32; QUANTITIES - 1],
 }
 
 /// The bricks of one chart, with a dense table from brick position to brick.
@@ -186,8 +222,11 @@ pub struct ChartMap {
     dims: IVec3,
     slots: Vec<u32>,
     pub bricks: Vec<Brick>,
-    /// Per brick: its samples of each quantity in turn (τ, ρ, ∂τ/∂x, ∂τ/∂y, ∂²τ/∂x∂y).
-    pub values: Vec<f32>,
+    /// Per brick: its τ samples.
+    tau: Vec<f32>,
+    /// Per brick: its ρ, ∂τ/∂x, ∂τ/∂y and ∂²τ/∂x∂y samples in turn, packed (see
+    /// [`PackedBrick`]).
+    packed: Vec<i16>,
 }
 
 const NO_BRICK: u32 = u32::MAX;
@@ -220,7 +259,8 @@ impl ChartMap {
             dims,
             slots: vec![NO_BRICK; n],
             bricks: Vec::with_capacity(bricks.len()),
-            values: Vec::with_capacity(bricks.iter().map(|b| QUANTITIES * b.2.len()).sum()),
+            tau: Vec::with_capacity(bricks.iter().map(|b| b.2.len()).sum()),
+            packed: Vec::with_capacity(bricks.iter().map(|b| (QUANTITIES - 1) * b.2.len()).sum()),
         };
         for (key, level, samples) in bricks {
             let n = side(level).pow(3);
@@ -229,13 +269,28 @@ impl ChartMap {
             }
             let slot = map.slot_index(key)?;
             map.slots[slot] = map.bricks.len() as u32;
+            let planes = samples.planes();
+            let scales = std::array::from_fn(|q| {
+                let max = planes[q + 1].iter().fold(0f32, |m, v| m.max(v.abs()));
+                if max > 0.0 && max.is_finite() {
+                    max / i16::MAX as f32
+                } else {
+                    1.0
+                }
+            });
             map.bricks.push(Brick {
                 key,
                 level,
-                offset: map.values.len() as u32,
+                offset: u32::try_from(map.tau.len()).ok()?,
+                scales,
             });
-            for plane in samples.planes() {
-                map.values.extend_from_slice(plane);
+            map.tau.extend_from_slice(planes[0]);
+            for (plane, scale) in planes[1..].iter().zip(scales) {
+                map.packed.extend(plane.iter().map(|v| {
+                    (v / scale)
+                        .round()
+                        .clamp(-(i16::MAX as f32), i16::MAX as f32) as i16
+                }));
             }
         }
         Some(map)
@@ -330,7 +385,7 @@ impl ChartMap {
         let f = local - i;
         let i = i.as_uvec3();
         reconstruct(
-            self.brick_planes(brick),
+            &self.packed_brick(brick),
             side(brick.level),
             [i.x as usize, i.y as usize, i.z as usize],
             f,
@@ -342,7 +397,8 @@ impl ChartMap {
 
     /// Bytes held: values, bricks and the position table.
     pub fn memory_bytes(&self) -> usize {
-        self.values.len() * 4
+        self.tau.len() * 4
+            + self.packed.len() * 2
             + self.bricks.len() * std::mem::size_of::<Brick>()
             + self.slots.len() * 4
     }
@@ -356,11 +412,23 @@ impl ChartMap {
         n
     }
 
-    /// The samples of brick `b`, each quantity `side(level)³` long, x fastest.
-    pub fn brick_planes(&self, b: &Brick) -> [&[f32]; QUANTITIES] {
+    #[inline]
+    fn packed_brick(&self, b: &Brick) -> PackedBrick<'_> {
         let n = side(b.level).pow(3);
-        let all = &self.values[b.offset as usize..][..QUANTITIES * n];
-        std::array::from_fn(|k| &all[k * n..][..n])
+        let at = b.offset as usize;
+        PackedBrick {
+            tau: &self.tau[at..][..n],
+            packed: &self.packed[(QUANTITIES - 1) * at..][..(QUANTITIES - 1) * n],
+            scales: b.scales,
+            n,
+        }
+    }
+
+    /// Quantity `q` ([`BrickSamples::planes`] order) of brick `b`'s samples, as the map
+    /// holds them: `side(level)³` values, x fastest.
+    pub fn brick_quantity(&self, b: &Brick, q: usize) -> Vec<f32> {
+        let packed = self.packed_brick(b);
+        (0..packed.n).map(|k| packed.get(q, k) as f32).collect()
     }
 }
 
