@@ -8,9 +8,7 @@
 //! leaves also keep the range over the +1 voxel layer the trilinear stencil reaches, so
 //! the traversal can use them as majorants directly.
 
-use super::{
-    Cell, Field, GL2_HALF_OFFSET, IndexBox, IndexRay, IndexToWorld, ValueRange, gauss_legendre_2,
-};
+use super::{Cell, Field, IndexBox, IndexRay, IndexToWorld, ValueRange};
 use glam::{DVec3, IVec3, Vec3};
 
 pub(super) const CHILD: u32 = 1 << 31;
@@ -19,7 +17,7 @@ pub(super) const LOWER_SLOTS: usize = 4096;
 pub(super) const UPPER_SLOTS: usize = 32768;
 
 /// Largest local index magnitude looked up; beyond it everything is background.
-const LOOKUP_LIMIT: f64 = (1 << 30) as f64;
+pub(super) const LOOKUP_LIMIT: f64 = (1 << 30) as f64;
 
 /// Maps a 4096³ node key (`global >> 12`) to a root slot.
 #[derive(Clone, Debug)]
@@ -300,7 +298,13 @@ impl VoxelGrid {
     /// [`VoxelGrid::stencil`] of the cell whose lowest corner is local voxel `i`, at
     /// fraction `t` in it (`c` a valid channel, `i` within the lookup limit).
     #[inline(always)]
-    fn stencil_in(&self, i: IVec3, t: DVec3, c: usize, cache: &mut LeafCache) -> Stencil {
+    pub(super) fn stencil_in(
+        &self,
+        i: IVec3,
+        t: DVec3,
+        c: usize,
+        cache: &mut LeafCache,
+    ) -> Stencil {
         let g = i + self.transform.origin;
         let ch = self.channels;
         let mut v = [0.0f32; 8];
@@ -454,13 +458,13 @@ fn floor_i32(x: f64) -> i32 {
 }
 
 /// The block (`global >> 3`) and slot of the last lookup along a ray.
-struct LeafCache {
+pub(super) struct LeafCache {
     key: IVec3,
     slot: Slot,
 }
 
 impl LeafCache {
-    fn new() -> Self {
+    pub(super) fn new() -> Self {
         LeafCache {
             key: IVec3::MIN,
             slot: Slot::Tile(0),
@@ -469,14 +473,14 @@ impl LeafCache {
 }
 
 /// What a trilinear lookup needs: one value, or eight corners and the fraction.
-enum Stencil {
+pub(super) enum Stencil {
     Constant(f32),
     Corners([f32; 8], DVec3),
 }
 
 /// [`trilinear`] in f64.
 #[inline]
-fn trilinear_f64(v: &[f32; 8], t: DVec3) -> f64 {
+pub(super) fn trilinear_f64(v: &[f32; 8], t: DVec3) -> f64 {
     let lerp = |a: f64, b: f64, s: f64| a + (b - a) * s;
     let v = v.map(|x| x as f64);
     let c00 = lerp(v[0], v[1], t.z);
@@ -525,76 +529,19 @@ impl Field for VoxelGrid {
     }
 
     fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
-        if !(t1 > t0) || !t0.is_finite() || !t1.is_finite() {
-            return 0.0;
-        }
-        let p = ray.at(t0);
-        let d = ray.dir;
-        let mut start = [0f64; 3];
-        let mut budget = 16.0;
-        for a in 0..3 {
-            start[a] = if d[a] < 0.0 {
-                p[a].ceil() - 1.0
-            } else {
-                p[a].floor()
-            };
-            budget += (d[a] * (t1 - t0)).abs() + 1.0;
-        }
-        if !(budget < 1e8) || !(p.abs().max_element() < LOOKUP_LIMIT - 1e8) {
-            return gauss_legendre_2(|t| self.sample_channel_f64(ray.at(t), 0), t0, t1);
-        }
-        let mut cell = IVec3::new(start[0] as i32, start[1] as i32, start[2] as i32);
-        let step = IVec3::new(
-            d.x.signum() as i32,
-            d.y.signum() as i32,
-            d.z.signum() as i32,
-        );
-        let inv = DVec3::ONE / d;
-        // Where the ray leaves `cell` through its faces across axis `a`.
-        let face_t = |cell: IVec3, a: usize| -> f64 {
-            if d[a] > 0.0 {
-                (cell[a] as f64 + 1.0 - ray.origin[a]) * inv[a]
-            } else if d[a] < 0.0 {
-                (cell[a] as f64 - ray.origin[a]) * inv[a]
-            } else {
-                f64::INFINITY
-            }
-        };
-        let mut cache = LeafCache::new();
-        // One voxel cell: its eight corners are read once for both Gauss–Legendre nodes.
-        let mut cell_integral = |cell: IVec3, a: f64, b: f64| -> f64 {
-            let mid = ray.at(0.5 * (a + b));
-            match self.stencil_in(cell, mid - cell.as_dvec3(), 0, &mut cache) {
-                Stencil::Constant(v) => v as f64 * (b - a),
-                Stencil::Corners(v, t) => {
-                    let off = d * (GL2_HALF_OFFSET * (b - a));
-                    0.5 * (b - a) * (trilinear_f64(&v, t - off) + trilinear_f64(&v, t + off))
-                }
-            }
-        };
-        let mut next = [face_t(cell, 0), face_t(cell, 1), face_t(cell, 2)];
-        let mut t = t0;
-        let mut sum = 0.0;
-        for _ in 0..budget as u64 {
-            let tn = next[0].min(next[1]).min(next[2]).min(t1);
-            if tn > t {
-                sum += cell_integral(cell, t, tn);
-                t = tn;
-            }
-            if t >= t1 {
-                break;
-            }
-            for a in 0..3 {
-                if next[a] <= t {
-                    cell[a] += step[a];
-                    next[a] = face_t(cell, a);
-                }
-            }
-        }
-        if t < t1 {
-            sum += cell_integral(cell, t, t1);
-        }
-        sum
+        self.exact_integral(ray, t0, t1)
+    }
+
+    fn slopes_along(
+        &self,
+        ray: &IndexRay,
+        t0: f64,
+        targets: &[f64],
+        a: DVec3,
+        b: DVec3,
+        out: &mut Vec<[f64; 4]>,
+    ) -> bool {
+        VoxelGrid::slopes_along(self, ray, t0, targets, a, b, out)
     }
 
     fn range_over(&self, b: &IndexBox) -> ValueRange {

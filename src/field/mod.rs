@@ -12,6 +12,7 @@
 
 pub mod grid;
 pub mod grid_build;
+mod grid_integrals;
 pub mod procedural;
 pub mod random;
 pub mod shapes;
@@ -200,6 +201,23 @@ pub trait Field: Send + Sync {
     /// intervals short.
     fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
         gauss_legendre_2(|t| self.value_at_index(ray.at(t)) as f64, t0, t1)
+    }
+
+    /// Along `ray` from `t0` to each of `targets` (ascending, world units): `∫ρ dt` and
+    /// how it changes as the ray moves sideways by local index vectors `a` and `b`:
+    /// `[∫ρ, ∫∇ρ·a, ∫∇ρ·b, ∫aᵀ(∇∇ρ)b]` dt, pushed to `out`, the last with the kinks of
+    /// the field's interpolation. `false` (nothing pushed) where the field has no closed
+    /// form for them; the caller then differences neighbouring rays.
+    fn slopes_along(
+        &self,
+        _ray: &IndexRay,
+        _t0: f64,
+        _targets: &[f64],
+        _a: glam::DVec3,
+        _b: glam::DVec3,
+        _out: &mut Vec<[f64; 4]>,
+    ) -> bool {
+        false
     }
 
     /// How exact and how costly [`Field::integral`] is.

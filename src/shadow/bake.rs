@@ -19,7 +19,7 @@
 //!    the tolerance allows. Deep inside a thick cloud transmittance is small, so errors in
 //!    optical depth cost little there and the bricks stay coarse.
 
-use super::chart::{Chart, Column, LateralBlend};
+use super::chart::{Chart, ChartKind, Column, LateralBlend};
 use super::map::{
     BRICK, BrickSamples, ChartMap, ChartSelect, LEVELS, MAX_LEVEL, ShadowMap, VOXEL_LEVEL,
     reconstruct, side, spacing,
@@ -447,9 +447,11 @@ fn sample_level(
             (xy, v)
         })
         .collect();
-    let results: Vec<Vec<(usize, BrickSamples)>> = stacks
+    type Marched = (Vec<(usize, BrickSamples)>, u64);
+    let results: Vec<Marched> = stacks
         .par_iter()
         .map(|((bx, by), bricks)| {
+            let mut columns = 0u64;
             let mut values = vec![BrickSamples::zeros(m * m * m); bricks.len()];
             let start = stack_start.get(&(*bx, *by)).copied().unwrap_or(bricks[0].0) as f64 * b;
             let mut depths = Vec::with_capacity(bricks.len() * m);
@@ -459,24 +461,60 @@ fn sample_level(
                 }
             }
             let t0 = match chart.kind {
-                super::chart::ChartKind::Parallel { .. } => start * chart.unit,
-                super::chart::ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
+                ChartKind::Parallel { .. } => start * chart.unit,
+                ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
             };
-            // The column and its neighbours at (ε, 0), (0, ε) and (ε, ε), those the blend
-            // needs: slopes only along Hermite axes, the twist only if both are.
+            // A parallel chart's columns move sideways by e1, e2 (one lattice step each):
+            // fields with closed-form slopes give them along the column itself.
+            let sideways = match chart.kind {
+                ChartKind::Parallel { .. } => {
+                    let tr = density.transform();
+                    Some((
+                        tr.world_dir_to_index(chart.e1 * chart.unit),
+                        tr.world_dir_to_index(chart.e2 * chart.unit),
+                    ))
+                }
+                ChartKind::Perspective { .. } => None,
+            };
+            // Otherwise the column and its neighbours at (ε, 0), (0, ε) and (ε, ε), those
+            // the blend needs: slopes only along Hermite axes, the twist only if both are.
             let e = SLOPE_OFFSET;
             let [hx, hy] = chart.lateral.map(|b| b == LateralBlend::Hermite);
             let offsets = [(0.0, 0.0), (e, 0.0), (0.0, e), (e, e)];
             let wanted = [true, hx, hy, hx && hy];
             let mut sums: [Vec<(f64, f64)>; 4] =
                 std::array::from_fn(|_| Vec::with_capacity(depths.len()));
+            let mut slopes: Vec<[f64; 4]> = Vec::with_capacity(depths.len());
             for j in 0..m {
                 for i in 0..m {
                     let x = *bx as f64 * b + i as f64 * s;
                     let y = *by as f64 * b + j as f64 * s;
+                    let centre = chart.column(x, y);
+                    slopes.clear();
+                    let closed_form = sideways.is_some_and(|(a, b)| {
+                        let ray = IndexRay::new(density, centre.origin, centre.dir);
+                        density.slopes_along(&ray, t0, &depths, a, b, &mut slopes)
+                    });
+                    if closed_form {
+                        columns += 1;
+                        let ray = IndexRay::new(density, centre.origin, centre.dir);
+                        for (n, v) in values.iter_mut().enumerate() {
+                            for k in 0..m {
+                                let [tau, tau_x, tau_y, tau_xy] = slopes[n * m + k];
+                                let at = i + m * (j + m * k);
+                                v.tau[at] = tau as f32;
+                                v.rho[at] = density.value_at_index(ray.at(depths[n * m + k]));
+                                v.tau_x[at] = tau_x as f32;
+                                v.tau_y[at] = tau_y as f32;
+                                v.tau_xy[at] = tau_xy as f32;
+                            }
+                        }
+                        continue;
+                    }
                     for (c, (sum, (ox, oy))) in sums.iter_mut().zip(offsets).enumerate() {
                         sum.clear();
                         if wanted[c] {
+                            columns += 1;
                             let column = chart.column(x + ox, y + oy);
                             cumulative_integrals(density, column, t0, &depths, c == 0, sum);
                         }
@@ -497,19 +535,17 @@ fn sample_level(
                     }
                 }
             }
-            bricks.iter().map(|&(_, idx)| idx).zip(values).collect()
+            let out: Vec<(usize, BrickSamples)> =
+                bricks.iter().map(|&(_, idx)| idx).zip(values).collect();
+            (out, columns)
         })
         .collect();
-    let per_column = 1 + chart
-        .lateral
-        .iter()
-        .filter(|b| **b == LateralBlend::Hermite)
-        .count();
-    let per_column = per_column + usize::from(per_column == 3);
-    report.columns += (stacks.len() * m * m * per_column) as u64;
     let mut out = vec![BrickSamples::default(); keys.len()];
-    for (idx, v) in results.into_iter().flatten() {
-        out[idx] = v;
+    for (bricks, columns) in results {
+        report.columns += columns;
+        for (idx, v) in bricks {
+            out[idx] = v;
+        }
     }
     out
 }
