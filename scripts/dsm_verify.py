@@ -19,13 +19,13 @@ MURK = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "target", "relea
 FIXTURES = ["cloud", "levelset_fog", "pyro"]
 
 
-def verify(fixture, sun, tolerance):
+def verify(fixture, light, tolerance):
     with tempfile.TemporaryDirectory() as tmp:
         stats = os.path.join(tmp, "stats.json")
         subprocess.run(
             [MURK, "render", os.path.join(ROOT, "fixtures", fixture + ".vdb"),
              "-o", os.path.join(tmp, "out.exr"), "--res", "16x9", "--quiet",
-             "--light", "sun:%s:1,1,1:6" % sun, "--dsm-tolerance", str(tolerance),
+             "--light", light, "--dsm-tolerance", str(tolerance),
              "--dsm-verify", "--stats", stats],
             check=True)
         with open(stats) as f:
@@ -39,15 +39,17 @@ def mib(b):
 
 
 def main():
-    print("  | fixture | sun | `--dsm-tolerance` | mean | p99 | max | points over | "
+    print("  | fixture | light | `--dsm-tolerance` | mean | p99 | max | points over | "
           "map / density memory | bake |")
     print("  |---|---|---|---|---|---|---|---|---|")
+    cases = [("sun:0.6,1,0.5", 5e-3), ("sun:0.6,1,0.5", 1e-3), ("sun:0.6,1,0.5", 1e-4),
+             ("sun:0,1,0", 1e-3), ("point:3,2,1", 1e-3)]
     for fixture in FIXTURES:
-        for sun, tol in [("0.6,1,0.5", 1e-3), ("0.6,1,0.5", 1e-4), ("0,1,0", 1e-3)]:
-            m, dens = verify(fixture, sun, tol)
+        for light, tol in cases:
+            m, dens = verify(fixture, light + ":1,1,1:6", tol)
             v = m["verify"]
             print("  | %s | %s | %g | %.1e | %.1e | %.1e | %d | %s / %s MiB (%.1f×) | %.2f s |" % (
-                fixture, sun, tol, v["mean_error"], v["p99_error"], v["max_error"],
+                fixture, light, tol, v["mean_error"], v["p99_error"], v["max_error"],
                 v["over_tolerance"], mib(m["memory_bytes"]), mib(dens),
                 m["memory_bytes"] / dens, m["bake_seconds"]))
     print()
@@ -58,7 +60,7 @@ def main():
         angle = math.degrees(math.asin(eps / math.sqrt(0.36 + 1 + eps * eps)))
         cells = []
         for fixture in FIXTURES:
-            v = verify(fixture, "0.6,1,%g" % eps, 1e-3)[0]["verify"]
+            v = verify(fixture, "sun:0.6,1,%g:1,1,1:6" % eps, 1e-3)[0]["verify"]
             cells.append("%.1e (%d)" % (v["max_error"], v["over_tolerance"]))
         print("  | 0.6,1,%g | %.1f° | %s |" % (eps, angle, " | ".join(cells)))
 

@@ -2,7 +2,7 @@
 //!
 //! `march` integrates it along a shadow ray per query (the reference). The deep shadow
 //! map bakes it once per light on a sparse, adaptive light-space lattice ([`chart`],
-//! [`map`], [`bake`]) and answers each query with a trilinear lookup; [`verify`] measures
+//! [`map`], [`bake`]) and answers each query from the samples around it; [`verify`] measures
 //! the map against marched rays.
 
 pub mod bake;
