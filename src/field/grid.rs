@@ -537,11 +537,10 @@ impl Field for VoxelGrid {
         ray: &IndexRay,
         t0: f64,
         targets: &[f64],
-        a: DVec3,
-        b: DVec3,
+        side: &super::Sideways,
         out: &mut Vec<[f64; 4]>,
     ) -> bool {
-        VoxelGrid::slopes_along(self, ray, t0, targets, a, b, out)
+        VoxelGrid::slopes_along(self, ray, t0, targets, side, out)
     }
 
     fn range_over(&self, b: &IndexBox) -> ValueRange {

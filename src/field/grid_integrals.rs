@@ -3,14 +3,16 @@
 //! cubic, which two-point Gauss–Legendre integrates exactly.
 //!
 //! Besides `∫ρ dt`, the deep shadow map needs how that integral changes when the ray is
-//! moved sideways by index vectors `a` and `b`: `∫∇ρ·a dt` (quadratic in a voxel: exact
-//! too) and `∫aᵀ(∇∇ρ)b dt`. Inside a voxel the Hessian of a trilinear function is its
-//! off-diagonal mixed terms, linear along the ray; at a face across axis k the gradient's
-//! k-th component jumps, and the jump adds `jump · a_k · b_k / |d_k|` (the ray crosses
-//! the face at rate `|d_k|`).
+//! moved sideways (see [`Sideways`]): the point at `t` moves by `a(t)` and `b(t)` per
+//! unit of the two lateral coordinates, and by `c(t)` for both at once, all affine in
+//! t. Then `∂/∂x ∫ρ = ∫∇ρ·a dt` and `∂²/∂x∂y ∫ρ = ∫(aᵀ(∇∇ρ)b + ∇ρ·c) dt`, cubic at most
+//! in a voxel, so exact with the same two nodes. Inside a voxel the Hessian of a
+//! trilinear function is its off-diagonal mixed terms; at a face across axis k the
+//! gradient's k-th component jumps, and the jump adds `jump · a_k · b_k / |d_k|` (the ray
+//! crosses the face at rate `|d_k|`).
 
 use super::grid::{LOOKUP_LIMIT, LeafCache, Stencil, VoxelGrid, trilinear_f64};
-use super::{GL2_HALF_OFFSET, IndexRay, gauss_legendre_2};
+use super::{GL2_HALF_OFFSET, IndexRay, Sideways, gauss_legendre_2};
 use glam::{DVec3, IVec3};
 
 /// The voxel cells a ray crosses over `[t0, t1]`, in order: each with the stretch of the
@@ -184,15 +186,14 @@ impl VoxelGrid {
     }
 
     /// Along `ray` from `t0` to each of `targets` (ascending): `[∫ρ, ∫∇ρ·a, ∫∇ρ·b,
-    /// ∫aᵀ(∇∇ρ)b]` dt, pushed to `out`. `false` (nothing pushed) when the stretch is too
-    /// long to walk voxel by voxel.
+    /// ∫(aᵀ(∇∇ρ)b + ∇ρ·c)]` dt, pushed to `out`. `false` (nothing pushed) when the
+    /// stretch is too long to walk voxel by voxel.
     pub(super) fn slopes_along(
         &self,
         ray: &IndexRay,
         t0: f64,
         targets: &[f64],
-        a: DVec3,
-        b: DVec3,
+        side: &Sideways,
         out: &mut Vec<[f64; 4]>,
     ) -> bool {
         let t_end = targets.last().copied().unwrap_or(t0).max(t0);
@@ -220,6 +221,7 @@ impl VoxelGrid {
             };
             if entered.iter().any(|e| *e) {
                 let pe = ray.at(ta);
+                let (a, b) = (side.a.at(ta), side.b.at(ta));
                 let g_new = trilinear_gradient(&corners, pe - cell.as_dvec3());
                 let g_old = prev.map_or(DVec3::ZERO, |(c, v)| {
                     trilinear_gradient(&v, pe - c.as_dvec3())
@@ -239,15 +241,17 @@ impl VoxelGrid {
                     tb
                 };
                 if w > u {
-                    let (m, off) = (ray.at(0.5 * (u + w)), d * (GL2_HALF_OFFSET * (w - u)));
+                    let (tm, off) = (0.5 * (u + w), GL2_HALF_OFFSET * (w - u));
                     let half = 0.5 * (w - u);
-                    for node in [m - off, m + off] {
-                        let t = node - cell.as_dvec3();
+                    for tn in [tm - off, tm + off] {
+                        let t = ray.at(tn) - cell.as_dvec3();
                         let g = trilinear_gradient(&corners, t);
+                        let (a, b) = (side.a.at(tn), side.b.at(tn));
                         acc[0] += half * trilinear_f64(&corners, t);
                         acc[1] += half * g.dot(a);
                         acc[2] += half * g.dot(b);
-                        acc[3] += half * trilinear_mixed(&corners, t, a, b);
+                        acc[3] +=
+                            half * (trilinear_mixed(&corners, t, a, b) + g.dot(side.c.at(tn)));
                     }
                 }
                 u = w;
@@ -271,6 +275,7 @@ impl VoxelGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::field::Affine;
     use crate::field::random::SplitMix64;
     use glam::DMat4;
 
@@ -303,7 +308,8 @@ mod tests {
                 + DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 4.0;
             let ray = |o: DVec3| IndexRay { origin: o, dir };
             let mut out = Vec::new();
-            assert!(g.slopes_along(&ray(origin), 0.0, &targets, a, b, &mut out));
+            let side = Sideways::parallel(a, b);
+            assert!(g.slopes_along(&ray(origin), 0.0, &targets, &side, &mut out));
             let e = 1e-4;
             for (n, &t) in targets.iter().enumerate() {
                 let tau = |o: DVec3| g.exact_integral(&ray(o), 0.0, t);
@@ -323,6 +329,64 @@ mod tests {
                     "∂xy {vxy} vs {dxy}"
                 );
             }
+        }
+    }
+
+    /// Rays fanning out from a point, `origin + t·D(x, y)` with `D = normalize(v0 + x·vx +
+    /// y·vy)`: the slopes with `a = t·∂D/∂x`, `b = t·∂D/∂y`, `c = t·∂²D/∂x∂y` match
+    /// differences of the exact integral over the fanned rays.
+    #[test]
+    fn slopes_of_a_fan_of_rays_are_its_derivatives() {
+        let g = random_grid();
+        let origin = DVec3::new(0.5, 0.7, 0.3);
+        let (v0, vx, vy) = (
+            DVec3::new(0.6, 0.5, 0.62),
+            DVec3::new(0.05, -0.02, 0.01),
+            DVec3::new(-0.01, 0.04, 0.03),
+        );
+        let dir = |x: f64, y: f64| (v0 + vx * x + vy * y).normalize();
+        let tau = |x: f64, y: f64, t: f64| {
+            g.exact_integral(
+                &IndexRay {
+                    origin,
+                    dir: dir(x, y),
+                },
+                0.0,
+                t,
+            )
+        };
+        let (d, n) = (dir(0.0, 0.0), v0.length());
+        let dx = (vx - d * d.dot(vx)) / n;
+        let dy = (vy - d * d.dot(vy)) / n;
+        let dxy = -(dy * d.dot(vx) + d * dy.dot(vx)) / n - dx * d.dot(vy) / n;
+        let side = Sideways {
+            a: Affine::new(DVec3::ZERO, dx),
+            b: Affine::new(DVec3::ZERO, dy),
+            c: Affine::new(DVec3::ZERO, dxy),
+        };
+        let targets = [4.0, 9.0, 14.0];
+        let mut out = Vec::new();
+        assert!(g.slopes_along(&IndexRay { origin, dir: d }, 0.0, &targets, &side, &mut out));
+        let e = 1e-4;
+        for (k, &t) in targets.iter().enumerate() {
+            let fx = (tau(e, 0.0, t) - tau(-e, 0.0, t)) / (2.0 * e);
+            let fy = (tau(0.0, e, t) - tau(0.0, -e, t)) / (2.0 * e);
+            let fxy =
+                (tau(e, e, t) - tau(e, -e, t) - tau(-e, e, t) + tau(-e, -e, t)) / (4.0 * e * e);
+            let [v, vx_, vy_, vxy] = out[k];
+            assert!((v - tau(0.0, 0.0, t)).abs() < 1e-12);
+            assert!(
+                (vx_ - fx).abs() < 1e-6 * (1.0 + fx.abs()),
+                "∂x {vx_} vs {fx}"
+            );
+            assert!(
+                (vy_ - fy).abs() < 1e-6 * (1.0 + fy.abs()),
+                "∂y {vy_} vs {fy}"
+            );
+            assert!(
+                (vxy - fxy).abs() < 1e-3 * (1.0 + fxy.abs()),
+                "∂xy {vxy} vs {fxy}"
+            );
         }
     }
 }

@@ -166,6 +166,48 @@ pub struct Cell {
     pub range: ValueRange,
 }
 
+/// A local-index vector affine in the ray parameter: `at(t) = base + rate·t`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Affine {
+    pub base: glam::DVec3,
+    pub rate: glam::DVec3,
+}
+
+impl Affine {
+    pub fn new(base: glam::DVec3, rate: glam::DVec3) -> Self {
+        Affine { base, rate }
+    }
+
+    #[inline]
+    pub fn at(&self, t: f64) -> glam::DVec3 {
+        self.base + self.rate * t
+    }
+}
+
+/// How the point at parameter t of a ray moves when the ray moves sideways with two
+/// lateral coordinates x and y: by `a(t)` per unit of x, `b(t)` per unit of y, and
+/// `c(t)` per unit of x·y (the second derivative), in local index units. A parallel
+/// shift has constant `a`, `b` and no `c`; a fan of rays from a point has all three
+/// proportional to t.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sideways {
+    pub a: Affine,
+    pub b: Affine,
+    pub c: Affine,
+}
+
+impl Sideways {
+    /// Rays shifted in parallel by `a` per unit of x and `b` per unit of y.
+    pub fn parallel(a: glam::DVec3, b: glam::DVec3) -> Self {
+        let constant = |v| Affine::new(v, glam::DVec3::ZERO);
+        Sideways {
+            a: constant(a),
+            b: constant(b),
+            c: constant(glam::DVec3::ZERO),
+        }
+    }
+}
+
 /// A scalar field sampled by the renderer. Implemented by [`VoxelGrid`], the procedural
 /// fields in [`procedural`] and the analytic shapes in [`shapes`].
 pub trait Field: Send + Sync {
@@ -204,17 +246,16 @@ pub trait Field: Send + Sync {
     }
 
     /// Along `ray` from `t0` to each of `targets` (ascending, world units): `∫ρ dt` and
-    /// how it changes as the ray moves sideways by local index vectors `a` and `b`:
-    /// `[∫ρ, ∫∇ρ·a, ∫∇ρ·b, ∫aᵀ(∇∇ρ)b]` dt, pushed to `out`, the last with the kinks of
-    /// the field's interpolation. `false` (nothing pushed) where the field has no closed
-    /// form for them; the caller then differences neighbouring rays.
+    /// how it changes as the ray moves sideways as `side` says: `[∫ρ, ∫∇ρ·a, ∫∇ρ·b,
+    /// ∫(aᵀ(∇∇ρ)b + ∇ρ·c)]` dt, pushed to `out`, the last with the kinks of the field's
+    /// interpolation. `false` (nothing pushed) where the field has no closed form for
+    /// them; the caller then differences neighbouring rays.
     fn slopes_along(
         &self,
         _ray: &IndexRay,
         _t0: f64,
         _targets: &[f64],
-        _a: glam::DVec3,
-        _b: glam::DVec3,
+        _side: &Sideways,
         _out: &mut Vec<[f64; 4]>,
     ) -> bool {
         false

@@ -26,7 +26,7 @@ use super::map::{
 };
 use super::march::exact_integral;
 use crate::accel::{IndexRay, Spans, nonzero_blocks};
-use crate::field::Field;
+use crate::field::{Affine, Field, Sideways};
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use std::collections::{BTreeMap, HashSet};
@@ -464,18 +464,6 @@ fn sample_level(
                 ChartKind::Parallel { .. } => start * chart.unit,
                 ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
             };
-            // A parallel chart's columns move sideways by e1, e2 (one lattice step each):
-            // fields with closed-form slopes give them along the column itself.
-            let sideways = match chart.kind {
-                ChartKind::Parallel { .. } => {
-                    let tr = density.transform();
-                    Some((
-                        tr.world_dir_to_index(chart.e1 * chart.unit),
-                        tr.world_dir_to_index(chart.e2 * chart.unit),
-                    ))
-                }
-                ChartKind::Perspective { .. } => None,
-            };
             // Otherwise the column and its neighbours at (ε, 0), (0, ε) and (ε, ε), those
             // the blend needs: slopes only along Hermite axes, the twist only if both are.
             let e = SLOPE_OFFSET;
@@ -491,13 +479,11 @@ fn sample_level(
                     let y = *by as f64 * b + j as f64 * s;
                     let centre = chart.column(x, y);
                     slopes.clear();
-                    let closed_form = sideways.is_some_and(|(a, b)| {
-                        let ray = IndexRay::new(density, centre.origin, centre.dir);
-                        density.slopes_along(&ray, t0, &depths, a, b, &mut slopes)
-                    });
+                    let ray = IndexRay::new(density, centre.origin, centre.dir);
+                    let side = sideways(chart, density, x, y);
+                    let closed_form = density.slopes_along(&ray, t0, &depths, &side, &mut slopes);
                     if closed_form {
                         columns += 1;
-                        let ray = IndexRay::new(density, centre.origin, centre.dir);
                         for (n, v) in values.iter_mut().enumerate() {
                             for k in 0..m {
                                 let [tau, tau_x, tau_y, tau_xy] = slopes[n * m + k];
@@ -548,6 +534,34 @@ fn sample_level(
         }
     }
     out
+}
+
+/// How the points of column `(x, y)` move with x and y, in `density`'s index space: a
+/// parallel chart's columns shift by `e1`, `e2` (one lattice step each); a perspective
+/// chart's turn about the light, `D = normalize(e3 + (x·e1 + y·e2)/S)`, so the point at
+/// distance t moves by `t·∂D/∂x`, `t·∂D/∂y` and `t·∂²D/∂x∂y`.
+fn sideways(chart: &Chart, density: &dyn Field, x: f64, y: f64) -> Sideways {
+    let tr = density.transform();
+    let index = |w: DVec3| tr.world_dir_to_index(w);
+    match chart.kind {
+        ChartKind::Parallel { .. } => {
+            Sideways::parallel(index(chart.e1 * chart.unit), index(chart.e2 * chart.unit))
+        }
+        ChartKind::Perspective { scale, .. } => {
+            let (vx, vy) = (chart.e1 / scale, chart.e2 / scale);
+            let v = chart.e3 + vx * x + vy * y;
+            let (n, d) = (v.length(), v.normalize());
+            let dx = (vx - d * d.dot(vx)) / n;
+            let dy = (vy - d * d.dot(vy)) / n;
+            let dxy = -(dy * d.dot(vx) + d * dy.dot(vx)) / n - dx * d.dot(vy) / n;
+            let fan = |w: DVec3| Affine::new(DVec3::ZERO, index(w));
+            Sideways {
+                a: fan(dx),
+                b: fan(dy),
+                c: fan(dxy),
+            }
+        }
+    }
 }
 
 /// `(∫ρ dt, ρ)` along `column` from `t_start` to each of `targets` (ascending): the
