@@ -452,7 +452,7 @@ impl VoxelGrid {
 /// `floor` as an integer without a libm call (the baseline x86-64 target has no SSE4.1
 /// rounding instruction). For |x| < 2^30; NaN gives 0.
 #[inline]
-fn floor_i32(x: f64) -> i32 {
+pub(super) fn floor_i32(x: f64) -> i32 {
     let i = x as i32;
     i - ((x < i as f64) as i32)
 }

@@ -11,7 +11,7 @@
 //! gradient's k-th component jumps, and the jump adds `jump · a_k · b_k / |d_k|` (the ray
 //! crosses the face at rate `|d_k|`).
 
-use super::grid::{LOOKUP_LIMIT, LeafCache, Stencil, VoxelGrid, trilinear_f64};
+use super::grid::{LOOKUP_LIMIT, LeafCache, Stencil, VoxelGrid, floor_i32, trilinear_f64};
 use super::{GL2_HALF_OFFSET, IndexRay, Sideways, gauss_legendre_2};
 use glam::{DVec3, IVec3};
 
@@ -41,11 +41,12 @@ impl<'r> CellWalk<'r> {
             return None;
         }
         for a in 0..3 {
+            // Going down, a point on a face belongs to the cell below it: ⌈x⌉ − 1.
             start[a] = if d[a] < 0.0 {
-                p[a].ceil() - 1.0
+                -floor_i32(-p[a]) - 1
             } else {
-                p[a].floor()
-            } as i32;
+                floor_i32(p[a])
+            };
             budget += (d[a] * (t1 - t0)).abs() + 1.0;
         }
         if !(budget < 1e8) {
