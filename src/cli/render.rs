@@ -75,9 +75,10 @@ pub fn bake(input: &Path, options: RenderOptions) -> Result<()> {
     if !quiet {
         for m in &stats.shadow_maps {
             eprintln!(
-                "murk: {}: {} bricks, {:.1} MB, baked in {:.2} s",
+                "murk: {}: {} bricks ({} likely over the tolerance), {:.1} MB, baked in {:.2} s",
                 m.light,
                 m.bake.bricks,
+                m.bake.bricks_over_tolerance,
                 m.bake.memory_bytes as f64 / 1e6,
                 m.bake_seconds
             );
