@@ -7,6 +7,7 @@
 
 pub mod bake;
 pub mod chart;
+pub mod columns;
 pub mod map;
 pub mod march;
 pub mod verify;

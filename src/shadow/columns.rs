@@ -1,0 +1,217 @@
+//! Marching light columns: the samples of a shadow map's bricks.
+//!
+//! One light ray per lateral lattice position and brick stack, integrated exactly
+//! (two-point Gauss–Legendre per voxel crossing) and read off at every sample depth on the
+//! way, so each sample reuses the sum of the one before it. τ's slopes across the light
+//! and its twist come in closed form where the field has one (a VDB grid:
+//! `Field::slopes_along`), else from forward differences of up to three more columns at
+//! `(x + ε, y)`, `(x, y + ε)` and `(x + ε, y + ε)` (ε = 1/1024 step: τ is C¹ and its
+//! second derivatives are bounded, so these are off by O(ε)), only along the lateral axes
+//! the chart blends with Hermite.
+
+use super::chart::{Chart, ChartKind, Column, LateralBlend};
+use super::map::{BRICK, BrickSamples, side, spacing};
+use super::march::exact_integral;
+use crate::accel::{IndexRay, Spans};
+use crate::field::{Affine, Field, Sideways};
+use crate::shadow::BakeReport;
+use glam::{DVec3, IVec3};
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+
+/// Lateral offset (lattice steps) of the columns whose differences give τ's slopes and
+/// twist across the light, for fields without closed-form slopes.
+const SLOPE_OFFSET: f64 = 1.0 / 1024.0;
+
+/// Samples of the bricks `keys` at `level`, by marching columns.
+pub(super) fn sample_level(
+    density: &dyn Field,
+    chart: &Chart,
+    keys: &[IVec3],
+    level: u8,
+    stack_start: &BTreeMap<(i32, i32), i32>,
+    report: &mut BakeReport,
+) -> Vec<BrickSamples> {
+    let m = side(level);
+    let s = spacing(level);
+    let b = BRICK as f64;
+    // Brick stacks: the bricks sharing a lateral position, front (near the light) first.
+    let mut stacks: BTreeMap<(i32, i32), Vec<(i32, usize)>> = BTreeMap::new();
+    for (idx, k) in keys.iter().enumerate() {
+        stacks.entry((k.x, k.y)).or_default().push((k.z, idx));
+    }
+    // ((x, y) of the stack, [(z, index into keys)]).
+    type Stack = ((i32, i32), Vec<(i32, usize)>);
+    let stacks: Vec<Stack> = stacks
+        .into_iter()
+        .map(|(xy, mut v)| {
+            v.sort_unstable();
+            (xy, v)
+        })
+        .collect();
+    type Marched = (Vec<(usize, BrickSamples)>, u64);
+    let results: Vec<Marched> = stacks
+        .par_iter()
+        .map(|((bx, by), bricks)| {
+            let mut columns = 0u64;
+            let mut values = vec![BrickSamples::zeros(m * m * m); bricks.len()];
+            let start = stack_start.get(&(*bx, *by)).copied().unwrap_or(bricks[0].0) as f64 * b;
+            let mut depths = Vec::with_capacity(bricks.len() * m);
+            for &(bz, _) in bricks {
+                for k in 0..m {
+                    depths.push((bz as f64 * b + k as f64 * s) * chart.unit);
+                }
+            }
+            let t0 = match chart.kind {
+                ChartKind::Parallel { .. } => start * chart.unit,
+                ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
+            };
+            // Otherwise the column and its neighbours at (ε, 0), (0, ε) and (ε, ε), those
+            // the blend needs: slopes only along Hermite axes, the twist only if both are.
+            let e = SLOPE_OFFSET;
+            let [hx, hy] = chart.lateral.map(|b| b == LateralBlend::Hermite);
+            let offsets = [(0.0, 0.0), (e, 0.0), (0.0, e), (e, e)];
+            let wanted = [true, hx, hy, hx && hy];
+            let mut sums: [Vec<(f64, f64)>; 4] =
+                std::array::from_fn(|_| Vec::with_capacity(depths.len()));
+            let mut slopes: Vec<[f64; 4]> = Vec::with_capacity(depths.len());
+            for j in 0..m {
+                for i in 0..m {
+                    let x = *bx as f64 * b + i as f64 * s;
+                    let y = *by as f64 * b + j as f64 * s;
+                    let centre = chart.column(x, y);
+                    slopes.clear();
+                    let ray = IndexRay::new(density, centre.origin, centre.dir);
+                    let side = sideways(chart, density, x, y);
+                    let closed_form = density.slopes_along(&ray, t0, &depths, &side, &mut slopes);
+                    if closed_form {
+                        columns += 1;
+                        for (n, v) in values.iter_mut().enumerate() {
+                            for k in 0..m {
+                                let [tau, tau_x, tau_y, tau_xy] = slopes[n * m + k];
+                                let at = i + m * (j + m * k);
+                                v.tau[at] = tau as f32;
+                                v.rho[at] = density.value_at_index(ray.at(depths[n * m + k]));
+                                v.tau_x[at] = tau_x as f32;
+                                v.tau_y[at] = tau_y as f32;
+                                v.tau_xy[at] = tau_xy as f32;
+                            }
+                        }
+                        continue;
+                    }
+                    for (c, (sum, (ox, oy))) in sums.iter_mut().zip(offsets).enumerate() {
+                        sum.clear();
+                        if wanted[c] {
+                            columns += 1;
+                            let column = chart.column(x + ox, y + oy);
+                            cumulative_integrals(density, column, t0, &depths, c == 0, sum);
+                        }
+                    }
+                    for (n, v) in values.iter_mut().enumerate() {
+                        for k in 0..m {
+                            let d = n * m + k;
+                            let at = i + m * (j + m * k);
+                            let (tau, rho) = sums[0][d];
+                            let at_offset = |c: usize| if wanted[c] { sums[c][d].0 } else { tau };
+                            let [px, py, pxy] = [1, 2, 3].map(at_offset);
+                            v.tau[at] = tau as f32;
+                            v.rho[at] = rho as f32;
+                            v.tau_x[at] = ((px - tau) / e) as f32;
+                            v.tau_y[at] = ((py - tau) / e) as f32;
+                            v.tau_xy[at] = ((pxy - px - py + tau) / (e * e)) as f32;
+                        }
+                    }
+                }
+            }
+            let out: Vec<(usize, BrickSamples)> =
+                bricks.iter().map(|&(_, idx)| idx).zip(values).collect();
+            (out, columns)
+        })
+        .collect();
+    let mut out = vec![BrickSamples::default(); keys.len()];
+    for (bricks, columns) in results {
+        report.columns += columns;
+        for (idx, v) in bricks {
+            out[idx] = v;
+        }
+    }
+    out
+}
+
+/// How the points of column `(x, y)` move with x and y, in `density`'s index space: a
+/// parallel chart's columns shift by `e1`, `e2` (one lattice step each); a perspective
+/// chart's turn about the light, `D = normalize(e3 + (x·e1 + y·e2)/S)`, so the point at
+/// distance t moves by `t·∂D/∂x`, `t·∂D/∂y` and `t·∂²D/∂x∂y`.
+fn sideways(chart: &Chart, density: &dyn Field, x: f64, y: f64) -> Sideways {
+    let tr = density.transform();
+    let index = |w: DVec3| tr.world_dir_to_index(w);
+    match chart.kind {
+        ChartKind::Parallel { .. } => {
+            Sideways::parallel(index(chart.e1 * chart.unit), index(chart.e2 * chart.unit))
+        }
+        ChartKind::Perspective { scale, .. } => {
+            let (vx, vy) = (chart.e1 / scale, chart.e2 / scale);
+            let v = chart.e3 + vx * x + vy * y;
+            let (n, d) = (v.length(), v.normalize());
+            let dx = (vx - d * d.dot(vx)) / n;
+            let dy = (vy - d * d.dot(vy)) / n;
+            let dxy = -(dy * d.dot(vx) + d * dy.dot(vx)) / n - dx * d.dot(vy) / n;
+            let fan = |w: DVec3| Affine::new(DVec3::ZERO, index(w));
+            Sideways {
+                a: fan(dx),
+                b: fan(dy),
+                c: fan(dxy),
+            }
+        }
+    }
+}
+
+/// `(∫ρ dt, ρ)` along `column` from `t_start` to each of `targets` (ascending): the
+/// integral exact, the density at the target (0 unless `with_density`).
+pub fn cumulative_integrals(
+    density: &dyn Field,
+    column: Column,
+    t_start: f64,
+    targets: &[f64],
+    with_density: bool,
+    out: &mut Vec<(f64, f64)>,
+) {
+    let Some(&t_end) = targets.last() else { return };
+    let ray = IndexRay::new(density, column.origin, column.dir);
+    let rho_at = |t: f64| {
+        if with_density {
+            density.value_at_index(ray.at(t)) as f64
+        } else {
+            0.0
+        }
+    };
+    let mut sum = 0.0;
+    let mut k = 0;
+    if t_end > t_start {
+        for span in Spans::new(density, ray, t_start, t_end) {
+            while k < targets.len() && targets[k] <= span.t0 {
+                out.push((sum, rho_at(targets[k])));
+                k += 1;
+            }
+            let piece = |a: f64, b: f64| {
+                if span.range.is_constant() {
+                    span.range.max as f64 * (b - a)
+                } else {
+                    exact_integral(density, &ray, a, b)
+                }
+            };
+            let mut a = span.t0;
+            while k < targets.len() && targets[k] < span.t1 {
+                sum += piece(a, targets[k]);
+                a = targets[k];
+                out.push((sum, rho_at(a)));
+                k += 1;
+            }
+            sum += piece(a, span.t1);
+        }
+    }
+    while k < targets.len() {
+        out.push((sum, rho_at(targets[k])));
+        k += 1;
+    }
+}
