@@ -257,6 +257,28 @@ fn shadow_cache_round_trips_and_refuses_a_mismatch() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("different density grid"), "{e}");
+    // A cache without the slope grids (as an older murk wrote them), rewritten by
+    // OpenVDB itself: refused, with the way out.
+    let old = dir.join("old.vdb");
+    let script = format!(
+        "import pyopenvdb as vdb\n\
+         grids, meta = vdb.readAll({:?})\n\
+         vdb.write({:?}, grids=[g for g in grids if not g.name.endswith(('_dx', '_dy', '_dxy'))], metadata=meta)\n",
+        path.to_str().unwrap(),
+        old.to_str().unwrap()
+    );
+    let py = std::process::Command::new("/usr/bin/python3")
+        .args(["-c", &script])
+        .status()
+        .expect("/usr/bin/python3 with pyopenvdb (Debian package python3-openvdb) is required");
+    assert!(py.success());
+    let e = shadow_cache::read(&old, &cloud, hash, &lights[..1])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("lacks grid dsm_sun0_c0_L") && e.contains("bake again"),
+        "{e}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

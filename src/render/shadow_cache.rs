@@ -289,11 +289,16 @@ pub fn read(
                     // τ is never negative; its slopes are signed.
                     let load = |(suffix, plane, _): (&str, usize, &str)| {
                         let name = grid_name(&light.name, ci, &format!("L{level}{suffix}"));
-                        if plane == 0 {
-                            VoxelGrid::load(&file, &name)
-                        } else {
-                            VoxelGrid::load_signed(&file, &name)
+                        if file.grids().iter().all(|g| g.name != name) {
+                            return Err(bad(format!(
+                                "lacks grid {name} (made by an older murk?); bake again with murk bake-shadows"
+                            )));
                         }
+                        Ok(if plane == 0 {
+                            VoxelGrid::load(&file, &name)?
+                        } else {
+                            VoxelGrid::load_signed(&file, &name)?
+                        })
                     };
                     levels[level as usize] = Some([
                         load(STORED[0])?,
