@@ -115,13 +115,7 @@ pub fn write(
                     ("murk:chart_kind".into(), kind.into()),
                     (
                         "murk:lateral_blend".into(),
-                        chart
-                            .lateral
-                            .map(|b| match b {
-                                LateralBlend::Hermite => "hermite",
-                                LateralBlend::Linear => "linear",
-                            })
-                            .join(","),
+                        chart.lateral.map(LateralBlend::name).join(","),
                     ),
                     ("murk:chart_e1".into(), vec_text(chart.e1)),
                     ("murk:chart_e2".into(), vec_text(chart.e2)),
@@ -285,30 +279,32 @@ pub fn read(
                     )));
                 }
                 let level = level as u8;
-                if levels[level as usize].is_none() {
-                    // τ is never negative; its slopes are signed.
-                    let load = |(suffix, plane, _): (&str, usize, &str)| {
-                        let name = grid_name(&light.name, ci, &format!("L{level}{suffix}"));
-                        if file.grids().iter().all(|g| g.name != name) {
-                            return Err(bad(format!(
-                                "lacks grid {name} (made by an older murk?); bake again with murk bake-shadows"
-                            )));
-                        }
-                        Ok(if plane == 0 {
-                            VoxelGrid::load(&file, &name)?
-                        } else {
-                            VoxelGrid::load_signed(&file, &name)?
-                        })
-                    };
-                    levels[level as usize] = Some([
-                        load(STORED[0])?,
-                        load(STORED[1])?,
-                        load(STORED[2])?,
-                        load(STORED[3])?,
-                    ]);
-                }
-                let [tau, tau_x, tau_y, tau_xy] =
-                    levels[level as usize].as_ref().expect("loaded above");
+                let slot = &mut levels[level as usize];
+                let [tau, tau_x, tau_y, tau_xy] = match slot {
+                    Some(grids) => grids,
+                    None => {
+                        // τ is never negative; its slopes are signed.
+                        let load = |(suffix, plane, _): (&str, usize, &str)| {
+                            let name = grid_name(&light.name, ci, &format!("L{level}{suffix}"));
+                            if file.grids().iter().all(|g| g.name != name) {
+                                return Err(bad(format!(
+                                    "lacks grid {name} (made by an older murk?); bake again with murk bake-shadows"
+                                )));
+                            }
+                            Ok(if plane == 0 {
+                                VoxelGrid::load(&file, &name)?
+                            } else {
+                                VoxelGrid::load_signed(&file, &name)?
+                            })
+                        };
+                        slot.insert([
+                            load(STORED[0])?,
+                            load(STORED[1])?,
+                            load(STORED[2])?,
+                            load(STORED[3])?,
+                        ])
+                    }
+                };
                 let n = 1i32 << level;
                 let m = side(level);
                 let mut samples = BrickSamples::with_capacity(m * m * m);
@@ -371,13 +367,8 @@ fn chart_from(meta: &BTreeMap<String, String>) -> Option<Chart> {
         },
         _ => return None,
     };
-    let blend = |s: &str| match s {
-        "linear" => Some(LateralBlend::Linear),
-        "hermite" => Some(LateralBlend::Hermite),
-        _ => None,
-    };
     let lateral = match meta.get("murk:lateral_blend").map(|s| s.split_once(',')) {
-        Some(Some((x, y))) => [blend(x)?, blend(y)?],
+        Some(Some((x, y))) => [LateralBlend::from_name(x)?, LateralBlend::from_name(y)?],
         Some(None) => return None,
         None => [LateralBlend::Hermite; 2],
     };

@@ -29,6 +29,8 @@ use std::collections::{BTreeMap, HashSet};
 /// spacing³ or faster).
 const SUB_VOXEL_GAIN: f64 = 7.0;
 
+/// The share of the tolerance a brick's check may use: the check sees the error at the
+/// next level's samples only, and the error between them is larger.
 const CHECK_FRACTION: f64 = 0.5;
 
 /// Where a light is, as far as shadows care.
@@ -307,8 +309,7 @@ fn coarse_error(
     let m = side(level_fine);
     let mc = side(level_fine - 1);
     let h = spacing(level_fine - 1);
-    let planes = coarse.planes();
-    let planes = &planes;
+    let planes = &coarse.planes();
     // The coarse cell holding fine index i, and the place in it (0, ½ or 1).
     let cell = |i: usize| (i / 2).min(mc - 2);
     let frac = |i: usize| (i as f64 - 2.0 * cell(i) as f64) / 2.0;

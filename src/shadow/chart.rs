@@ -35,6 +35,23 @@ pub enum LateralBlend {
     Linear,
 }
 
+impl LateralBlend {
+    /// The name a shadow cache stores it under.
+    pub fn name(self) -> &'static str {
+        match self {
+            LateralBlend::Hermite => "hermite",
+            LateralBlend::Linear => "linear",
+        }
+    }
+
+    /// The blend a stored name stands for.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [LateralBlend::Hermite, LateralBlend::Linear]
+            .into_iter()
+            .find(|b| b.name() == name)
+    }
+}
+
 /// One light-space chart. `e3` points along the columns (away from the light).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Chart {

@@ -66,59 +66,21 @@ pub(super) fn sample_level(
                 ChartKind::Parallel { .. } => start * chart.unit,
                 ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
             };
-            // Otherwise the column and its neighbours at (ε, 0), (0, ε) and (ε, ε), those
-            // the blend needs: slopes only along Hermite axes, the twist only if both are.
-            let e = SLOPE_OFFSET;
-            let [hx, hy] = chart.lateral.map(|b| b == LateralBlend::Hermite);
-            let offsets = [(0.0, 0.0), (e, 0.0), (0.0, e), (e, e)];
-            let wanted = [true, hx, hy, hx && hy];
-            let mut sums: [Vec<(f64, f64)>; 4] =
-                std::array::from_fn(|_| Vec::with_capacity(depths.len()));
-            let mut slopes: Vec<[f64; 4]> = Vec::with_capacity(depths.len());
+            let mut column = ColumnScratch::default();
             for j in 0..m {
                 for i in 0..m {
                     let x = *bx as f64 * b + i as f64 * s;
                     let y = *by as f64 * b + j as f64 * s;
-                    let centre = chart.column(x, y);
-                    slopes.clear();
-                    let ray = IndexRay::new(density, centre.origin, centre.dir);
-                    let side = sideways(chart, density, x, y);
-                    let closed_form = density.slopes_along(&ray, t0, &depths, &side, &mut slopes);
-                    if closed_form {
-                        columns += 1;
-                        for (n, v) in values.iter_mut().enumerate() {
-                            for k in 0..m {
-                                let [tau, tau_x, tau_y, tau_xy] = slopes[n * m + k];
-                                let at = i + m * (j + m * k);
-                                v.tau[at] = tau as f32;
-                                v.rho[at] = density.value_at_index(ray.at(depths[n * m + k]));
-                                v.tau_x[at] = tau_x as f32;
-                                v.tau_y[at] = tau_y as f32;
-                                v.tau_xy[at] = tau_xy as f32;
-                            }
-                        }
-                        continue;
-                    }
-                    for (c, (sum, (ox, oy))) in sums.iter_mut().zip(offsets).enumerate() {
-                        sum.clear();
-                        if wanted[c] {
-                            columns += 1;
-                            let column = chart.column(x + ox, y + oy);
-                            cumulative_integrals(density, column, t0, &depths, c == 0, sum);
-                        }
-                    }
+                    columns += column.march(density, chart, x, y, t0, &depths);
                     for (n, v) in values.iter_mut().enumerate() {
                         for k in 0..m {
-                            let d = n * m + k;
+                            let [tau, rho, tau_x, tau_y, tau_xy] = column.samples[n * m + k];
                             let at = i + m * (j + m * k);
-                            let (tau, rho) = sums[0][d];
-                            let at_offset = |c: usize| if wanted[c] { sums[c][d].0 } else { tau };
-                            let [px, py, pxy] = [1, 2, 3].map(at_offset);
                             v.tau[at] = tau as f32;
                             v.rho[at] = rho as f32;
-                            v.tau_x[at] = ((px - tau) / e) as f32;
-                            v.tau_y[at] = ((py - tau) / e) as f32;
-                            v.tau_xy[at] = ((pxy - px - py + tau) / (e * e)) as f32;
+                            v.tau_x[at] = tau_x as f32;
+                            v.tau_y[at] = tau_y as f32;
+                            v.tau_xy[at] = tau_xy as f32;
                         }
                     }
                 }
@@ -136,6 +98,74 @@ pub(super) fn sample_level(
         }
     }
     out
+}
+
+/// One column's samples and the buffers that make them, reused from column to column.
+#[derive(Default)]
+struct ColumnScratch {
+    /// Per target depth: τ, ρ, ∂τ/∂x, ∂τ/∂y, ∂²τ/∂x∂y.
+    samples: Vec<[f64; 5]>,
+    slopes: Vec<[f64; 4]>,
+    sums: [Vec<(f64, f64)>; 4],
+}
+
+impl ColumnScratch {
+    /// Marches column `(x, y)` from `t0` through `depths`, filling `samples`; returns how
+    /// many light rays it marched. The slopes come in closed form where the field has
+    /// them, else from the column's neighbours at (ε, 0), (0, ε) and (ε, ε) — those the
+    /// chart's blend reads: slopes only along Hermite axes, the twist only if both are.
+    fn march(
+        &mut self,
+        density: &dyn Field,
+        chart: &Chart,
+        x: f64,
+        y: f64,
+        t0: f64,
+        depths: &[f64],
+    ) -> u64 {
+        self.samples.clear();
+        self.slopes.clear();
+        let centre = chart.column(x, y);
+        let ray = IndexRay::new(density, centre.origin, centre.dir);
+        let side = sideways(chart, density, x, y);
+        if density.slopes_along(&ray, t0, depths, &side, &mut self.slopes) {
+            let rho = |t: f64| density.value_at_index(ray.at(t)) as f64;
+            self.samples.extend(
+                self.slopes
+                    .iter()
+                    .zip(depths)
+                    .map(|(&[tau, tx, ty, txy], &t)| [tau, rho(t), tx, ty, txy]),
+            );
+            return 1;
+        }
+        let e = SLOPE_OFFSET;
+        let [hx, hy] = chart.lateral.map(|b| b == LateralBlend::Hermite);
+        let offsets = [(0.0, 0.0), (e, 0.0), (0.0, e), (e, e)];
+        let wanted = [true, hx, hy, hx && hy];
+        let mut marched = 0;
+        for (c, (sum, (ox, oy))) in self.sums.iter_mut().zip(offsets).enumerate() {
+            sum.clear();
+            if wanted[c] {
+                marched += 1;
+                let column = chart.column(x + ox, y + oy);
+                cumulative_integrals(density, column, t0, depths, c == 0, sum);
+            }
+        }
+        let sums = &self.sums;
+        self.samples.extend((0..depths.len()).map(|d| {
+            let (tau, rho) = sums[0][d];
+            let at_offset = |c: usize| if wanted[c] { sums[c][d].0 } else { tau };
+            let [px, py, pxy] = [1, 2, 3].map(at_offset);
+            [
+                tau,
+                rho,
+                (px - tau) / e,
+                (py - tau) / e,
+                (pxy - px - py + tau) / (e * e),
+            ]
+        }));
+        marched
+    }
 }
 
 /// How the points of column `(x, y)` move with x and y, in `density`'s index space: a
