@@ -165,6 +165,7 @@ def render_table(cases, meta):
         ("murk-none", "murk --shadows none"),
         ("vdb-default", f"vdb_render -cutoff {meta.get('vdb_cutoff_default')} (its default)"),
         ("vdb-matched", f"vdb_render -cutoff {meta.get('vdb_cutoff_matched')} (termination matched)"),
+        ("vdb-noshadow", "vdb_render -shadowstep 1000 (shadows all but off)"),
     )
     for step in steps:
         for key, label in configs:
@@ -201,12 +202,15 @@ def dsm_table(cases, meta):
     rows = []
     for step in meta.get("steps", []):
         vdb = f"render-vdb-default-s{step}"
-        for key in ("murk-dsm", "murk-march"):
+        labels = {"murk-dsm": "murk --shadows dsm", "murk-march": "murk --shadows march",
+                  "murk-none": "murk --shadows none",
+                  "vdb-noshadow": "vdb_render -shadowstep 1000 (shadows all but off)"}
+        for key, label in labels.items():
             c = f"render-{key}-s{step}"
             if c not in cases:
                 continue
             wall, cpu = med(cases, c, "wall_s"), med(cases, c, "cpu_s")
-            rows.append((step, key.replace("murk-", "murk --shadows "), fmt(med(cases, c, "bake_s"), "s"),
+            rows.append((step, label, fmt(med(cases, c, "bake_s"), "s"),
                          fmt(wall, "s"), fmt(med(cases, vdb, "wall_s"), "s"), fmt(ratio(wall, med(cases, vdb, "wall_s")), "x"),
                          fmt(ratio(cpu, med(cases, vdb, "cpu_s")), "x"), "≤ 0.10×" if key == "murk-dsm" else "",
                          fmt(med(cases, c, "peak_rss_bytes"), "MiB"), fmt(med(cases, vdb, "peak_rss_bytes"), "MiB"),

@@ -9,7 +9,8 @@
 #         samples per second, murk's value_at_index against OpenVDB-rs's BoxSampler with
 #         a cached ValueAccessor (benches/grid.rs).
 # render: fixtures/cloud.vdb at 960x540, murk (release; --shadows dsm, march and none)
-#         against vdb_render with the same camera, σ (murk's per world unit = vdb_render's
+#         against vdb_render (and vdb_render with -shadowstep 1000: its shadows all but
+#         off, the floor of its cost) with the same camera, σ (murk's per world unit = vdb_render's
 #         per voxel / voxel size) and primary step in voxels; alpha error of both against a
 #         fine-step murk reference; whole-process wall time and peak RSS; the shadow map's
 #         bake time and memory against the density structure's.
@@ -191,6 +192,15 @@ bench_render() {
                 $REPORT run "$OUT/render-$name.$run.json" --time "$TMP/time" --vdb-log "$TMP/vdb.log" \
                     --extra "$TMP/err.json"
             done
+            # vdb_render's march with its shadows all but off (one shadow sample per
+            # primary sample): the floor of its cost, which the map's target is set against.
+            log "step $step: vdb_render -shadowstep 1000, run $run/$RUNS"
+            local name="vdb-noshadow-s$step"
+            TIME_TO="$TMP/time" LOG_TO="$TMP/vdb.log" timed \
+                vdb_render_run "$img/$name.exr" "$step" "$VDB_CUTOFF_DEFAULT" 1000
+            alpha_err "$img/$name.exr"
+            $REPORT run "$OUT/render-$name.$run.json" --time "$TMP/time" --vdb-log "$TMP/vdb.log" \
+                --extra "$TMP/err.json"
         done
     done
 }

@@ -457,6 +457,23 @@ pub(super) fn floor_i32(x: f64) -> i32 {
     i - ((x < i as f64) as i32)
 }
 
+/// `x.floor()` without a libm call (see [`floor_i32`]), for any `x`: beyond 2^52 every
+/// f64 is an integer already, and NaN stays NaN.
+#[inline]
+pub fn floor_f64(x: f64) -> f64 {
+    if !(x.abs() < 4.5e15) {
+        return x;
+    }
+    let i = x as i64 as f64;
+    if x < i { i - 1.0 } else { i }
+}
+
+/// [`floor_f64`] of each component.
+#[inline]
+pub fn floor_dvec3(p: DVec3) -> DVec3 {
+    DVec3::new(floor_f64(p.x), floor_f64(p.y), floor_f64(p.z))
+}
+
 /// The block (`global >> 3`) and slot of the last lookup along a ray.
 pub(super) struct LeafCache {
     key: IVec3,
@@ -530,6 +547,10 @@ impl Field for VoxelGrid {
 
     fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
         self.exact_integral(ray, t0, t1)
+    }
+
+    fn piece_integrals(&self, ray: &IndexRay, t0: f64, ends: &[f64], out: &mut [f64]) {
+        self.exact_piece_integrals(ray, t0, ends, out)
     }
 
     fn slopes_along(

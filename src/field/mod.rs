@@ -245,6 +245,18 @@ pub trait Field: Send + Sync {
         gauss_legendre_2(|t| self.value_at_index(ray.at(t)) as f64, t0, t1)
     }
 
+    /// [`Field::integral`] over consecutive pieces of one ray: `out[i] = ∫ρ dt` over
+    /// `[ends[i−1], ends[i]]`, with `ends[−1] = t0` (`ends` ascending, as long as `out`).
+    /// A voxel grid walks the voxels once for all the pieces, so a march of many short
+    /// segments does not start a walk per segment.
+    fn piece_integrals(&self, ray: &IndexRay, t0: f64, ends: &[f64], out: &mut [f64]) {
+        let mut a = t0;
+        for (&b, o) in ends.iter().zip(out.iter_mut()) {
+            *o = self.integral(ray, a, b);
+            a = b;
+        }
+    }
+
     /// Along `ray` from `t0` to each of `targets` (ascending, world units): `∫ρ dt` and
     /// how it changes as the ray moves sideways as `side` says: `[∫ρ, ∫∇ρ·a, ∫∇ρ·b,
     /// ∫(aᵀ(∇∇ρ)b + ∇ρ·c)]` dt, pushed to `out`, the last with the kinks of the field's

@@ -149,6 +149,9 @@ pub struct Scratch {
     light_tau: Vec<Option<DVec3>>,
     /// Per light: scattered radiance gathered.
     pub per_light: Vec<DVec3>,
+    /// The ends of the segments of the current batch, and the density integral over each.
+    ends: Vec<f64>,
+    integrals: Vec<f64>,
 }
 
 impl Scratch {
@@ -156,9 +159,15 @@ impl Scratch {
         Scratch {
             light_tau: vec![None; lights],
             per_light: vec![DVec3::ZERO; lights],
+            ends: Vec::with_capacity(SEGMENT_BATCH),
+            integrals: vec![0.0; SEGMENT_BATCH],
         }
     }
 }
+
+/// Segments whose density integrals are taken in one walk over the voxels: enough to
+/// cover a leaf at the default step, few enough that a ray terminated early wastes little.
+const SEGMENT_BATCH: usize = 32;
 
 /// `∫₀^ds e^{−a·u} du · e^{−τ0}` with `a = σt + k`, stably for either sign of `a`:
 /// `τ1 = τ0 + k·ds` is the light's optical depth at the far end.
@@ -263,74 +272,96 @@ pub fn march(
         let mut a = span.t0;
         let mut first = true;
         while a < span.t1 {
-            let b = if first {
-                (a + u * h_span).min(span.t1)
-            } else {
-                (a + h_span).min(span.t1)
-            };
-            first = false;
-            if b <= a {
-                continue;
-            }
-            let ds = b - a;
-            let mid = 0.5 * (a + b);
-            let p = ray.at(mid);
-            // Mean density over the segment, from its exact integral where the field has one.
-            let rho = if constant {
-                span.range.max as f64
-            } else {
-                vol.density.integral(&ray, a, b) / ds
-            };
-            out.samples += 1;
-            let st = sigma_t * rho;
-            let w = per_channel(grey, |c| ds * phi(st[c] * ds));
-            let xw = origin + dir * mid;
-            if let Some(e) = emission {
-                let eps = e.mean(&ray, a, b, p, xw);
-                if eps.max_element() > 0.0 {
-                    out.emission += t_now * eps * w;
+            // The next batch of segments: the first of the span shortened by the jitter.
+            scratch.ends.clear();
+            let mut e = a;
+            while scratch.ends.len() < SEGMENT_BATCH && e < span.t1 {
+                let step = if first { u * h_span } else { h_span };
+                first = false;
+                if step <= 0.0 {
+                    continue; // jitter 0: no shortened first segment
                 }
+                let b = (e + step).min(span.t1);
+                // A step too small to move t: the rest of the span is one segment.
+                let b = if b > e { b } else { span.t1 };
+                scratch.ends.push(b);
+                e = b;
             }
-            if let (Some(ls), true) = (scatter_lights, rho > 0.0) {
-                let sigma_s_here = match &vol.color {
-                    Some(c) => sigma_s * c.at(p, xw),
-                    None => sigma_s,
-                };
-                for l in 0..n_lights {
-                    let tau0 = match scratch.light_tau[l] {
-                        Some(t) if last_end == a => t,
-                        _ => sigma_t * ls.density_to_light(l, origin + dir * a),
-                    };
-                    let tau1 = sigma_t * ls.density_to_light(l, origin + dir * b);
-                    scratch.light_tau[l] = Some(tau1);
-                    let (irradiance, travel) = ls.incident(l, xw);
-                    let phase = hg(travel.dot(-dir), vol.medium.g);
-                    let weight =
-                        per_channel(grey, |c| exp_source_weight(st[c], tau0[c], tau1[c], ds));
-                    scratch.per_light[l] +=
-                        t_now * sigma_s_here * rho * phase * irradiance * weight;
-                }
-                last_end = b;
+            // Mean density over each segment, from its exact integral where the field
+            // has one.
+            let batch = scratch.ends.len();
+            if scratch.integrals.len() < batch {
+                scratch.integrals.resize(batch, 0.0);
             }
-            let t_before = t_now;
-            tau += st * ds;
-            t_now = per_channel(grey, |c| (-tau[c]).exp());
-            let (m0, m1) = (t_before.element_sum() / 3.0, t_now.element_sum() / 3.0);
-            if out.half_opacity_t.is_none() && m0 > 0.5 && m1 <= 0.5 {
-                let rate = (m0 / m1).ln() / ds;
-                let s = if rate.is_finite() && rate > 0.0 {
-                    (m0 / 0.5).ln() / rate
+            if !constant {
+                vol.density.piece_integrals(
+                    &ray,
+                    a,
+                    &scratch.ends,
+                    &mut scratch.integrals[..batch],
+                );
+            }
+            for i in 0..batch {
+                let b = scratch.ends[i];
+                let ds = b - a;
+                let mid = 0.5 * (a + b);
+                let p = ray.at(mid);
+                let rho = if constant {
+                    span.range.max as f64
                 } else {
-                    ds
+                    scratch.integrals[i] / ds
                 };
-                out.half_opacity_t = Some(a + s.clamp(0.0, ds));
+                out.samples += 1;
+                let st = sigma_t * rho;
+                let w = per_channel(grey, |c| ds * phi(st[c] * ds));
+                let xw = origin + dir * mid;
+                if let Some(e) = emission {
+                    let eps = e.mean(&ray, a, b, p, xw);
+                    if eps.max_element() > 0.0 {
+                        out.emission += t_now * eps * w;
+                    }
+                }
+                if let (Some(ls), true) = (scatter_lights, rho > 0.0) {
+                    let sigma_s_here = match &vol.color {
+                        Some(c) => sigma_s * c.at(p, xw),
+                        None => sigma_s,
+                    };
+                    for l in 0..n_lights {
+                        let tau0 = match scratch.light_tau[l] {
+                            Some(t) if last_end == a => t,
+                            _ => sigma_t * ls.density_to_light(l, origin + dir * a),
+                        };
+                        let tau1 = sigma_t * ls.density_to_light(l, origin + dir * b);
+                        scratch.light_tau[l] = Some(tau1);
+                        let (irradiance, travel) = ls.incident(l, xw);
+                        let phase = hg(travel.dot(-dir), vol.medium.g);
+                        let weight =
+                            per_channel(grey, |c| exp_source_weight(st[c], tau0[c], tau1[c], ds));
+                        scratch.per_light[l] +=
+                            t_now * sigma_s_here * rho * phase * irradiance * weight;
+                    }
+                    last_end = b;
+                }
+                let t_before = t_now;
+                tau += st * ds;
+                t_now = per_channel(grey, |c| (-tau[c]).exp());
+                let (m0, m1) = (t_before.element_sum() / 3.0, t_now.element_sum() / 3.0);
+                if out.half_opacity_t.is_none() && m0 > 0.5 && m1 <= 0.5 {
+                    let rate = (m0 / m1).ln() / ds;
+                    let s = if rate.is_finite() && rate > 0.0 {
+                        (m0 / 0.5).ln() / rate
+                    } else {
+                        ds
+                    };
+                    out.half_opacity_t = Some(a + s.clamp(0.0, ds));
+                }
+                if t_now.max_element() < settings.termination {
+                    t_now = DVec3::ZERO;
+                    tau = DVec3::INFINITY;
+                    break 'spans;
+                }
+                a = b;
             }
-            if t_now.max_element() < settings.termination {
-                t_now = DVec3::ZERO;
-                tau = DVec3::INFINITY;
-                break 'spans;
-            }
-            a = b;
         }
     }
     out.transmittance = t_now;

@@ -17,6 +17,7 @@
 //! and the error falls about tenfold at one sample per voxel and fifty-fold at two.
 
 use super::chart::{Chart, LateralBlend};
+use crate::field::grid::floor_dvec3;
 use glam::{DVec3, IVec3};
 
 /// Lattice steps per brick side.
@@ -312,7 +313,7 @@ impl ChartMap {
     /// the lookup is continuous across the edge of the map.
     pub fn brick_at(&self, q: DVec3) -> Option<&Brick> {
         let s = q / BRICK as f64;
-        let b = s.floor();
+        let b = floor_dvec3(s);
         if let Some(brick) = self.brick_with_key(b) {
             return Some(brick);
         }
@@ -355,7 +356,7 @@ impl ChartMap {
         if let Some(b) = self.brick_at(q) {
             return self.blend(b, q);
         }
-        let b = (q / BRICK as f64).floor();
+        let b = floor_dvec3(q / BRICK as f64);
         let lo = self.lo.as_dvec3();
         let hi = lo + self.dims.as_dvec3();
         if !(b.x >= lo.x && b.x < hi.x && b.y >= lo.y && b.y < hi.y && b.z >= lo.z) {
@@ -381,7 +382,7 @@ impl ChartMap {
         let h = spacing(brick.level);
         let local =
             ((q - brick.key.as_dvec3() * BRICK as f64) / h).clamp(DVec3::ZERO, DVec3::splat(n));
-        let i = local.floor().min(DVec3::splat(n - 1.0));
+        let i = floor_dvec3(local).min(DVec3::splat(n - 1.0));
         let f = local - i;
         let i = i.as_uvec3();
         reconstruct(
