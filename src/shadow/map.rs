@@ -133,24 +133,32 @@ impl Samples for [&[f32]; QUANTITIES] {
     }
 }
 
-/// A brick as the map stores it: τ in f32, the other quantities as 16-bit integers
-/// scaled per brick and quantity (τ needs f32's digits; the slopes enter the blend
-/// weighted by at most 0.15 of a sample step, where 1/65,534 of their range is noise).
+/// One sample as the map stores it: τ in f32, the other quantities (ρ, ∂τ/∂x, ∂τ/∂y,
+/// ∂²τ/∂x∂y) as 16-bit integers scaled per brick and quantity (τ needs f32's digits; the
+/// slopes enter the blend weighted by at most 0.15 of a sample step, where 1/65,534 of
+/// their range is noise). The five sit together, so a lookup reads one cache line per
+/// sample rather than one per quantity.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
+pub struct PackedSample {
+    tau: f32,
+    rest: [i16; QUANTITIES - 1],
+}
+
+/// A brick's packed samples and the scales of their 16-bit quantities.
 pub struct PackedBrick<'a> {
-    tau: &'a [f32],
-    /// Quantities 1..QUANTITIES, `n` each.
-    packed: &'a [i16],
+    samples: &'a [PackedSample],
     scales: [f32; QUANTITIES - 1],
-    n: usize,
 }
 
 impl Samples for PackedBrick<'_> {
     #[inline(always)]
     fn get(&self, q: usize, k: usize) -> f64 {
+        let s = &self.samples[k];
         if q == 0 {
-            self.tau[k] as f64
+            s.tau as f64
         } else {
-            self.packed[(q - 1) * self.n + k] as f64 * self.scales[q - 1] as f64
+            s.rest[q - 1] as f64 * self.scales[q - 1] as f64
         }
     }
 }
@@ -210,7 +218,7 @@ pub fn reconstruct(
 pub struct Brick {
     pub key: IVec3,
     pub level: u8,
-    /// Index of its first τ sample; its packed quantities start at `(QUANTITIES − 1)×`.
+    /// Index of its first sample in the map.
     pub offset: u32,
     scales: [f32; QUANTITIES - 1],
 }
@@ -223,11 +231,8 @@ pub struct ChartMap {
     dims: IVec3,
     slots: Vec<u32>,
     pub bricks: Vec<Brick>,
-    /// Per brick: its τ samples.
-    tau: Vec<f32>,
-    /// Per brick: its ρ, ∂τ/∂x, ∂τ/∂y and ∂²τ/∂x∂y samples in turn, packed (see
-    /// [`PackedBrick`]).
-    packed: Vec<i16>,
+    /// Per brick: its samples, x fastest.
+    samples: Vec<PackedSample>,
 }
 
 const NO_BRICK: u32 = u32::MAX;
@@ -260,8 +265,7 @@ impl ChartMap {
             dims,
             slots: vec![NO_BRICK; n],
             bricks: Vec::with_capacity(bricks.len()),
-            tau: Vec::with_capacity(bricks.iter().map(|b| b.2.len()).sum()),
-            packed: Vec::with_capacity(bricks.iter().map(|b| (QUANTITIES - 1) * b.2.len()).sum()),
+            samples: Vec::with_capacity(bricks.iter().map(|b| b.2.len()).sum()),
         };
         for (key, level, samples) in bricks {
             let n = side(level).pow(3);
@@ -282,17 +286,18 @@ impl ChartMap {
             map.bricks.push(Brick {
                 key,
                 level,
-                offset: u32::try_from(map.tau.len()).ok()?,
+                offset: u32::try_from(map.samples.len()).ok()?,
                 scales,
             });
-            map.tau.extend_from_slice(planes[0]);
-            for (plane, scale) in planes[1..].iter().zip(scales) {
-                map.packed.extend(plane.iter().map(|v| {
-                    (v / scale)
-                        .round()
-                        .clamp(-(i16::MAX as f32), i16::MAX as f32) as i16
-                }));
-            }
+            let pack = |v: f32, scale: f32| {
+                (v / scale)
+                    .round()
+                    .clamp(-(i16::MAX as f32), i16::MAX as f32) as i16
+            };
+            map.samples.extend((0..n).map(|k| PackedSample {
+                tau: planes[0][k],
+                rest: std::array::from_fn(|q| pack(planes[q + 1][k], scales[q])),
+            }));
         }
         Some(map)
     }
@@ -398,8 +403,7 @@ impl ChartMap {
 
     /// Bytes held: values, bricks and the position table.
     pub fn memory_bytes(&self) -> usize {
-        self.tau.len() * 4
-            + self.packed.len() * 2
+        self.samples.len() * std::mem::size_of::<PackedSample>()
             + self.bricks.len() * std::mem::size_of::<Brick>()
             + self.slots.len() * 4
     }
@@ -415,13 +419,9 @@ impl ChartMap {
 
     #[inline]
     fn packed_brick(&self, b: &Brick) -> PackedBrick<'_> {
-        let n = side(b.level).pow(3);
-        let at = b.offset as usize;
         PackedBrick {
-            tau: &self.tau[at..][..n],
-            packed: &self.packed[(QUANTITIES - 1) * at..][..(QUANTITIES - 1) * n],
+            samples: &self.samples[b.offset as usize..][..side(b.level).pow(3)],
             scales: b.scales,
-            n,
         }
     }
 
@@ -429,7 +429,7 @@ impl ChartMap {
     /// holds them: `side(level)³` values, x fastest.
     pub fn brick_quantity(&self, b: &Brick, q: usize) -> Vec<f32> {
         let packed = self.packed_brick(b);
-        (0..packed.n).map(|k| packed.get(q, k) as f32).collect()
+        (0..packed.samples.len()).map(|k| packed.get(q, k) as f32).collect()
     }
 }
 
