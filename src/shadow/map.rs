@@ -385,8 +385,9 @@ impl ChartMap {
     fn blend(&self, brick: &Brick, q: DVec3) -> f64 {
         let n = (1i32 << brick.level) as f64;
         let h = spacing(brick.level);
-        let local =
-            ((q - brick.key.as_dvec3() * BRICK as f64) / h).clamp(DVec3::ZERO, DVec3::splat(n));
+        // × 1/h rather than ÷ h: both are powers of two, so this is exact and cheaper.
+        let local = ((q - brick.key.as_dvec3() * BRICK as f64) * (n / BRICK as f64))
+            .clamp(DVec3::ZERO, DVec3::splat(n));
         let i = floor_dvec3(local).min(DVec3::splat(n - 1.0));
         let f = local - i;
         let i = i.as_uvec3();
