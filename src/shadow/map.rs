@@ -430,7 +430,9 @@ impl ChartMap {
     /// holds them: `side(level)³` values, x fastest.
     pub fn brick_quantity(&self, b: &Brick, q: usize) -> Vec<f32> {
         let packed = self.packed_brick(b);
-        (0..packed.samples.len()).map(|k| packed.get(q, k) as f32).collect()
+        (0..packed.samples.len())
+            .map(|k| packed.get(q, k) as f32)
+            .collect()
     }
 }
 
