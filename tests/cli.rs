@@ -559,3 +559,56 @@ fn a_shadow_cache_for_other_lights_is_refused() {
         "{doc}"
     );
 }
+
+/// `bake-shadows` takes the flags that decide a map and refuses camera and image flags
+/// (they would change nothing); from a scene file it bakes the scene's named lights and
+/// ignores its camera.
+#[test]
+fn bake_shadows_refuses_camera_flags_and_bakes_a_scene_s_lights() {
+    let dir = scratch("bake-flags");
+    let out = murk(
+        &dir,
+        &[
+            "bake-shadows".into(),
+            fixture("cloud.vdb"),
+            "-o".into(),
+            "x.vdb".into(),
+            "--res".into(),
+            "64x64".into(),
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--res"), "{err}");
+    assert!(!dir.join("x.vdb").exists());
+
+    let out = murk(
+        &dir,
+        &[
+            "bake-shadows".into(),
+            fixture("scene.toml"),
+            "-o".into(),
+            "scene.vdb".into(),
+            "--stats".into(),
+            "bake.json".into(),
+            "--dsm-tolerance".into(),
+            "5e-3".into(),
+            "--quiet".into(),
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stats: Value =
+        serde_json::from_str(&fs::read_to_string(dir.join("bake.json")).unwrap()).unwrap();
+    let lights: Vec<&str> = stats["shadow_maps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["light"].as_str().unwrap())
+        .collect();
+    assert_eq!(lights, ["key", "fill"]);
+    assert!(dir.join("scene.vdb").is_file());
+}

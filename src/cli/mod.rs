@@ -40,7 +40,7 @@ enum Command {
         /// A .vdb file, or a scene .toml (flags override what it says).
         input: PathBuf,
         #[command(flatten)]
-        options: Box<murk::render::RenderOptions>,
+        options: Box<murk::render::BakeOptions>,
     },
     /// Run a fixed battery of stiff and extreme cases; print a pass/fail table and write
     /// stability.json.
@@ -112,7 +112,7 @@ pub fn run() -> i32 {
         },
         Command::Info { file, stats, json } => info::run(&file, stats, json),
         Command::Render { input, options } => render::run(&input, *options),
-        Command::BakeShadows { input, options } => render::bake(&input, *options),
+        Command::BakeShadows { input, options } => render::bake(&input, (*options).into()),
     };
     match result {
         Ok(()) => 0,

@@ -12,7 +12,7 @@ pub mod shadow_cache;
 pub mod shadows;
 pub mod stats;
 
-pub use options::RenderOptions;
+pub use options::{BakeOptions, RenderOptions};
 pub use plan::RenderPlan;
 
 use crate::field::Field;

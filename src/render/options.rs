@@ -167,6 +167,64 @@ pub struct RenderOptions {
     pub quiet: bool,
 }
 
+/// `murk bake-shadows` flags: only what decides a shadow map (the density, the medium's
+/// extinction, the lights, the tolerance), so that camera and image flags, which would
+/// change nothing, are refused rather than silently ignored. A scene file may still hold
+/// them: the bake reads the scene as a render would and uses what it needs.
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct BakeOptions {
+    /// The .vdb to write: each light's map as float grids of optical depth (with its
+    /// slopes), for `murk render --shadow-cache`.
+    #[arg(short = 'o', long = "output", value_name = "SHADOWS.vdb")]
+    pub output: Option<PathBuf>,
+    /// Grid that holds density (default: detected — density).
+    #[arg(long = "density-grid", value_name = "NAME")]
+    pub density_grid: Option<String>,
+    /// Absorption per world unit at density 1, r,g,b (default 0.1,0.1,0.1).
+    #[arg(long = "sigma-a", value_name = "r,g,b")]
+    pub sigma_a: Option<String>,
+    /// Scattering per world unit at density 1, r,g,b (default 2,2,2).
+    #[arg(long = "sigma-s", value_name = "r,g,b")]
+    pub sigma_s: Option<String>,
+    /// Multiplies density (default 1).
+    #[arg(long = "density-scale", value_name = "F")]
+    pub density_scale: Option<f64>,
+    /// A light: sun:DX,DY,DZ[:R,G,B[:INTENSITY]] (direction toward the sun) or
+    /// point:X,Y,Z[:R,G,B[:INTENSITY]]. Repeatable. Default: sun:0.6,1,0.5:1,1,1:6.
+    #[arg(long = "light", value_name = "SPEC", allow_hyphen_values = true)]
+    pub light: Vec<String>,
+    /// Largest transmittance error the maps may make, absolute (default 1e-3).
+    #[arg(long = "dsm-tolerance", value_name = "T")]
+    pub dsm_tolerance: Option<f64>,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Write bake statistics as JSON (the render's keys: `shadow_maps`, `stages`, …).
+    #[arg(long, value_name = "FILE.json")]
+    pub stats: Option<PathBuf>,
+    /// No progress bar and no summary.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl From<BakeOptions> for RenderOptions {
+    fn from(b: BakeOptions) -> RenderOptions {
+        RenderOptions {
+            output: b.output,
+            density_grid: b.density_grid,
+            sigma_a: b.sigma_a,
+            sigma_s: b.sigma_s,
+            density_scale: b.density_scale,
+            light: b.light,
+            dsm_tolerance: b.dsm_tolerance,
+            threads: b.threads,
+            stats: b.stats,
+            quiet: b.quiet,
+            ..RenderOptions::default()
+        }
+    }
+}
+
 /// A light in a scene file, with the name its scatter layer gets.
 #[derive(Clone, Debug, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
