@@ -12,15 +12,20 @@
 //!    every channel. Otherwise the brick moves one level finer, down to the finest level
 //!    the tolerance allows. Deep inside a thick cloud transmittance is small, so errors in
 //!    optical depth cost little there and the bricks stay coarse.
+//! 4. Samples coarser than a voxel can step over density (a sheet one voxel thick between
+//!    them, or the shadow of one), and then the next level's samples miss it too. So a
+//!    brick stays coarser than a voxel only if, besides passing the check, the density's
+//!    range over it and over every brick above it toward the light bounds what it could
+//!    miss below the tolerance ([`unresolved_bounds`]).
 
-use super::chart::Chart;
+use super::chart::{Chart, ChartKind};
 use super::columns::sample_level;
 use super::map::{
     BRICK, BrickSamples, ChartMap, ChartSelect, LEVELS, MAX_LEVEL, ShadowMap, VOXEL_LEVEL,
     reconstruct, side, spacing,
 };
 use crate::accel::nonzero_blocks;
-use crate::field::Field;
+use crate::field::{Field, IndexBox, ValueRange};
 use glam::{DVec3, IVec3};
 use std::collections::{BTreeMap, HashSet};
 
@@ -360,6 +365,78 @@ fn coarsen(fine: &BrickSamples, level_fine: u8) -> BrickSamples {
     out
 }
 
+/// The density's range over the world region of brick `key` of `chart`, from the
+/// field's hierarchy (a bound, not a sample).
+fn brick_range(density: &dyn Field, chart: &Chart, key: IVec3) -> ValueRange {
+    // A parallel chart is affine: its corners bound it. A perspective one has spherical
+    // ends and diverging columns, so points across its faces too, and a voxel of margin.
+    let (per_axis, margin) = match chart.kind {
+        ChartKind::Parallel { .. } => (2, 1.0),
+        ChartKind::Perspective { .. } => (5, 2.0),
+    };
+    let tr = density.transform();
+    let base = key.as_dvec3() * BRICK as f64;
+    let step = BRICK as f64 / (per_axis - 1) as f64;
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for k in 0..per_axis {
+        for j in 0..per_axis {
+            for i in 0..per_axis {
+                let q = base + DVec3::new(i as f64, j as f64, k as f64) * step;
+                let p = tr.world_to_index(chart.to_world(q));
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+    }
+    if !(lo.is_finite() && hi.is_finite()) {
+        return ValueRange::EMPTY;
+    }
+    let m = DVec3::splat(margin);
+    density.range_over(&IndexBox::new((lo - m).as_vec3(), (hi + m).as_vec3()))
+}
+
+/// Per brick of `keys`: a bound
+/// on the transmittance error the map could make there from density its samples do not
+/// see. Along any column, optical depth down to a point in the brick varies with the
+/// point by at most `σt · Σ (max ρ − min ρ) · L` over this brick and those above it (L
+/// the length of a column in a brick), and transmittance there is at most `e^{−σt ·
+/// Σ min ρ · L}` over the bricks above. Their product, doubled for the blend's
+/// overshoot, bounds what samples coarser than the density's features can miss.
+fn unresolved_bounds(
+    density: &dyn Field,
+    chart: &Chart,
+    keys: &[IVec3],
+    sigmas: &[f64],
+) -> Vec<f64> {
+    let (Some(&s_min), Some(&s_max)) = (sigmas.first(), sigmas.last()) else {
+        return vec![0.0; keys.len()];
+    };
+    let length = BRICK as f64 * chart.unit;
+    // Stack by stack, from the light down.
+    let mut order: Vec<usize> = (0..keys.len()).collect();
+    order.sort_by_key(|&i| (keys[i].x, keys[i].y, keys[i].z));
+    let mut out = vec![0.0; keys.len()];
+    let mut stack = None;
+    let (mut variation, mut depth_below) = (0.0, 0.0);
+    for i in order {
+        let key = keys[i];
+        if stack != Some((key.x, key.y)) {
+            stack = Some((key.x, key.y));
+            (variation, depth_below) = (0.0, 0.0);
+        }
+        let r = brick_range(density, chart, key);
+        let (min, max) = if r.min <= r.max {
+            (f64::from(r.min).max(0.0), f64::from(r.max).max(0.0))
+        } else {
+            (0.0, 0.0)
+        };
+        variation += (max - min) * length;
+        out[i] = 2.0 * s_max * variation * (-s_min * depth_below).exp();
+        depth_below += min * length;
+    }
+    out
+}
+
 /// Chooses every brick's level; returns `(key, level, samples)`.
 fn refine(
     density: &dyn Field,
@@ -369,6 +446,11 @@ fn refine(
     report: &mut BakeReport,
 ) -> Vec<(IVec3, u8, BrickSamples)> {
     let sigmas = channels(settings.sigma_t);
+    let unresolved: std::collections::HashMap<IVec3, f64> = keys
+        .iter()
+        .copied()
+        .zip(unresolved_bounds(density, chart, keys, &sigmas))
+        .collect();
     // Where each brick stack starts: density lies only inside marked bricks.
     let mut stack_start: BTreeMap<(i32, i32), i32> = BTreeMap::new();
     for k in keys {
@@ -395,7 +477,9 @@ fn refine(
             } else {
                 coarse_error(&fine, &coarse, fine_level, chart, &sigmas)
             };
-            if error <= allowed {
+            // Coarser than a voxel, the check alone could pass over unseen density.
+            let resolved = trial >= VOXEL_LEVEL || unresolved[&key] <= allowed;
+            if error <= allowed && resolved {
                 held += coarse.len();
                 done.push((key, trial, coarse));
             } else if fine_level >= max_level {
