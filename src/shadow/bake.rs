@@ -482,6 +482,13 @@ fn refine(
             if error <= allowed && resolved {
                 held += coarse.len();
                 done.push((key, trial, coarse));
+            } else if error <= allowed && fine_level == VOXEL_LEVEL {
+                // Smooth at two voxels as one-voxel samples see it, and only unresolved:
+                // one sample per voxel cannot step over density, so that level is kept
+                // without checking it against half a voxel (which would sample every such
+                // brick eight times over).
+                held += fine.len();
+                done.push((key, fine_level, fine));
             } else if fine_level >= max_level {
                 // Kept at the finest level unchecked (checking would take the level
                 // after). Below a voxel, halving the spacing divides the blend's error by
