@@ -446,11 +446,6 @@ fn refine(
     report: &mut BakeReport,
 ) -> Vec<(IVec3, u8, BrickSamples)> {
     let sigmas = channels(settings.sigma_t);
-    let unresolved: std::collections::HashMap<IVec3, f64> = keys
-        .iter()
-        .copied()
-        .zip(unresolved_bounds(density, chart, keys, &sigmas))
-        .collect();
     // Where each brick stack starts: density lies only inside marked bricks.
     let mut stack_start: BTreeMap<(i32, i32), i32> = BTreeMap::new();
     for k in keys {
@@ -459,17 +454,24 @@ fn refine(
     }
     let mut done = Vec::with_capacity(keys.len());
     let max_level = settings.max_level.max(1);
-    // Bricks still undecided, with their values one level finer than the level on trial.
     let mut trial: u8 = 0;
-    let mut pending: Vec<(IVec3, BrickSamples)> = {
+    // Bricks still undecided: key, what coarse samples could miss there (see
+    // `unresolved_bounds`), and the samples one level finer than the level on trial.
+    let mut pending: Vec<(IVec3, f64, BrickSamples)> = {
+        let bounds = unresolved_bounds(density, chart, keys, &sigmas);
         let vals = sample_level(density, chart, keys, 1, &stack_start, report);
-        keys.iter().copied().zip(vals).collect()
+        keys.iter()
+            .copied()
+            .zip(bounds)
+            .zip(vals)
+            .map(|((k, b), v)| (k, b, v))
+            .collect()
     };
     let mut held: usize = 0;
     while !pending.is_empty() {
         let fine_level = trial + 1;
         let mut next = Vec::new();
-        for (key, fine) in pending {
+        for (key, unresolved, fine) in pending {
             let coarse = coarsen(&fine, fine_level);
             let allowed = CHECK_FRACTION * settings.tolerance;
             let error = if sigmas.is_empty() {
@@ -478,7 +480,7 @@ fn refine(
                 coarse_error(&fine, &coarse, fine_level, chart, &sigmas)
             };
             // Coarser than a voxel, the check alone could pass over unseen density.
-            let resolved = trial >= VOXEL_LEVEL || unresolved[&key] <= allowed;
+            let resolved = trial >= VOXEL_LEVEL || unresolved <= allowed;
             if error <= allowed && resolved {
                 held += coarse.len();
                 done.push((key, trial, coarse));
@@ -504,7 +506,7 @@ fn refine(
                 held += fine.len();
                 done.push((key, fine_level, fine));
             } else {
-                next.push((key, fine));
+                next.push((key, unresolved, fine));
             }
         }
         trial += 1;
@@ -512,12 +514,16 @@ fn refine(
         if held + needed > settings.max_values {
             // Out of budget: keep what there is.
             report.bricks_over_tolerance += next.len();
-            done.extend(next.into_iter().map(|(k, v)| (k, trial, v)));
+            done.extend(next.into_iter().map(|(k, _, v)| (k, trial, v)));
             break;
         }
-        let keys: Vec<IVec3> = next.iter().map(|(k, _)| *k).collect();
+        let keys: Vec<IVec3> = next.iter().map(|(k, _, _)| *k).collect();
         let vals = sample_level(density, chart, &keys, trial + 1, &stack_start, report);
-        pending = keys.into_iter().zip(vals).collect();
+        pending = next
+            .into_iter()
+            .zip(vals)
+            .map(|((k, b, _), v)| (k, b, v))
+            .collect();
     }
     done
 }
