@@ -8,6 +8,7 @@
 //! leaves also keep the range over the +1 voxel layer the trilinear stencil reaches, so
 //! the traversal can use them as majorants directly.
 
+use super::floor::floor_i32;
 use super::{Cell, Field, IndexBox, IndexRay, IndexToWorld, ValueRange};
 use glam::{DVec3, IVec3, Vec3};
 
@@ -447,31 +448,6 @@ impl VoxelGrid {
             range: self.leaf_stencil[(e & !CHILD) as usize],
         }
     }
-}
-
-/// `floor` as an integer without a libm call (the baseline x86-64 target has no SSE4.1
-/// rounding instruction). For |x| < 2^30; NaN gives 0.
-#[inline]
-pub(super) fn floor_i32(x: f64) -> i32 {
-    let i = x as i32;
-    i - ((x < i as f64) as i32)
-}
-
-/// `x.floor()` without a libm call (see [`floor_i32`]), for any `x`: beyond 2^52 every
-/// f64 is an integer already, and NaN stays NaN.
-#[inline]
-pub fn floor_f64(x: f64) -> f64 {
-    if !(x.abs() < 4.5e15) {
-        return x;
-    }
-    let i = x as i64 as f64;
-    if x < i { i - 1.0 } else { i }
-}
-
-/// [`floor_f64`] of each component.
-#[inline]
-pub fn floor_dvec3(p: DVec3) -> DVec3 {
-    DVec3::new(floor_f64(p.x), floor_f64(p.y), floor_f64(p.z))
 }
 
 /// The block (`global >> 3`) and slot of the last lookup along a ray.

@@ -11,7 +11,8 @@
 //! gradient's k-th component jumps, and the jump adds `jump · a_k · b_k / |d_k|` (the ray
 //! crosses the face at rate `|d_k|`).
 
-use super::grid::{LOOKUP_LIMIT, LeafCache, Stencil, VoxelGrid, floor_i32, trilinear_f64};
+use super::floor::floor_i32;
+use super::grid::{LOOKUP_LIMIT, LeafCache, Stencil, VoxelGrid, trilinear_f64};
 use super::{GL2_HALF_OFFSET, IndexRay, Sideways, gauss_legendre_2};
 use glam::{DVec3, IVec3};
 

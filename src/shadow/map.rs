@@ -17,7 +17,7 @@
 //! and the error falls about tenfold at one sample per voxel and fifty-fold at two.
 
 use super::chart::{Chart, LateralBlend};
-use crate::field::grid::floor_dvec3;
+use crate::field::floor::floor_dvec3;
 use glam::{DVec3, IVec3};
 
 /// Lattice steps per brick side.
