@@ -343,6 +343,19 @@ fn zero_resolution() {
     );
 }
 
+/// A step so short the frame would never finish is refused, not left to run.
+#[test]
+fn march_steps_below_the_shortest_are_refused() {
+    for flag in ["--step", "--shadow-step"] {
+        fails(
+            "tiny-step",
+            &fixture("cloud.vdb"),
+            &[flag, "1e-9", "--shadows", "march"],
+            &[flag, "1e-9", "1/1024"],
+        );
+    }
+}
+
 #[test]
 fn field_of_view_out_of_range() {
     fails(

@@ -94,10 +94,10 @@ pub struct RenderOptions {
     #[arg(long = "no-lights")]
     #[serde(default)]
     pub no_lights: bool,
-    /// Largest march step in voxels of the density grid (default 0.5).
+    /// Largest march step in voxels of the density grid (default 0.5, at least 1/1024).
     #[arg(long, value_name = "VOXELS")]
     pub step: Option<f64>,
-    /// Shadow-ray step in voxels (default 1).
+    /// Shadow-ray step in voxels (default 1, at least 1/1024).
     #[arg(long = "shadow-step", value_name = "VOXELS")]
     pub shadow_step: Option<f64>,
     /// dsm (a deep shadow map of optical depth baked once per light, default), march (a

@@ -102,6 +102,22 @@ fn positive(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
     }
 }
 
+/// The shortest march or shadow step accepted, in voxels: 1/16 of the reference
+/// render's. Below it a frame would take longer than anyone waits (a step of 1e-9 voxel
+/// is 10⁹ segments a voxel), so it is refused rather than left to run as if hung.
+pub const MIN_STEP_VOXELS: f64 = 1.0 / 1024.0;
+
+/// A step in voxels: positive, finite and at least [`MIN_STEP_VOXELS`].
+fn step_voxels(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
+    let v = positive(v, default, what)?;
+    if v < MIN_STEP_VOXELS {
+        return Err(format!(
+            "{what} {v:e} is below the shortest step murk takes, 1/1024 voxel"
+        ));
+    }
+    Ok(v)
+}
+
 fn non_negative(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
     let v = v.unwrap_or(default);
     if v >= 0.0 && v.is_finite() {
@@ -306,12 +322,12 @@ impl RenderPlan {
             },
             ground_visible: o.ground_visible,
             reference: o.reference,
-            step: positive(
+            step: step_voxels(
                 o.step,
                 if o.reference { REFERENCE_STEP } else { 0.5 },
                 "--step",
             )?,
-            shadow_step: positive(o.shadow_step, 1.0, "--shadow-step")?,
+            shadow_step: step_voxels(o.shadow_step, 1.0, "--shadow-step")?,
             termination,
             spp,
             seed: o.seed.unwrap_or(0),
