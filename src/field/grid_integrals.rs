@@ -170,21 +170,9 @@ impl VoxelGrid {
         let Some(walk) = CellWalk::new(ray, t0, t1) else {
             return gauss_legendre_2(|t| self.sample_channel_f64(ray.at(t), 0), t0, t1);
         };
-        let d = ray.dir;
-        let mut cache = LeafCache::new();
-        let mut sum = 0.0;
-        for (cell, a, b, _) in walk {
-            // One voxel cell: its eight corners are read once for both nodes.
-            let mid = ray.at(0.5 * (a + b));
-            sum += match self.stencil_in(cell, mid - cell.as_dvec3(), 0, &mut cache) {
-                Stencil::Constant(v) => v as f64 * (b - a),
-                Stencil::Corners(v, t) => {
-                    let off = d * (GL2_HALF_OFFSET * (b - a));
-                    0.5 * (b - a) * (trilinear_f64(&v, t - off) + trilinear_f64(&v, t + off))
-                }
-            };
-        }
-        sum
+        let mut sum = [0.0];
+        self.integrate_pieces(walk, ray, &[t1], &mut sum);
+        sum[0]
     }
 
     /// `∫ρ dt` over each piece `[ends[i−1], ends[i]]` (`ends[−1] = t0`) into `out[i]`,
@@ -205,15 +193,24 @@ impl VoxelGrid {
         } else {
             None
         };
-        let Some(walk) = walk else {
-            // Too long to walk voxel by voxel: piece by piece, as `exact_integral` does.
-            let mut a = t0;
-            for (&b, o) in ends.iter().zip(out.iter_mut()) {
-                *o = self.exact_integral(ray, a, b);
-                a = b;
+        match walk {
+            Some(walk) => self.integrate_pieces(walk, ray, ends, out),
+            None => {
+                // Too long to walk voxel by voxel: piece by piece.
+                let mut a = t0;
+                for (&b, o) in ends.iter().zip(out.iter_mut()) {
+                    *o = self.exact_integral(ray, a, b);
+                    a = b;
+                }
             }
-            return;
-        };
+        }
+    }
+
+    /// Adds to `out[k]` the integral over the part of piece k (ending at `ends[k]`) in
+    /// each cell of `walk`: two Gauss–Legendre nodes per cell and piece, the cell's
+    /// eight corners read once.
+    fn integrate_pieces(&self, walk: CellWalk, ray: &IndexRay, ends: &[f64], out: &mut [f64]) {
+        let n = ends.len().min(out.len());
         let d = ray.dir;
         let mut cache = LeafCache::new();
         let mut k = 0;

@@ -202,6 +202,25 @@ impl WorldRay {
     }
 }
 
+/// Replaces `ends` with the ends of the next (up to [`SEGMENT_BATCH`]) segments of
+/// length `h` from `a` toward `t1`, the first of a span (`first`) shortened to `u·h` by
+/// the jitter. A step too small to move t makes the rest of the span one segment.
+fn next_segments(a: f64, t1: f64, h: f64, u: f64, first: &mut bool, ends: &mut Vec<f64>) {
+    ends.clear();
+    let mut e = a;
+    while ends.len() < SEGMENT_BATCH && e < t1 {
+        let step = if *first { u * h } else { h };
+        *first = false;
+        if step <= 0.0 {
+            continue; // jitter 0: no shortened first segment
+        }
+        let b = (e + step).min(t1);
+        let b = if b > e { b } else { t1 };
+        ends.push(b);
+        e = b;
+    }
+}
+
 /// `f` of each channel; with `grey` (all channels equal by construction) once.
 #[inline(always)]
 fn per_channel(grey: bool, f: impl Fn(usize) -> f64) -> DVec3 {
@@ -272,21 +291,7 @@ pub fn march(
         let mut a = span.t0;
         let mut first = true;
         while a < span.t1 {
-            // The next batch of segments: the first of the span shortened by the jitter.
-            scratch.ends.clear();
-            let mut e = a;
-            while scratch.ends.len() < SEGMENT_BATCH && e < span.t1 {
-                let step = if first { u * h_span } else { h_span };
-                first = false;
-                if step <= 0.0 {
-                    continue; // jitter 0: no shortened first segment
-                }
-                let b = (e + step).min(span.t1);
-                // A step too small to move t: the rest of the span is one segment.
-                let b = if b > e { b } else { span.t1 };
-                scratch.ends.push(b);
-                e = b;
-            }
+            next_segments(a, span.t1, h_span, u, &mut first, &mut scratch.ends);
             // Mean density over each segment, from its exact integral where the field
             // has one.
             let batch = scratch.ends.len();
