@@ -521,6 +521,14 @@ impl Field for VoxelGrid {
         super::Quadrature::ExactPerVoxel
     }
 
+    fn content_hash(&self) -> Option<u64> {
+        Some(VoxelGrid::content_hash(self))
+    }
+
+    fn memory_bytes(&self) -> usize {
+        VoxelGrid::memory_bytes(self)
+    }
+
     fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
         self.exact_integral(ray, t0, t1)
     }

@@ -278,4 +278,17 @@ pub trait Field: Send + Sync {
     fn quadrature(&self) -> Quadrature {
         Quadrature::Approximate
     }
+
+    /// A 64-bit fingerprint of what the field renders as (equal fields give equal
+    /// hashes on every machine), or `None` where the field cannot give one: a shadow map
+    /// cached for it is then never reused.
+    fn content_hash(&self) -> Option<u64> {
+        None
+    }
+
+    /// Bytes the field's render structure holds (reported in the stats and compared with
+    /// the shadow map's).
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of_val(self)
+    }
 }
