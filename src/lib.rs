@@ -2,8 +2,10 @@
 //!
 //! The pipeline flows one way through the modules:
 //! [`vdb`] (file loading) → [`field`] (sampler trait, grids, procedural fields) →
-//! [`accel`] (tree traversal, HDDA) → [`shadow`] → [`integrate`] (the volume integral) →
-//! [`render`] (camera, lights, scene, tiles) → [`output`] (EXR, previews, stats);
+//! [`accel`] (tree traversal, HDDA) → [`shadow`] (deep shadow maps and their cache) →
+//! [`integrate`] (integrators, passes, phase functions, the volume integral) → [`scene`]
+//! (what is rendered: input, fields in their roles, camera, lights) → [`render`] (the
+//! pixel loop) → [`output`] (EXR, previews, stats);
 //! [`report`] measures error and stability.
 
 // `!(x > 0.0)` is how this crate says "not a positive number, or NaN": the negated
@@ -16,5 +18,6 @@ pub mod integrate;
 pub mod output;
 pub mod render;
 pub mod report;
+pub mod scene;
 pub mod shadow;
 pub mod vdb;

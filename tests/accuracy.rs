@@ -29,8 +29,8 @@ use murk::field::VoxelGrid;
 use murk::field::shapes::ConstantSphere;
 use murk::integrate::phase::hg;
 use murk::integrate::{Companion, Emission, MarchSettings, RayResult, Volume};
-use murk::render::plan::ShadowMode;
 use murk::render::{RenderOptions, RenderPlan};
+use murk::scene::plan::ShadowMode;
 use murk::shadow::ShadowQuadrature;
 
 const STEPS: [f64; 5] = [0.125, 0.25, 0.5, 1.0, 2.0];
@@ -349,7 +349,7 @@ fn reference_plan_settings_and_refusals() {
     let plan = opts(&[]).unwrap();
     assert_eq!(plan.march_settings(), MarchSettings::reference());
     assert_eq!(plan.shadow_quadrature(), ShadowQuadrature::Exact);
-    assert_eq!(plan.shadows, ShadowMode::March);
+    assert_eq!(plan.shadows.mode, ShadowMode::March);
     assert_eq!(
         opts(&["step", "0.25"])
             .unwrap()
@@ -374,5 +374,5 @@ fn reference_plan_settings_and_refusals() {
     let plan = RenderPlan::new(&o, "in.vdb".into()).unwrap();
     assert_eq!(plan.march_settings(), MarchSettings::default());
     assert_eq!(plan.shadow_quadrature(), ShadowQuadrature::Step(1.0));
-    assert_eq!(plan.shadows, ShadowMode::Dsm);
+    assert_eq!(plan.shadows.mode, ShadowMode::Dsm);
 }

@@ -625,3 +625,62 @@ fn bake_shadows_refuses_camera_flags_and_bakes_a_scene_s_lights() {
     assert_eq!(lights, ["key", "fill"]);
     assert!(dir.join("scene.vdb").is_file());
 }
+
+/// Every default lives in `murk::scene::plan::defaults`; the flags' help states each one,
+/// so the two cannot drift apart (a changed default without its help fails here).
+#[test]
+fn help_states_every_default() {
+    use murk::scene::plan::defaults as d;
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_murk"))
+        .args(["render", "--help"])
+        .output()
+        .unwrap();
+    let help = String::from_utf8_lossy(&out.stdout);
+    let line = |flag: &str| {
+        help.lines()
+            .find(|l| l.trim_start().starts_with(&format!("{flag} ")))
+            .unwrap_or_else(|| panic!("no {flag} in the help:\n{help}"))
+            .to_string()
+    };
+    let rgb = |v: [f64; 3]| format!("{},{},{}", v[0], v[1], v[2]);
+    let cases = [
+        ("--res", format!("default {}x{}", d::RES.0, d::RES.1)),
+        ("--fov", format!("default {}", d::FOV_DEG)),
+        ("--sigma-a", format!("default {}", rgb([d::SIGMA_A; 3]))),
+        ("--sigma-s", format!("default {}", rgb([d::SIGMA_S; 3]))),
+        ("--density-scale", format!("default {}", d::DENSITY_SCALE)),
+        ("--g", format!("default {}", d::G)),
+        (
+            "--emission-color",
+            format!("default {}", rgb(d::EMISSION_COLOR)),
+        ),
+        (
+            "--emission-intensity",
+            format!("default {}", d::EMISSION_INTENSITY),
+        ),
+        (
+            "--temperature-scale",
+            format!("default scale {}", d::TEMPERATURE_SCALE),
+        ),
+        (
+            "--temperature-offset",
+            format!("default offset {}", d::TEMPERATURE_OFFSET),
+        ),
+        (
+            "--blackbody-intensity",
+            format!("default {}", d::BLACKBODY_INTENSITY),
+        ),
+        ("--light", format!("Default: {}", d::LIGHT)),
+        ("--dsm-tolerance", format!("default {:e}", d::DSM_TOLERANCE)),
+        ("--step", format!("default {}", d::STEP)),
+        ("--shadow-step", format!("default {}", d::SHADOW_STEP)),
+        ("--termination", format!("default {:e}", d::TERMINATION)),
+        ("--spp", format!("default {}", d::SPP)),
+        ("--seed", format!("default {}", d::SEED)),
+        ("--exposure", format!("default {}", d::EXPOSURE)),
+    ];
+    for (flag, want) in cases {
+        let l = line(flag);
+        assert!(l.contains(&want), "{flag}: expected \"{want}\" in: {l}");
+    }
+}

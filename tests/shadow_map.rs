@@ -7,8 +7,10 @@
 use glam::DVec3;
 use murk::field::shapes::ConstantBox;
 use murk::field::{Field, VoxelGrid};
-use murk::render::light::Light;
-use murk::render::{RenderOptions, RenderPlan, render_image, shadow_cache};
+use murk::render::{RenderOptions, RenderPlan, render_image};
+use murk::scene::light::Light;
+use murk::shadow::ShadowMapStats;
+use murk::shadow::cache as shadow_cache;
 use murk::shadow::map::MAX_LEVEL;
 use murk::shadow::{BakeSettings, LightGeometry, bake};
 use murk::vdb::VdbFile;
@@ -252,7 +254,7 @@ fn shadow_cache_round_trips_and_refuses_a_mismatch() {
     for l in &lights {
         let (m, r) = bake(&cloud, l.geometry(), &settings());
         maps.push(m);
-        stats.push(murk::render::shadows::ShadowMapStats {
+        stats.push(ShadowMapStats {
             light: l.name.clone(),
             bake: r,
             ..Default::default()

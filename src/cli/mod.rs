@@ -1,6 +1,8 @@
 //! Command-line parsing and dispatch. Errors are printed as one line; exit code 2.
 
+mod args;
 mod info;
+mod progress;
 mod render;
 mod report;
 
@@ -40,7 +42,7 @@ enum Command {
         /// A .vdb file, or a scene .toml (flags override what it says).
         input: PathBuf,
         #[command(flatten)]
-        options: Box<murk::render::BakeOptions>,
+        options: Box<args::BakeArgs>,
     },
     /// Run a fixed battery of stiff and extreme cases; print a pass/fail table and write
     /// stability.json.
@@ -66,7 +68,7 @@ enum Command {
         #[arg(long, value_name = "N", default_value_t = 3)]
         runs: usize,
         #[command(flatten)]
-        options: Box<murk::render::RenderOptions>,
+        options: Box<args::RenderArgs>,
     },
     /// Render a .vdb (or a scene .toml that names one) to a multi-layer EXR.
     #[command(after_help = render::EXAMPLES)]
@@ -74,7 +76,7 @@ enum Command {
         /// A .vdb file, or a scene .toml (flags override what it says).
         input: PathBuf,
         #[command(flatten)]
-        options: Box<murk::render::RenderOptions>,
+        options: Box<args::RenderArgs>,
     },
 }
 
@@ -104,15 +106,15 @@ pub fn run() -> i32 {
             out,
             runs,
             options,
-        } => report::converge(&input, *options, &out, runs),
+        } => report::converge(&input, options.options(), &out, runs),
         Command::CheckStability { out, json } => match report::check_stability(&out, json) {
             Ok(true) => Ok(()),
             Ok(false) => return 1,
             Err(e) => Err(e),
         },
         Command::Info { file, stats, json } => info::run(&file, stats, json),
-        Command::Render { input, options } => render::run(&input, *options),
-        Command::BakeShadows { input, options } => render::bake(&input, (*options).into()),
+        Command::Render { input, options } => render::run(&input, options.options()),
+        Command::BakeShadows { input, options } => render::bake(&input, options.options()),
     };
     match result {
         Ok(()) => 0,

@@ -52,17 +52,17 @@ fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> 
 
 pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
     let (plan, quiet) = plan_for(input, options)?;
-    let stats = render(&plan)?;
+    let stats = render(&plan, &super::progress::Bars::new(quiet))?;
     if !quiet {
         eprintln!(
             "murk: wrote {} ({}x{}, {} channels) in {:.2} s",
-            plan.output.display(),
+            plan.outputs.path.display(),
             stats.width,
             stats.height,
             stats.channels.len(),
             stats.total_seconds
         );
-        for n in &stats.notes {
+        for n in &stats.scene.notes {
             eprintln!("murk: note: {n}");
         }
     }
@@ -71,9 +71,9 @@ pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
 
 pub fn bake(input: &Path, options: RenderOptions) -> Result<()> {
     let (plan, quiet) = plan_for(input, options)?;
-    let stats = bake_shadow_file(&plan)?;
+    let stats = bake_shadow_file(&plan, &super::progress::Bars::new(quiet))?;
     if !quiet {
-        for m in &stats.shadow_maps {
+        for m in &stats.scene.shadow_maps {
             eprintln!(
                 "murk: {}: {} bricks ({} likely over the tolerance), {:.1} MB, baked in {:.2} s",
                 m.light,
@@ -85,7 +85,7 @@ pub fn bake(input: &Path, options: RenderOptions) -> Result<()> {
         }
         eprintln!(
             "murk: wrote {} in {:.2} s",
-            plan.output.display(),
+            plan.outputs.path.display(),
             stats.total_seconds
         );
     }

@@ -2,14 +2,13 @@
 
 use super::print_stdout;
 use anyhow::{Result, anyhow};
-use indicatif::{ProgressBar, ProgressStyle};
 use murk::output::write_atomically;
+use murk::render::Progress;
 use murk::render::RenderOptions;
 use murk::report::converge::{self, ConvergeSettings};
 use murk::report::converge_table::{csv, markdown, summarise, summary_table};
 use murk::report::plot::{COLOURS, write_plot};
 use murk::report::stability::{run_battery, table};
-use std::io::IsTerminal;
 use std::path::Path;
 
 pub const STABILITY_EXAMPLES: &str = "Examples:
@@ -72,19 +71,9 @@ pub fn converge(input: &Path, options: RenderOptions, out: &Path, runs: usize) -
     }
     std::fs::create_dir_all(out)
         .map_err(|e| anyhow!("{}: cannot create the directory: {e}", out.display()))?;
-    let progress = if options.quiet || !std::io::stderr().is_terminal() {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(1)
-    };
-    progress.set_style(
-        ProgressStyle::with_template(
-            "{spinner} converge [{bar:40}] {pos}/{len} renders {elapsed} (eta {eta}) {msg}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let progress = super::progress::Bars::new(options.quiet);
     let (reference, rows) = converge::run(&options, &vdb, &ConvergeSettings { runs }, &progress)?;
-    progress.finish_and_clear();
+    progress.finish();
     let summary = summarise(&rows);
     let plan = murk::render::RenderPlan::new(
         &RenderOptions {
@@ -98,7 +87,7 @@ pub fn converge(input: &Path, options: RenderOptions, out: &Path, runs: usize) -
     let text = write_plot(&out.join("converge.png"), &rows)?;
     let mut md = markdown(
         &vdb.display().to_string(),
-        (plan.width, plan.height),
+        (plan.camera.width, plan.camera.height),
         &reference,
         &rows,
         &summary,

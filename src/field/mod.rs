@@ -17,6 +17,8 @@ mod grid_integrals;
 pub mod procedural;
 pub mod random;
 pub mod shapes;
+#[cfg(test)]
+mod test_support;
 pub mod transform;
 pub mod union;
 
@@ -291,4 +293,28 @@ pub trait Field: Send + Sync {
     fn memory_bytes(&self) -> usize {
         std::mem::size_of_val(self)
     }
+}
+
+/// A colour (or any 3-vector) field, sampled where the density is: Houdini's `Cd`,
+/// Blender's `color`.
+pub trait ColorField: Send + Sync {
+    fn transform(&self) -> &IndexToWorld;
+    /// Trilinear value at a local index point.
+    fn color_at_index(&self, p: DVec3) -> Vec3;
+}
+
+impl ColorField for VoxelGrid {
+    fn transform(&self) -> &IndexToWorld {
+        Field::transform(self)
+    }
+    fn color_at_index(&self, p: DVec3) -> Vec3 {
+        self.sample_vec3(p)
+    }
+}
+
+/// The shift from `b`'s local index space to `a`'s when both are on one lattice (the
+/// same index→world map up to an integer offset), else `None`.
+pub fn lattice_offset(a: &IndexToWorld, b: &IndexToWorld) -> Option<DVec3> {
+    (a.linear() == b.linear() && a.matrix().w_axis == b.matrix().w_axis)
+        .then(|| (b.origin - a.origin).as_dvec3())
 }

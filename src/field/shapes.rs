@@ -178,12 +178,6 @@ impl ConstantBox {
         self.density
     }
 
-    /// True if the local index point is inside the closed box.
-    #[inline]
-    fn inside_index(&self, p: DVec3) -> bool {
-        p.cmpge(self.index_min).all() && p.cmple(self.index_max).all()
-    }
-
     /// The parametric interval `[t0, t1]` over which the world ray `o + t·d` is inside
     /// the box (`t0` may be negative), or `None`.
     pub fn ray_interval(&self, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
@@ -195,18 +189,6 @@ impl ConstantBox {
     /// `σt · ρ · chord_length`.
     pub fn chord_length(&self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> f64 {
         clipped_length(self.ray_interval(o, d), d, t_min, t_max)
-    }
-
-    /// Range over the closed local-index box `[lo, hi]`.
-    fn range_of_box(&self, lo: DVec3, hi: DVec3) -> ValueRange {
-        let separated = hi.cmplt(self.index_min).any() || lo.cmpgt(self.index_max).any();
-        if separated {
-            ValueRange::ZERO
-        } else if lo.cmpge(self.index_min).all() && hi.cmple(self.index_max).all() {
-            ValueRange::point(self.density)
-        } else {
-            straddle(self.density)
-        }
     }
 }
 
@@ -236,44 +218,6 @@ fn chord_integral(
         transform.linear() * ray.dir,
     );
     density as f64 * chord(o, d, t0, t1) / d.length().max(f64::MIN_POSITIVE)
-}
-
-impl Field for ConstantBox {
-    /// The exact indicator: `ρ` inside the closed box, 0 outside (no interpolation).
-    fn value_at_index(&self, p: DVec3) -> f32 {
-        if self.inside_index(p) {
-            self.density
-        } else {
-            0.0
-        }
-    }
-
-    fn transform(&self) -> &IndexToWorld {
-        &self.transform
-    }
-
-    fn active_bounds(&self) -> IndexBox {
-        index_box_outward(self.index_min, self.index_max)
-    }
-
-    fn quadrature(&self) -> super::Quadrature {
-        super::Quadrature::ClosedForm
-    }
-
-    /// Exact: ρ × the length of the chord inside the box.
-    fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
-        chord_integral(&self.transform, self.density, ray, t0, t1, |o, d, a, b| {
-            self.chord_length(o, d, a, b)
-        })
-    }
-
-    fn cell_at(&self, ijk: IVec3) -> Cell {
-        virtual_cell(ijk, |lo, hi| self.range_of_box(lo, hi))
-    }
-
-    fn range_over(&self, b: &IndexBox) -> ValueRange {
-        range_over_box(b, |lo, hi| self.range_of_box(lo, hi))
-    }
 }
 
 /// Constant density `ρ` inside a world-space ball, 0 outside.
@@ -370,8 +314,116 @@ impl ConstantSphere {
     pub fn chord_length(&self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> f64 {
         clipped_length(self.ray_interval(o, d), d, t_min, t_max)
     }
+}
 
-    /// Range over the closed local-index box `[lo, hi]`.
+/// A shape of constant density with a closed-form chord: it is a [`Field`] whose
+/// integral along any ray is exact (ρ × the chord inside it), on a virtual grid whose
+/// cells carry the shape's exact range.
+pub trait ConstantShape: Send + Sync {
+    fn shape_transform(&self) -> &IndexToWorld;
+    /// The density ρ inside.
+    fn shape_density(&self) -> f32;
+    /// True if the local index point is inside the closed shape.
+    fn contains_index(&self, p: DVec3) -> bool;
+    /// Corners of the local-index box that holds the shape.
+    fn index_bounds(&self) -> (DVec3, DVec3);
+    /// World length of the part of the segment `o + t·d, t ∈ [t_min, t_max]` inside the
+    /// shape (`d` need not be normalised).
+    fn chord(&self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> f64;
+    /// Range over the closed local-index box `[lo, hi]`: 0 apart from the shape, ρ inside
+    /// it, both where it straddles the surface.
+    fn range_of_box(&self, lo: DVec3, hi: DVec3) -> ValueRange;
+}
+
+impl<S: ConstantShape> Field for S {
+    /// The exact indicator: `ρ` inside the closed shape, 0 outside (no interpolation).
+    fn value_at_index(&self, p: DVec3) -> f32 {
+        if self.contains_index(p) {
+            self.shape_density()
+        } else {
+            0.0
+        }
+    }
+
+    fn transform(&self) -> &IndexToWorld {
+        self.shape_transform()
+    }
+
+    fn active_bounds(&self) -> IndexBox {
+        let (lo, hi) = self.index_bounds();
+        index_box_outward(lo, hi)
+    }
+
+    fn quadrature(&self) -> super::Quadrature {
+        super::Quadrature::ClosedForm
+    }
+
+    /// Exact: ρ × the length of the chord inside the shape.
+    fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
+        chord_integral(
+            self.shape_transform(),
+            self.shape_density(),
+            ray,
+            t0,
+            t1,
+            |o, d, a, b| self.chord(o, d, a, b),
+        )
+    }
+
+    fn cell_at(&self, ijk: IVec3) -> Cell {
+        virtual_cell(ijk, |lo, hi| self.range_of_box(lo, hi))
+    }
+
+    fn range_over(&self, b: &IndexBox) -> ValueRange {
+        range_over_box(b, |lo, hi| self.range_of_box(lo, hi))
+    }
+}
+
+impl ConstantShape for ConstantBox {
+    fn shape_transform(&self) -> &IndexToWorld {
+        &self.transform
+    }
+    fn shape_density(&self) -> f32 {
+        self.density
+    }
+    fn contains_index(&self, p: DVec3) -> bool {
+        p.cmpge(self.index_min).all() && p.cmple(self.index_max).all()
+    }
+    fn index_bounds(&self) -> (DVec3, DVec3) {
+        (self.index_min, self.index_max)
+    }
+    fn chord(&self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> f64 {
+        self.chord_length(o, d, t_min, t_max)
+    }
+    fn range_of_box(&self, lo: DVec3, hi: DVec3) -> ValueRange {
+        let separated = hi.cmplt(self.index_min).any() || lo.cmpgt(self.index_max).any();
+        if separated {
+            ValueRange::ZERO
+        } else if lo.cmpge(self.index_min).all() && hi.cmple(self.index_max).all() {
+            ValueRange::point(self.density)
+        } else {
+            straddle(self.density)
+        }
+    }
+}
+
+impl ConstantShape for ConstantSphere {
+    fn shape_transform(&self) -> &IndexToWorld {
+        &self.transform
+    }
+    fn shape_density(&self) -> f32 {
+        self.density
+    }
+    fn contains_index(&self, p: DVec3) -> bool {
+        (p - self.index_center).length_squared() <= self.index_radius * self.index_radius
+    }
+    fn index_bounds(&self) -> (DVec3, DVec3) {
+        let r = DVec3::splat(self.index_radius);
+        (self.index_center - r, self.index_center + r)
+    }
+    fn chord(&self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> f64 {
+        self.chord_length(o, d, t_min, t_max)
+    }
     fn range_of_box(&self, lo: DVec3, hi: DVec3) -> ValueRange {
         let c = self.index_center;
         let r2 = self.index_radius * self.index_radius;
@@ -387,46 +439,6 @@ impl ConstantSphere {
         } else {
             straddle(self.density)
         }
-    }
-}
-
-impl Field for ConstantSphere {
-    /// The exact indicator: `ρ` inside the closed ball, 0 outside (no interpolation).
-    fn value_at_index(&self, p: DVec3) -> f32 {
-        let d2 = (p - self.index_center).length_squared();
-        if d2 <= self.index_radius * self.index_radius {
-            self.density
-        } else {
-            0.0
-        }
-    }
-
-    fn transform(&self) -> &IndexToWorld {
-        &self.transform
-    }
-
-    fn active_bounds(&self) -> IndexBox {
-        let r = DVec3::splat(self.index_radius);
-        index_box_outward(self.index_center - r, self.index_center + r)
-    }
-
-    fn quadrature(&self) -> super::Quadrature {
-        super::Quadrature::ClosedForm
-    }
-
-    /// Exact: ρ × the length of the chord inside the ball.
-    fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
-        chord_integral(&self.transform, self.density, ray, t0, t1, |o, d, a, b| {
-            self.chord_length(o, d, a, b)
-        })
-    }
-
-    fn cell_at(&self, ijk: IVec3) -> Cell {
-        virtual_cell(ijk, |lo, hi| self.range_of_box(lo, hi))
-    }
-
-    fn range_over(&self, b: &IndexBox) -> ValueRange {
-        range_over_box(b, |lo, hi| self.range_of_box(lo, hi))
     }
 }
 

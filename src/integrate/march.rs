@@ -35,7 +35,7 @@
 
 use super::medium::{ColorTint, Emission, Medium};
 use super::optics::{one_minus_exp, phi};
-use super::phase::hg;
+use super::phase::{HenyeyGreenstein, PhaseFunction};
 use crate::accel::{IndexRay, Spans};
 use crate::field::Field;
 use glam::DVec3;
@@ -66,11 +66,16 @@ pub struct MarchSettings {
     pub termination: f64,
 }
 
+/// The default march step, in voxels.
+pub const DEFAULT_STEP: f64 = 0.5;
+/// The default early-termination transmittance.
+pub const DEFAULT_TERMINATION: f64 = 1e-4;
+
 impl Default for MarchSettings {
     fn default() -> Self {
         MarchSettings {
-            step_voxels: 0.5,
-            termination: 1e-4,
+            step_voxels: DEFAULT_STEP,
+            termination: DEFAULT_TERMINATION,
         }
     }
 }
@@ -120,6 +125,9 @@ impl RayResult {
 pub struct Volume<'a> {
     pub density: &'a dyn Field,
     pub medium: Medium,
+    /// The angular distribution of scattering ([`Volume::of`]: Henyey–Greenstein with
+    /// the medium's `g`).
+    pub phase: std::sync::Arc<dyn PhaseFunction>,
     pub emission: Option<Emission<'a>>,
     /// Tints scattering per voxel.
     pub color: Option<ColorTint<'a>>,
@@ -129,12 +137,13 @@ pub struct Volume<'a> {
 }
 
 impl<'a> Volume<'a> {
-    /// A density field in `medium`, with no emission and no colour, traversed where the
-    /// density is not zero.
+    /// A density field in `medium`, scattering by Henyey–Greenstein with the medium's
+    /// `g`, with no emission and no colour, traversed where the density is not zero.
     pub fn of(density: &'a dyn Field, medium: Medium) -> Self {
         Volume {
             density,
             medium,
+            phase: std::sync::Arc::new(HenyeyGreenstein::new(medium.g)),
             emission: None,
             color: None,
             traversal: density,
@@ -258,6 +267,7 @@ pub fn march(
     let sigma_t_max = sigma_t.max_element();
     // A grey medium: every channel's arithmetic is the same, so do it once.
     let grey = sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z;
+    let grey_phase = vol.phase.is_grey();
     let sigma_s = vol.medium.sigma_s_scaled();
     let scatter_lights = lights.filter(|l| l.light_count() > 0 && vol.medium.scatters());
     let n_lights = scatter_lights.map_or(0, |l| l.light_count());
@@ -339,7 +349,12 @@ pub fn march(
                         let tau1 = sigma_t * ls.density_to_light(l, origin + dir * b);
                         scratch.light_tau[l] = Some(tau1);
                         let (irradiance, travel) = ls.incident(l, xw);
-                        let phase = hg(travel.dot(-dir), vol.medium.g);
+                        let cos = travel.dot(-dir);
+                        let phase = if grey_phase {
+                            DVec3::splat(vol.phase.eval(cos).x)
+                        } else {
+                            vol.phase.eval(cos)
+                        };
                         let weight =
                             per_channel(grey, |c| exp_source_weight(st[c], tau0[c], tau1[c], ds));
                         scratch.per_light[l] +=

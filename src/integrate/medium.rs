@@ -1,6 +1,6 @@
 //! What the volume is made of: coefficients, and the fields that feed the integral.
 
-use crate::field::{Field, IndexRay, VoxelGrid};
+use crate::field::{ColorField, Field, IndexRay, lattice_offset};
 use crate::integrate::blackbody::BlackbodyTable;
 use glam::DVec3;
 
@@ -39,9 +39,7 @@ pub struct Companion<'a> {
 
 impl<'a> Companion<'a> {
     pub fn new(field: &'a dyn Field, density: &dyn Field) -> Self {
-        let (a, b) = (field.transform(), density.transform());
-        let offset = (a.linear() == b.linear() && a.matrix().w_axis == b.matrix().w_axis)
-            .then(|| (b.origin - a.origin).as_dvec3());
+        let offset = lattice_offset(field.transform(), density.transform());
         Companion { field, offset }
     }
 
@@ -82,16 +80,15 @@ impl<'a> Companion<'a> {
 /// coefficient: σs(x) = σs · ρ(x) · Cd(x), each channel clamped to [0, 1].
 #[derive(Clone, Copy)]
 pub struct ColorTint<'a> {
-    grid: &'a VoxelGrid,
+    grid: &'a dyn ColorField,
     offset: Option<DVec3>,
 }
 
 impl<'a> ColorTint<'a> {
-    pub fn new(grid: &'a VoxelGrid, density: &dyn Field) -> Self {
-        let c = Companion::new(grid, density);
+    pub fn new(grid: &'a dyn ColorField, density: &dyn Field) -> Self {
         ColorTint {
             grid,
-            offset: c.offset(),
+            offset: lattice_offset(grid.transform(), density.transform()),
         }
     }
 
@@ -102,7 +99,7 @@ impl<'a> ColorTint<'a> {
             None => self.grid.transform().world_to_index(w),
         };
         self.grid
-            .sample_vec3(q)
+            .color_at_index(q)
             .as_dvec3()
             .clamp(DVec3::ZERO, DVec3::ONE)
     }

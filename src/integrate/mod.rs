@@ -1,11 +1,17 @@
-//! The volume integral: stable per-segment optics, phase functions, blackbody emission
-//! and the ray march that puts them together.
+//! The volume integral: stable per-segment optics, phase functions, blackbody emission,
+//! the ray march that puts them together, and the integrators a render chooses from
+//! ([`Integrator`]: what a camera ray sees, into the passes it declares).
 
 pub mod blackbody;
+pub mod ground;
+pub mod integrator;
 pub mod march;
 pub mod medium;
 pub mod optics;
+pub mod pass;
 pub mod phase;
+pub mod single;
 
+pub use integrator::{CameraSample, Integrator, SampleRng};
 pub use march::{Illumination, MarchSettings, RayResult, Scratch, Volume, WorldRay, march};
 pub use medium::{ColorTint, Companion, Emission, Medium};

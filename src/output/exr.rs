@@ -209,7 +209,7 @@ pub fn write_exr(
             .take(window.height)
             .flat_map(|row| row.iter().skip(window.x).take(window.width))
             .map(|&v| if v.is_nan() { fill } else { v });
-        let samples = if depth || opts.float {
+        let samples = if channel.always_float() || opts.float {
             FlatSamples::F32(cropped.collect())
         } else {
             FlatSamples::F16(cropped.map(f16::from_f32).collect())

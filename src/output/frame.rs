@@ -52,6 +52,8 @@ pub fn is_depth_channel(name: &str) -> bool {
 pub struct Channel {
     name: String,
     data: Vec<f32>,
+    /// Stored as 32-bit float whatever the file's colour precision.
+    float: bool,
 }
 
 impl Channel {
@@ -63,6 +65,11 @@ impl Channel {
     /// The samples, row-major, top row first.
     pub fn data(&self) -> &[f32] {
         &self.data
+    }
+
+    /// Whether the channel is always stored as 32-bit float (depth, or a pass that asks).
+    pub fn always_float(&self) -> bool {
+        self.float || is_depth_channel(&self.name)
     }
 }
 
@@ -140,8 +147,19 @@ impl Frame {
         if self.channel(&name).is_some() {
             return Err(OutputError::DuplicateChannel(name));
         }
-        self.channels.push(Channel { name, data });
+        self.channels.push(Channel {
+            name,
+            data,
+            float: false,
+        });
         Ok(())
+    }
+
+    /// Stores the channel `name` as 32-bit float whatever `--float` says.
+    pub fn store_as_float(&mut self, name: &str) {
+        if let Some(c) = self.channels.iter_mut().find(|c| c.name == name) {
+            c.float = true;
+        }
     }
 
     /// The samples of the channel with this exact name.

@@ -4,8 +4,8 @@
 
 use crate::integrate::RayResult;
 use crate::output::{Frame, is_depth_channel, names};
-use crate::render::light::{Light, LightKind};
-use crate::render::plan::RenderPlan;
+use crate::scene::light::{Light, LightKind};
+use crate::scene::plan::RenderPlan;
 use serde::Serialize;
 
 /// One case's verdict, as printed and written to `stability.json`.
@@ -234,8 +234,8 @@ pub fn scatter_bound(lights: &[Light], sigma_a: f64, sigma_s: f64, g: f64) -> f6
 pub fn plan_scatter_bound(plan: &RenderPlan) -> f64 {
     scatter_bound(
         &plan.lights,
-        plan.sigma_a.min_element(),
-        plan.sigma_s.max_element(),
-        plan.g,
+        plan.medium.sigma_a.min_element(),
+        plan.medium.sigma_s.max_element(),
+        plan.medium.g,
     )
 }

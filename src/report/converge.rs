@@ -14,11 +14,11 @@
 //! termination 1e-4).
 
 use super::check::plan_scatter_bound;
+use crate::output::stats::RenderStats;
 use crate::output::{Frame, is_depth_channel, names};
-use crate::render::stats::RenderStats;
 use crate::render::{RenderOptions, RenderPlan, render_image};
+use crate::scene::progress::Progress;
 use anyhow::{Result, anyhow};
-use indicatif::ProgressBar;
 use serde::Serialize;
 use std::path::Path;
 
@@ -133,7 +133,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn stage(stats: &RenderStats, name: &str) -> f64 {
-    stats.stages.get(name).map_or(0.0, |s| s.seconds)
+    stats.scene.stages.get(name).map_or(0.0, |s| s.seconds)
 }
 
 /// The plan of a point: the user's options with the point's settings, quiet.
@@ -153,7 +153,7 @@ pub(super) fn plan_of(options: &RenderOptions, input: &Path, p: &Point) -> Resul
     o.shadows = (!p.exact_shadows).then(|| "dsm".to_string());
     let mut plan = RenderPlan::new(&o, input.to_path_buf()).map_err(|e| anyhow!(e))?;
     if let Some(t) = p.termination {
-        plan.termination = t;
+        plan.march.termination = t;
     }
     Ok(plan)
 }
@@ -163,11 +163,12 @@ pub fn run(
     options: &RenderOptions,
     input: &Path,
     settings: &ConvergeSettings,
-    progress: &ProgressBar,
+    progress: &dyn Progress,
 ) -> Result<(Measured, Vec<Measured>)> {
     let runs = settings.runs.max(1);
     let points = sweep_points();
-    progress.set_length(1 + (points.len() * runs) as u64);
+    progress.start("converge", 1 + (points.len() * runs) as u64, "renders");
+    progress.note("reference");
     let reference_point = Point {
         sweep: "reference",
         value: f64::NAN,
@@ -176,17 +177,16 @@ pub fn run(
         termination: None,
         exact_shadows: true,
     };
-    progress.set_message("reference");
     let ref_plan = plan_of(options, input, &reference_point)?;
     let reference = render_image(&ref_plan)?;
-    progress.inc(1);
+    progress.advance(1);
     let ref_frame = reference.frame;
     let ref_row = Measured {
         sweep: "reference".into(),
         value: f64::NAN,
-        step: ref_plan.step,
+        step: ref_plan.march.step,
         dsm_tolerance: f64::NAN,
-        termination: ref_plan.termination,
+        termination: ref_plan.march.termination,
         shadows: "march (exact)".into(),
         bake_seconds: stage(&reference.stats, "shadows"),
         render_seconds: stage(&reference.stats, "render"),
@@ -199,8 +199,8 @@ pub fn run(
     };
     let mut rows = Vec::new();
     for p in &points {
+        progress.note(&format!("{} {}", p.sweep, fmt_value(p.value)));
         let plan = plan_of(options, input, p)?;
-        progress.set_message(format!("{} {}", p.sweep, fmt_value(p.value)));
         let (mut bakes, mut renders) = (Vec::new(), Vec::new());
         let mut frame = None;
         for _ in 0..runs {
@@ -209,11 +209,12 @@ pub fn run(
             renders.push(stage(&image.stats, "render"));
             let emits = image
                 .stats
+                .scene
                 .stages
                 .get("emission")
                 .is_some_and(|s| s.status == "ran");
             frame = Some((image.frame, emits));
-            progress.inc(1);
+            progress.advance(1);
         }
         let (frame, emits) = frame.expect("at least one run");
         let bound = if emits {
@@ -225,15 +226,15 @@ pub fn run(
         rows.push(Measured {
             sweep: p.sweep.into(),
             value: p.value,
-            step: plan.step,
-            dsm_tolerance: plan.dsm_tolerance,
-            termination: plan.termination,
+            step: plan.march.step,
+            dsm_tolerance: plan.shadows.dsm_tolerance,
+            termination: plan.march.termination,
             shadows: if p.exact_shadows {
                 "march (exact)".into()
-            } else if plan.shadows == crate::render::plan::ShadowMode::Dsm {
+            } else if plan.shadows.mode == crate::scene::plan::ShadowMode::Dsm {
                 "dsm".into()
             } else {
-                format!("{:?}", plan.shadows).to_lowercase()
+                format!("{:?}", plan.shadows.mode).to_lowercase()
             },
             bake_seconds: bake,
             render_seconds: render,

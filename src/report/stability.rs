@@ -18,8 +18,8 @@ use crate::integrate::{
     Companion, Emission, Illumination, MarchSettings, Medium, RayResult, Scratch, Volume, WorldRay,
     march,
 };
-use crate::render::light::Light;
-use crate::render::shadows::{LightShadow, SceneLights};
+use crate::scene::light::Light;
+use crate::scene::lights::{LightShadow, SceneLights};
 use crate::shadow::ShadowQuadrature;
 use anyhow::{Result, anyhow};
 use glam::{DMat4, DVec3, IVec3};
@@ -38,7 +38,11 @@ fn marched_lights<'a>(lights: &'a [Light], field: &'a dyn Field) -> SceneLights<
     SceneLights {
         lights,
         density: field,
-        shadows: lights.iter().map(|_| LightShadow::Marched).collect(),
+        shadows: lights
+            .iter()
+            .map(|_| LightShadow::Marched)
+            .collect::<Vec<_>>()
+            .into(),
         quadrature: ShadowQuadrature::Exact,
         enough: f64::INFINITY,
     }

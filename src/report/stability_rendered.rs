@@ -167,7 +167,7 @@ pub fn single_voxel(pad: &Scratchpad) -> Result<CaseResult> {
     let (f, plan) = render(&path, |_| {})?;
     let mut check = Check::new(plan_scatter_bound(&plan), 0.0);
     check.frame(&f);
-    let sigma_t = (plan.sigma_a + plan.sigma_s).max_element();
+    let sigma_t = (plan.medium.sigma_a + plan.medium.sigma_s).max_element();
     let alpha = check_max(&f, "A");
     let ceiling = -(-sigma_t * 5.0 * 2.0 * h * 3f64.sqrt()).exp_m1();
     if !(alpha > 0.0 && alpha <= ceiling) {
@@ -199,7 +199,7 @@ pub fn hot_temperature(pad: &Scratchpad) -> Result<CaseResult> {
     let rgb = BlackbodyTable::new(200.0, 40000.0, 2048).rgb_normalized(1e5);
     let eps = rgb.iter().fold(0.0f64, |m, c| m.max(*c))
         * (1e5f64 / 1000.0).powi(4)
-        * plan.blackbody_intensity;
+        * plan.emission.blackbody_intensity;
     let chord = DVec3::splat(17.0 * 0.05).length();
     let mut check = Check::new(plan_scatter_bound(&plan) + eps * chord, 0.0);
     check.frame(&f);

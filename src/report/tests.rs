@@ -75,7 +75,7 @@ fn sweep_points_plan_what_they_sweep() {
     use super::converge::{DSM_SWEEP_STEP, TERMINATION_SWEEP_STEP, plan_of, sweep_points};
     use crate::integrate::MarchSettings;
     use crate::render::RenderOptions;
-    use crate::render::plan::ShadowMode;
+    use crate::scene::plan::ShadowMode;
     use crate::shadow::ShadowQuadrature;
     let user = RenderOptions {
         step: Some(3.0),
@@ -98,13 +98,13 @@ fn sweep_points_plan_what_they_sweep() {
                     }
                 );
                 assert_eq!(
-                    (plan.shadows, plan.shadow_quadrature()),
+                    (plan.shadows.mode, plan.shadow_quadrature()),
                     (ShadowMode::March, ShadowQuadrature::Exact)
                 );
             }
             "dsm_tolerance" => {
-                assert_eq!(plan.shadows, ShadowMode::Dsm);
-                assert_eq!(plan.dsm_tolerance, p.value);
+                assert_eq!(plan.shadows.mode, ShadowMode::Dsm);
+                assert_eq!(plan.shadows.dsm_tolerance, p.value);
                 assert_eq!(
                     plan.march_settings(),
                     MarchSettings {
@@ -125,10 +125,13 @@ fn sweep_points_plan_what_they_sweep() {
             }
             "default" => {
                 assert_eq!(plan.march_settings(), MarchSettings::default());
-                assert_eq!((plan.shadows, plan.dsm_tolerance), (ShadowMode::Dsm, 1e-3));
+                assert_eq!(
+                    (plan.shadows.mode, plan.shadows.dsm_tolerance),
+                    (ShadowMode::Dsm, 1e-3)
+                );
             }
             other => panic!("unknown sweep {other}"),
         }
-        assert!(plan.quiet);
+        assert!(plan.outputs.quiet);
     }
 }

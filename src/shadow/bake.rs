@@ -48,6 +48,16 @@ pub enum LightGeometry {
 }
 
 impl LightGeometry {
+    /// The light's placement in words, which is all a shadow map depends on:
+    /// `sun:DX,DY,DZ` (the direction toward the sun) or `point:X,Y,Z`, full precision.
+    pub fn placement(&self) -> String {
+        let (kind, v) = match *self {
+            LightGeometry::Sun { travel } => ("sun", -travel),
+            LightGeometry::Point { position } => ("point", position),
+        };
+        format!("{kind}:{:?},{:?},{:?}", v.x, v.y, v.z)
+    }
+
     /// Unit direction from `x` toward the light and the distance to it.
     pub fn toward(&self, x: DVec3) -> (DVec3, f64) {
         match *self {

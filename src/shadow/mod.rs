@@ -6,6 +6,7 @@
 //! the map against marched rays.
 
 pub mod bake;
+pub mod cache;
 pub mod chart;
 pub mod columns;
 pub mod map;
@@ -16,3 +17,24 @@ pub use bake::{BakeReport, BakeSettings, LightGeometry, bake};
 pub use map::ShadowMap;
 pub use march::{ShadowQuadrature, density_integral};
 pub use verify::{VerifyReport, verify};
+
+/// A light as a shadow map and its cache know it: a name (the cache's grids carry it)
+/// and where it is.
+pub trait CachedLight {
+    fn name(&self) -> &str;
+    fn geometry(&self) -> LightGeometry;
+}
+
+/// A deep shadow map as the stats report it.
+#[derive(Clone, Debug, Default, serde::Serialize, PartialEq)]
+pub struct ShadowMapStats {
+    pub light: String,
+    /// `baked`, or `cache: FILE`.
+    pub source: String,
+    pub bake_seconds: f64,
+    #[serde(flatten)]
+    pub bake: BakeReport,
+    /// With `--dsm-verify`: transmittance error against marched shadow rays.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub verify: Option<VerifyReport>,
+}

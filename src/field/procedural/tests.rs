@@ -1,6 +1,7 @@
 //! Unit tests of `procedural.rs`, compiled only under #[cfg(test)].
 
 use super::*;
+use crate::field::test_support::assert_cell_holds;
 use glam::Vec3;
 
 fn cloud(seed: Option<u64>) -> NoiseCloud {
@@ -208,20 +209,7 @@ fn cell_ranges_are_never_exceeded() {
         for _ in 0..100_000 {
             // Index space: the ball is centred at (12, −8, 4), radius 32 voxels.
             let p = rng.vec(-45.0, 55.0).as_vec3();
-            let v = c.value_at_index(p.as_dvec3());
-            let cell = c.cell_at(p.floor().as_ivec3());
-            let (o, s) = (cell.origin.as_vec3(), cell.size as f32);
-            assert!(
-                p.cmpge(o).all() && p.cmple(o + s).all(),
-                "{p} not in {cell:?}"
-            );
-            assert!(
-                cell.range.min <= v && v <= cell.range.max,
-                "{p}: {v} outside {cell:?}"
-            );
-            if cell.size > 8 {
-                assert_eq!(cell.range, ValueRange::ZERO);
-            }
+            let (cell, v) = assert_cell_holds(&c, p);
             zero_cells += cell.range.is_zero() as u32;
             let r = c.range_over(&IndexBox::new(
                 p - Vec3::splat(0.5),

@@ -1,6 +1,7 @@
 //! Unit tests of `shapes.rs`, compiled only under #[cfg(test)].
 
 use super::*;
+use crate::field::test_support::assert_cell_holds;
 use glam::Vec3;
 
 use crate::field::random::SplitMix64 as Rng;
@@ -80,20 +81,7 @@ fn check_conservative(f: &dyn Field, lo: f64, hi: f64, density: f32, seed: u64) 
     let (mut n_inside, mut n_outside, mut n_edge) = (0, 0, 0);
     for _ in 0..100_000 {
         let p = rng.vec(lo, hi).as_vec3();
-        let v = f.value_at_index(p.as_dvec3());
-        let cell = f.cell_at(p.floor().as_ivec3());
-        let (o, s) = (cell.origin.as_vec3(), cell.size as f32);
-        assert!(
-            p.cmpge(o).all() && p.cmple(o + s).all(),
-            "{p} not in {cell:?}"
-        );
-        assert!(
-            cell.range.min <= v && v <= cell.range.max,
-            "{p}: {v} outside {cell:?}"
-        );
-        if cell.size > 8 {
-            assert_eq!(cell.range, ValueRange::ZERO);
-        }
+        let (cell, v) = assert_cell_holds(f, p);
         match (cell.range.min, cell.range.max) {
             (a, b) if a == density && b == density => n_inside += 1,
             (0.0, 0.0) => n_outside += 1,

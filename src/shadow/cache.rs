@@ -14,14 +14,11 @@
 //! metadata. Every grid's metadata names its light (`murk:light`, `murk:placement`) and
 //! the density grid it was baked from (`murk:density_hash`).
 
-use super::light::Light;
-use super::shadows::ShadowMapStats;
+use super::BakeReport;
+use super::chart::{Chart, ChartKind, LateralBlend};
+use super::map::{BRICK, BrickSamples, ChartMap, ChartSelect, LEVELS, ShadowMap, side, spacing};
+use super::{CachedLight, ShadowMapStats};
 use crate::field::{Field, VoxelGrid};
-use crate::shadow::BakeReport;
-use crate::shadow::chart::{Chart, ChartKind, LateralBlend};
-use crate::shadow::map::{
-    BRICK, BrickSamples, ChartMap, ChartSelect, LEVELS, ShadowMap, side, spacing,
-};
 use crate::vdb::{FloatGridOut, VdbFile, write_float_grids};
 use anyhow::{Result, anyhow};
 use glam::{DMat4, DVec3, IVec3};
@@ -91,7 +88,7 @@ fn grid_name(light: &str, chart: usize, what: &str) -> String {
 pub fn write(
     path: &Path,
     density_hash: u64,
-    lights: &[Light],
+    lights: &[impl CachedLight],
     maps: &[ShadowMap],
     stats: &[ShadowMapStats],
     tolerance: f64,
@@ -107,8 +104,8 @@ pub fn write(
             };
             let meta = |level: Option<u8>, quantity: &str| {
                 let mut m = vec![
-                    ("murk:light".to_string(), light.name.clone()),
-                    ("murk:placement".into(), light.placement()),
+                    ("murk:light".to_string(), light.name().to_string()),
+                    ("murk:placement".into(), light.geometry().placement()),
                     ("murk:density_hash".into(), format!("{density_hash:016x}")),
                     ("murk:quantity".into(), quantity.into()),
                     ("murk:chart".into(), format!("{ci}/{}", map.charts.len())),
@@ -136,7 +133,7 @@ pub fn write(
                 m
             };
             grids.push(FloatGridOut {
-                name: grid_name(&light.name, ci, "bricks"),
+                name: grid_name(light.name(), ci, "bricks"),
                 index_to_world: lattice_transform(chart, BRICK as f64),
                 voxels: cm
                     .bricks
@@ -165,7 +162,7 @@ pub fn write(
                         break;
                     }
                     grids.push(FloatGridOut {
-                        name: grid_name(&light.name, ci, &format!("L{level}{suffix}")),
+                        name: grid_name(light.name(), ci, &format!("L{level}{suffix}")),
                         index_to_world: lattice_transform(chart, spacing(level)),
                         voxels,
                         metadata: meta(Some(level), quantity),
@@ -190,7 +187,7 @@ pub fn read(
     path: &Path,
     density: &dyn Field,
     density_hash: u64,
-    lights: &[Light],
+    lights: &[impl CachedLight],
 ) -> Result<Vec<(ShadowMap, BakeReport)>> {
     let file = VdbFile::open(path)?;
     let bad = |what: String| anyhow!("{}: {what}", path.display());
@@ -212,10 +209,10 @@ pub fn read(
     }
     let mut out = Vec::with_capacity(lights.len());
     for light in lights {
-        let grids = by_light.get(&light.name).ok_or_else(|| {
+        let grids = by_light.get(light.name()).ok_or_else(|| {
             bad(format!(
                 "has no shadow map for light {} (it has maps for: {}); bake again with murk bake-shadows",
-                light.name,
+                light.name(),
                 by_light.keys().cloned().collect::<Vec<_>>().join(", ")
             ))
         })?;
@@ -224,12 +221,12 @@ pub fn read(
             meta.get(k)
                 .ok_or_else(|| bad(format!("grid {} lacks {k}", grids[0].0)))
         };
-        if get("murk:placement")? != &light.placement() {
+        if get("murk:placement")? != &light.geometry().placement() {
             return Err(bad(format!(
                 "was baked for light {} at {}, not {}; bake again with murk bake-shadows",
-                light.name,
+                light.name(),
                 get("murk:placement")?,
-                light.placement()
+                light.geometry().placement()
             )));
         }
         let hash = format!("{density_hash:016x}");
@@ -251,7 +248,7 @@ pub fn read(
         };
         let mut chart_maps = Vec::with_capacity(charts);
         for ci in 0..charts {
-            let name = grid_name(&light.name, ci, "bricks");
+            let name = grid_name(light.name(), ci, "bricks");
             let meta = &grids
                 .iter()
                 .find(|(n, _)| *n == name)
@@ -285,7 +282,7 @@ pub fn read(
                     None => {
                         // τ is never negative; its slopes are signed.
                         let load = |(suffix, plane, _): (&str, usize, &str)| {
-                            let name = grid_name(&light.name, ci, &format!("L{level}{suffix}"));
+                            let name = grid_name(light.name(), ci, &format!("L{level}{suffix}"));
                             if file.grids().iter().all(|g| g.name != name) {
                                 return Err(bad(format!(
                                     "lacks grid {name} (made by an older murk?); bake again with murk bake-shadows"

@@ -3,18 +3,18 @@
 
 use super::light::Light;
 use super::plan::{RenderPlan, ShadowMode};
+use super::progress::Progress;
 use crate::field::Field;
 use crate::integrate::Illumination;
 use crate::shadow::{
-    BakeReport, BakeSettings, ShadowMap, ShadowQuadrature, VerifyReport, bake, density_integral,
+    BakeSettings, ShadowMap, ShadowMapStats, ShadowQuadrature, bake, cache, density_integral,
     verify,
 };
 use glam::DVec3;
-use indicatif::{ProgressBar, ProgressStyle};
-use serde::Serialize;
 use std::time::Instant;
 
 /// One light's transmittance source.
+#[derive(Clone)]
 pub enum LightShadow {
     /// A trilinear lookup in the light's deep shadow map.
     Map(ShadowMap),
@@ -28,7 +28,7 @@ pub enum LightShadow {
 pub struct SceneLights<'a> {
     pub lights: &'a [Light],
     pub density: &'a dyn Field,
-    pub shadows: Vec<LightShadow>,
+    pub shadows: std::borrow::Cow<'a, [LightShadow]>,
     pub quadrature: ShadowQuadrature,
     /// `∫ρ ds` past which transmittance is 0 for every channel (marched rays stop there).
     pub enough: f64,
@@ -54,20 +54,6 @@ impl Illumination for SceneLights<'_> {
     }
 }
 
-/// A deep shadow map as the stats report it.
-#[derive(Clone, Debug, Default, Serialize, PartialEq)]
-pub struct ShadowMapStats {
-    pub light: String,
-    /// `baked`, or `cache: FILE`.
-    pub source: String,
-    pub bake_seconds: f64,
-    #[serde(flatten)]
-    pub bake: BakeReport,
-    /// With `--dsm-verify`: transmittance error against marched shadow rays.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub verify: Option<VerifyReport>,
-}
-
 /// Points `--dsm-verify` measures at.
 pub const VERIFY_POINTS: usize = 10_000;
 
@@ -77,27 +63,12 @@ pub fn bake_maps(
     density: &dyn Field,
     density_hash: u64,
     sigma_t: DVec3,
-    quiet: bool,
+    progress: &dyn Progress,
 ) -> anyhow::Result<(Vec<ShadowMap>, Vec<ShadowMapStats>)> {
-    let settings = BakeSettings::new(plan.dsm_tolerance, sigma_t);
-    let progress = if quiet || !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(plan.lights.len() as u64)
-    };
-    progress.set_style(
-        ProgressStyle::with_template(
-            "{spinner} baking shadow maps [{bar:40}] {pos}/{len} lights {elapsed}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    let cached = match &plan.shadow_cache {
-        Some(path) => Some(super::shadow_cache::read(
-            path,
-            density,
-            density_hash,
-            &plan.lights,
-        )?),
+    let settings = BakeSettings::new(plan.shadows.dsm_tolerance, sigma_t);
+    progress.start("baking shadow maps", plan.lights.len() as u64, "lights");
+    let cached = match &plan.shadows.cache {
+        Some(path) => Some(cache::read(path, density, density_hash, &plan.lights)?),
         None => None,
     };
     let mut maps = Vec::with_capacity(plan.lights.len());
@@ -111,7 +82,8 @@ pub fn bake_maps(
                 report,
                 format!(
                     "cache: {}",
-                    plan.shadow_cache
+                    plan.shadows
+                        .cache
                         .as_ref()
                         .map(|p| p.display().to_string())
                         .unwrap_or_default()
@@ -123,13 +95,13 @@ pub fn bake_maps(
             }
         };
         let bake_seconds = t.elapsed().as_secs_f64();
-        let verify = plan.dsm_verify.then(|| {
+        let verify = plan.shadows.dsm_verify.then(|| {
             verify(
                 &map,
                 density,
                 light.geometry(),
                 sigma_t,
-                plan.dsm_tolerance,
+                plan.shadows.dsm_tolerance,
                 VERIFY_POINTS,
                 0x5eed,
             )
@@ -142,9 +114,9 @@ pub fn bake_maps(
             verify,
         });
         maps.push(map);
-        progress.inc(1);
+        progress.advance(1);
     }
-    progress.finish_and_clear();
+    progress.finish();
     Ok((maps, stats))
 }
 

@@ -19,9 +19,6 @@ pub struct Light {
     pub intensity: f64,
 }
 
-/// The sun used when a scene names no light: from the upper right front, white, 6.
-pub const DEFAULT_LIGHT: &str = "sun:0.6,1,0.5:1,1,1:6";
-
 fn parse_triple(s: &str, what: &str) -> Result<DVec3, String> {
     let v: Vec<f64> = s
         .split(',')
@@ -113,19 +110,14 @@ impl Light {
             LightKind::Point { position } => LightGeometry::Point { position },
         }
     }
+}
 
-    /// The light's placement in words, without colour or intensity (which shadows do
-    /// not depend on): `sun:DX,DY,DZ` or `point:X,Y,Z`, full precision.
-    pub fn placement(&self) -> String {
-        let v = match self.kind {
-            LightKind::Sun { toward } => toward,
-            LightKind::Point { position } => position,
-        };
-        let kind = match self.kind {
-            LightKind::Sun { .. } => "sun",
-            LightKind::Point { .. } => "point",
-        };
-        format!("{kind}:{:?},{:?},{:?}", v.x, v.y, v.z)
+impl crate::shadow::CachedLight for Light {
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn geometry(&self) -> LightGeometry {
+        Light::geometry(self)
     }
 }
 

@@ -2,10 +2,11 @@
 //! default filled in, before anything is loaded.
 
 use super::camera::Projection;
-use super::light::{DEFAULT_LIGHT, Light, parse_vec3};
+use super::light::{Light, parse_vec3};
 use super::options::RenderOptions;
-use crate::integrate::MarchSettings;
+use crate::integrate::ground::Ground;
 use crate::integrate::march::REFERENCE_STEP;
+use crate::integrate::{MarchSettings, Medium};
 use crate::output::{Background, ExrCompression, ExrOptions, PreviewOptions};
 use crate::shadow::ShadowQuadrature;
 use glam::DVec3;
@@ -40,6 +41,39 @@ impl GridChoice {
     }
 }
 
+/// Every default of a render, in one place: the plan fills them in, the flags' help
+/// states them (a test checks that it does), the scene file's keys fall back to them.
+pub mod defaults {
+    /// Image size.
+    pub const RES: (usize, usize) = (640, 360);
+    /// Horizontal field of view of a perspective camera, degrees.
+    pub const FOV_DEG: f64 = 40.0;
+    /// Absorption and scattering per world unit at density 1.
+    pub const SIGMA_A: f64 = 0.1;
+    pub const SIGMA_S: f64 = 2.0;
+    pub const DENSITY_SCALE: f64 = 1.0;
+    /// Henyey–Greenstein anisotropy.
+    pub const G: f64 = 0.0;
+    pub const EMISSION_COLOR: [f64; 3] = [1.0, 0.45, 0.12];
+    pub const EMISSION_INTENSITY: f64 = 4.0;
+    pub const TEMPERATURE_SCALE: f64 = 1.0;
+    pub const TEMPERATURE_OFFSET: f64 = 0.0;
+    pub const BLACKBODY_INTENSITY: f64 = 0.05;
+    /// The sun used when a scene names no light.
+    pub const LIGHT: &str = "sun:0.6,1,0.5:1,1,1:6";
+    /// Largest transmittance error of the deep shadow map.
+    pub const DSM_TOLERANCE: f64 = 1e-3;
+    /// March step and shadow-ray step, voxels (the march's own default, which the
+    /// integrators use when called as a library).
+    pub const STEP: f64 = crate::integrate::march::DEFAULT_STEP;
+    pub const SHADOW_STEP: f64 = 1.0;
+    /// Transmittance below which a ray stops.
+    pub const TERMINATION: f64 = crate::integrate::march::DEFAULT_TERMINATION;
+    pub const SPP: u32 = 1;
+    pub const SEED: u64 = 0;
+    pub const EXPOSURE: f32 = 0.0;
+}
+
 /// The camera as far as it can be known before the grid's bounds are.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CameraRequest {
@@ -49,48 +83,92 @@ pub struct CameraRequest {
     pub up: DVec3,
 }
 
-#[derive(Clone, Debug)]
-pub struct RenderPlan {
-    pub input: PathBuf,
-    pub output: PathBuf,
+/// The image and the camera.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraPlan {
     pub width: usize,
     pub height: usize,
-    pub camera: CameraRequest,
-    pub density_grid: GridChoice,
-    pub emission_grid: GridChoice,
-    pub temperature_grid: GridChoice,
-    pub color_grid: GridChoice,
-    pub sigma_a: DVec3,
-    pub sigma_s: DVec3,
-    pub density_scale: f64,
-    pub g: f64,
-    pub emission_color: DVec3,
-    pub emission_intensity: f64,
+    pub request: CameraRequest,
+}
+
+/// Which field fills each role.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridRoles {
+    pub density: GridChoice,
+    pub emission: GridChoice,
+    pub temperature: GridChoice,
+    pub color: GridChoice,
+}
+
+/// Emission: an emission field's colour and intensity, and blackbody emission from a
+/// temperature field.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmissionPlan {
+    pub color: DVec3,
+    pub intensity: f64,
+    /// Kelvin = value × scale + offset.
     pub temperature_scale: f64,
     pub temperature_offset: f64,
     pub blackbody_intensity: f64,
-    pub lights: Vec<Light>,
-    pub shadows: ShadowMode,
+}
+
+/// How the lights' transmittance is found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShadowPlan {
+    pub mode: ShadowMode,
     /// Largest transmittance error of the deep shadow map.
     pub dsm_tolerance: f64,
     pub dsm_verify: bool,
-    pub shadow_cache: Option<PathBuf>,
-    /// Height of the ground plane, if any.
-    pub ground: Option<f64>,
-    pub ground_visible: bool,
+    pub cache: Option<PathBuf>,
+    /// Marched shadow rays' step, voxels.
+    pub step: f64,
+}
+
+/// The camera ray's march.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarchPlan {
     /// Reference quality: exact shadow optical depth, a tiny source step, no termination
     /// (see [`RenderPlan::march_settings`], [`RenderPlan::shadow_quadrature`]).
     pub reference: bool,
     pub step: f64,
-    pub shadow_step: f64,
     pub termination: f64,
+}
+
+/// Samples, their random numbers and the threads that take them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SamplingPlan {
     pub spp: u32,
     pub seed: u64,
     pub threads: Option<usize>,
+}
+
+/// What is written.
+#[derive(Clone, Debug)]
+pub struct OutputPlan {
+    /// The EXR (or, for `bake-shadows`, the cache).
+    pub path: PathBuf,
     pub exr: ExrOptions,
     pub preview: Option<(PathBuf, PreviewOptions)>,
     pub stats: Option<PathBuf>,
     pub quiet: bool,
+}
+
+/// A validated render: every number checked, every default filled in.
+#[derive(Clone, Debug)]
+pub struct RenderPlan {
+    /// The input (a `.vdb`).
+    pub input: PathBuf,
+    pub camera: CameraPlan,
+    pub grids: GridRoles,
+    pub medium: Medium,
+    pub emission: EmissionPlan,
+    pub lights: Vec<Light>,
+    pub shadows: ShadowPlan,
+    /// A ground plane lit through the volume.
+    pub ground: Option<Ground>,
+    pub march: MarchPlan,
+    pub sampling: SamplingPlan,
+    pub outputs: OutputPlan,
 }
 
 fn positive(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
@@ -139,7 +217,7 @@ fn colour(v: &Option<String>, default: DVec3, what: &str) -> Result<DVec3, Strin
 }
 
 fn resolution(v: &Option<String>) -> Result<(usize, usize), String> {
-    let Some(s) = v else { return Ok((640, 360)) };
+    let Some(s) = v else { return Ok(defaults::RES) };
     let bad = || format!("--res \"{s}\" is not WxH with sizes from 1 to 16384");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let w: usize = w.trim().parse().map_err(|_| bad())?;
@@ -164,7 +242,7 @@ impl RenderPlan {
             }),
             None => o.fov.map(|f| Projection::Perspective { fov_deg: f }),
             Some("persp") | Some("perspective") => Some(Projection::Perspective {
-                fov_deg: o.fov.unwrap_or(40.0),
+                fov_deg: o.fov.unwrap_or(defaults::FOV_DEG),
             }),
             Some("ortho") | Some("orthographic") => match o.ortho_width {
                 Some(w) => Some(Projection::Orthographic {
@@ -187,7 +265,7 @@ impl RenderPlan {
             look_at: vec(&o.look_at, "--look-at")?,
             up: vec(&o.up, "--up")?.unwrap_or(DVec3::Y),
         };
-        let g = o.g.unwrap_or(0.0);
+        let g = o.g.unwrap_or(defaults::G);
         if !(g > -1.0 && g < 1.0) {
             return Err(format!("--g {g} must lie in (-1, 1)"));
         }
@@ -199,7 +277,7 @@ impl RenderPlan {
                 }
             } else {
                 let specs = if o.light.is_empty() {
-                    vec![DEFAULT_LIGHT.to_string()]
+                    vec![defaults::LIGHT.to_string()]
                 } else {
                     o.light.clone()
                 };
@@ -227,9 +305,11 @@ impl RenderPlan {
                 ));
             }
         };
-        let termination = o
-            .termination
-            .unwrap_or(if o.reference { 0.0 } else { 1e-4 });
+        let termination = o.termination.unwrap_or(if o.reference {
+            0.0
+        } else {
+            defaults::TERMINATION
+        });
         if !(0.0..1.0).contains(&termination) {
             return Err(format!("--termination {termination} must lie in [0, 1)"));
         }
@@ -244,7 +324,7 @@ impl RenderPlan {
                 "--reference never stops a ray early: it cannot be combined with --termination {termination}"
             ));
         }
-        let spp = o.spp.unwrap_or(1);
+        let spp = o.spp.unwrap_or(defaults::SPP);
         if spp == 0 || spp > 4096 {
             return Err(format!("--spp {spp} must be from 1 to 4096"));
         }
@@ -261,7 +341,7 @@ impl RenderPlan {
                     Some(b) => b.parse::<Background>().map_err(|e| e.to_string())?,
                     None => Background::Checker,
                 };
-                let exposure = o.exposure.unwrap_or(0.0);
+                let exposure = o.exposure.unwrap_or(defaults::EXPOSURE);
                 if !exposure.is_finite() {
                     return Err("--exposure must be a finite number".into());
                 }
@@ -275,72 +355,107 @@ impl RenderPlan {
             }
             None => None,
         };
+        let step = step_voxels(
+            o.step,
+            if o.reference {
+                REFERENCE_STEP
+            } else {
+                defaults::STEP
+            },
+            "--step",
+        )?;
         Ok(RenderPlan {
             input: input.clone(),
-            output,
-            width,
-            height,
-            camera,
-            density_grid: GridChoice::from(&o.density_grid),
-            emission_grid: GridChoice::from(&o.emission_grid),
-            temperature_grid: GridChoice::from(&o.temperature_grid),
-            color_grid: GridChoice::from(&o.color_grid),
-            sigma_a: colour(&o.sigma_a, DVec3::splat(0.1), "--sigma-a")?,
-            sigma_s: colour(&o.sigma_s, DVec3::splat(2.0), "--sigma-s")?,
-            density_scale: non_negative(o.density_scale, 1.0, "--density-scale")?,
-            g,
-            emission_color: colour(
-                &o.emission_color,
-                DVec3::new(1.0, 0.45, 0.12),
-                "--emission-color",
-            )?,
-            emission_intensity: non_negative(o.emission_intensity, 4.0, "--emission-intensity")?,
-            temperature_scale: non_negative(o.temperature_scale, 1.0, "--temperature-scale")?,
-            temperature_offset: o
-                .temperature_offset
-                .filter(|v| v.is_finite())
-                .unwrap_or(0.0),
-            blackbody_intensity: non_negative(
-                o.blackbody_intensity,
-                0.05,
-                "--blackbody-intensity",
-            )?,
-            lights,
-            shadows,
-            dsm_tolerance: {
-                let t = o.dsm_tolerance.unwrap_or(1e-3);
-                if !(t > 0.0 && t < 1.0) {
-                    return Err(format!("--dsm-tolerance {t} must lie in (0, 1)"));
-                }
-                t
+            camera: CameraPlan {
+                width,
+                height,
+                request: camera,
             },
-            dsm_verify: o.dsm_verify,
-            shadow_cache: o.shadow_cache.clone(),
+            grids: GridRoles {
+                density: GridChoice::from(&o.density_grid),
+                emission: GridChoice::from(&o.emission_grid),
+                temperature: GridChoice::from(&o.temperature_grid),
+                color: GridChoice::from(&o.color_grid),
+            },
+            medium: Medium {
+                sigma_a: colour(&o.sigma_a, DVec3::splat(defaults::SIGMA_A), "--sigma-a")?,
+                sigma_s: colour(&o.sigma_s, DVec3::splat(defaults::SIGMA_S), "--sigma-s")?,
+                density_scale: non_negative(
+                    o.density_scale,
+                    defaults::DENSITY_SCALE,
+                    "--density-scale",
+                )?,
+                g,
+            },
+            emission: EmissionPlan {
+                color: colour(
+                    &o.emission_color,
+                    DVec3::from_array(defaults::EMISSION_COLOR),
+                    "--emission-color",
+                )?,
+                intensity: non_negative(
+                    o.emission_intensity,
+                    defaults::EMISSION_INTENSITY,
+                    "--emission-intensity",
+                )?,
+                temperature_scale: non_negative(
+                    o.temperature_scale,
+                    defaults::TEMPERATURE_SCALE,
+                    "--temperature-scale",
+                )?,
+                temperature_offset: o
+                    .temperature_offset
+                    .filter(|v| v.is_finite())
+                    .unwrap_or(defaults::TEMPERATURE_OFFSET),
+                blackbody_intensity: non_negative(
+                    o.blackbody_intensity,
+                    defaults::BLACKBODY_INTENSITY,
+                    "--blackbody-intensity",
+                )?,
+            },
+            lights,
+            shadows: ShadowPlan {
+                mode: shadows,
+                dsm_tolerance: {
+                    let t = o.dsm_tolerance.unwrap_or(defaults::DSM_TOLERANCE);
+                    if !(t > 0.0 && t < 1.0) {
+                        return Err(format!("--dsm-tolerance {t} must lie in (0, 1)"));
+                    }
+                    t
+                },
+                dsm_verify: o.dsm_verify,
+                cache: o.shadow_cache.clone(),
+                step: step_voxels(o.shadow_step, defaults::SHADOW_STEP, "--shadow-step")?,
+            },
             ground: match o.ground {
                 Some(y) if !y.is_finite() => return Err("--ground must be a finite height".into()),
-                g => g,
+                g => g.map(|height| Ground {
+                    height,
+                    visible: o.ground_visible,
+                }),
             },
-            ground_visible: o.ground_visible,
-            reference: o.reference,
-            step: step_voxels(
-                o.step,
-                if o.reference { REFERENCE_STEP } else { 0.5 },
-                "--step",
-            )?,
-            shadow_step: step_voxels(o.shadow_step, 1.0, "--shadow-step")?,
-            termination,
-            spp,
-            seed: o.seed.unwrap_or(0),
-            threads: o.threads,
-            exr: ExrOptions {
-                compression,
-                float: o.float,
-                input_file: Some(input.display().to_string()),
-                ..ExrOptions::default()
+            march: MarchPlan {
+                reference: o.reference,
+                step,
+                termination,
             },
-            preview,
-            stats: o.stats.clone(),
-            quiet: o.quiet,
+            sampling: SamplingPlan {
+                spp,
+                seed: o.seed.unwrap_or(defaults::SEED),
+                threads: o.threads,
+            },
+            outputs: OutputPlan {
+                path: output,
+                exr: ExrOptions {
+                    compression,
+                    float: o.float,
+                    input_file: Some(input.display().to_string()),
+                    ..ExrOptions::default()
+                },
+                preview,
+                stats: o.stats.clone(),
+                quiet: o.quiet,
+            },
         })
     }
 }
@@ -350,18 +465,18 @@ impl RenderPlan {
     /// `--reference`).
     pub fn march_settings(&self) -> MarchSettings {
         MarchSettings {
-            step_voxels: self.step,
-            termination: self.termination,
+            step_voxels: self.march.step,
+            termination: self.march.termination,
         }
     }
 
     /// How marched shadow rays integrate density: exactly (per voxel, two-point
     /// Gauss–Legendre) for `--reference`, else the midpoint rule at `--shadow-step`.
     pub fn shadow_quadrature(&self) -> ShadowQuadrature {
-        if self.reference {
+        if self.march.reference {
             ShadowQuadrature::Exact
         } else {
-            ShadowQuadrature::Step(self.shadow_step)
+            ShadowQuadrature::Step(self.shadows.step)
         }
     }
 }

@@ -1,5 +1,8 @@
-//! What a render did, written with `--stats FILE.json`. Keys are stable (see README).
+//! What building a scene did: which grids fill which role, what was decoded, sanitised
+//! and baked, and which stages ran or were skipped and why. The render's stats
+//! (`--stats FILE.json`) carry it, under the same keys.
 
+use crate::shadow::ShadowMapStats;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -35,13 +38,7 @@ pub struct Sanitised {
 }
 
 #[derive(Clone, Debug, Default, Serialize)]
-pub struct RenderStats {
-    pub murk_version: String,
-    pub input: String,
-    pub output: String,
-    pub width: usize,
-    pub height: usize,
-    pub spp: u32,
+pub struct SceneReport {
     /// Stage name → status and time: load, build, shadows, emission, scatter, render, write.
     pub stages: BTreeMap<String, Stage>,
     /// Role → grid name (`density`, `emission`, `temperature`), for the roles filled.
@@ -58,15 +55,9 @@ pub struct RenderStats {
     pub lights: Vec<String>,
     pub shadows: String,
     /// Per light, with `--shadows dsm`: how its deep shadow map was made and what it holds.
-    pub shadow_maps: Vec<super::shadows::ShadowMapStats>,
+    pub shadow_maps: Vec<ShadowMapStats>,
     /// All shadow maps' memory, bytes, and the density structure's, to compare.
     pub shadow_map_memory_bytes: usize,
     pub density_memory_bytes: usize,
-    /// EXR channels written.
-    pub channels: Vec<String>,
-    pub rays: u64,
-    pub samples: u64,
-    pub samples_per_second: f64,
-    pub total_seconds: f64,
     pub notes: Vec<String>,
 }

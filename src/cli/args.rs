@@ -1,0 +1,297 @@
+//! The command line's flags (clap). Grouped by what they decide; the groups shared by
+//! `render` and `bake-shadows` are declared once and flattened into both. They become
+//! the library's [`RenderOptions`] (which a scene file also fills) in [`RenderArgs::options`].
+
+use clap::Args;
+use murk::render::RenderOptions;
+use std::path::PathBuf;
+
+/// What a deep shadow map depends on (shared by `render` and `bake-shadows`).
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct MapArgs {
+    /// Grid that holds density (default: detected — density).
+    #[arg(long = "density-grid", value_name = "NAME")]
+    pub density_grid: Option<String>,
+    /// Absorption per world unit at density 1, r,g,b (default 0.1,0.1,0.1).
+    #[arg(long = "sigma-a", value_name = "r,g,b")]
+    pub sigma_a: Option<String>,
+    /// Scattering per world unit at density 1, r,g,b (default 2,2,2).
+    #[arg(long = "sigma-s", value_name = "r,g,b")]
+    pub sigma_s: Option<String>,
+    /// Multiplies density (default 1).
+    #[arg(long = "density-scale", value_name = "F")]
+    pub density_scale: Option<f64>,
+    /// A light: sun:DX,DY,DZ[:R,G,B[:INTENSITY]] (direction toward the sun; intensity is its
+    /// irradiance) or point:X,Y,Z[:R,G,B[:INTENSITY]]. Repeatable. Default: sun:0.6,1,0.5:1,1,1:6.
+    #[arg(long = "light", value_name = "SPEC", allow_hyphen_values = true)]
+    pub light: Vec<String>,
+    /// Largest transmittance error the deep shadow map may make, absolute (default 1e-3).
+    #[arg(long = "dsm-tolerance", value_name = "T")]
+    pub dsm_tolerance: Option<f64>,
+}
+
+/// How a command runs and reports (shared by `render` and `bake-shadows`).
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct RunArgs {
+    /// Worker threads (default: all cores).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Write render statistics as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    pub stats: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The image and the camera.
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct CameraArgs {
+    /// Image size, WxH (default 640x360).
+    #[arg(long, value_name = "WxH")]
+    pub res: Option<String>,
+    /// persp or ortho.
+    #[arg(long, value_name = "persp|ortho")]
+    pub camera: Option<String>,
+    /// Camera position x,y,z (default: framing the density's bounds).
+    #[arg(long, value_name = "x,y,z", allow_hyphen_values = true)]
+    pub eye: Option<String>,
+    /// Point the camera looks at, x,y,z (default: the centre of the density's bounds).
+    #[arg(long = "look-at", value_name = "x,y,z", allow_hyphen_values = true)]
+    pub look_at: Option<String>,
+    /// Camera up vector (default 0,1,0).
+    #[arg(long, value_name = "x,y,z", allow_hyphen_values = true)]
+    pub up: Option<String>,
+    /// Horizontal field of view in degrees, like vdb_render (default 40).
+    #[arg(long, value_name = "DEG")]
+    pub fov: Option<f64>,
+    /// Width of the orthographic view in world units (default: framing the bounds).
+    #[arg(long = "ortho-width", value_name = "W")]
+    pub ortho_width: Option<f64>,
+}
+
+/// Grids in roles other than density.
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct RoleArgs {
+    /// Grid emitting light (default: detected — flame, flames, fire, emission; "none" to disable).
+    #[arg(long = "emission-grid", value_name = "NAME")]
+    pub emission_grid: Option<String>,
+    /// Temperature grid for blackbody emission (default: detected — temperature, heat; "none" to disable).
+    #[arg(long = "temperature-grid", value_name = "NAME")]
+    pub temperature_grid: Option<String>,
+    /// Vec3 grid tinting scattering (default: detected — Cd, color, colour; "none" to disable).
+    #[arg(long = "color-grid", value_name = "NAME")]
+    pub color_grid: Option<String>,
+}
+
+/// Phase function, emission and lights beyond the shared ones.
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct LookArgs {
+    /// Henyey–Greenstein anisotropy in (-1, 1) (default 0).
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
+    pub g: Option<f64>,
+    /// Emission colour, r,g,b (default 1,0.45,0.12).
+    #[arg(long = "emission-color", value_name = "r,g,b")]
+    pub emission_color: Option<String>,
+    /// Emission intensity per world unit at emission-grid value 1 (default 4).
+    #[arg(long = "emission-intensity", value_name = "F")]
+    pub emission_intensity: Option<f64>,
+    /// Kelvin = temperature value × scale + offset (default scale 1).
+    #[arg(long = "temperature-scale", value_name = "F")]
+    pub temperature_scale: Option<f64>,
+    /// Kelvin = temperature value × scale + offset (default offset 0).
+    #[arg(
+        long = "temperature-offset",
+        value_name = "K",
+        allow_hyphen_values = true
+    )]
+    pub temperature_offset: Option<f64>,
+    /// Blackbody brightness: emission = colour(K) × intensity × (K/1000)^4 (default 0.05).
+    #[arg(long = "blackbody-intensity", value_name = "F")]
+    pub blackbody_intensity: Option<f64>,
+    /// Render without any light (emission only).
+    #[arg(long = "no-lights")]
+    pub no_lights: bool,
+}
+
+/// Marching, shadows, sampling and the ground plane.
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct QualityArgs {
+    /// Largest march step in voxels of the density grid (default 0.5, at least 1/1024).
+    #[arg(long, value_name = "VOXELS")]
+    pub step: Option<f64>,
+    /// Shadow-ray step in voxels (default 1, at least 1/1024).
+    #[arg(long = "shadow-step", value_name = "VOXELS")]
+    pub shadow_step: Option<f64>,
+    /// dsm (a deep shadow map of optical depth baked once per light, default), march (a
+    /// shadow ray per sample: the reference) or none.
+    #[arg(long, value_name = "dsm|march|none")]
+    pub shadows: Option<String>,
+    /// Measure the shadow map against marched shadow rays at 10,000 random points inside
+    /// the density (max and mean transmittance error, in the stats).
+    #[arg(long = "dsm-verify")]
+    pub dsm_verify: bool,
+    /// Reuse deep shadow maps from this file (made by `murk bake-shadows`) when the density
+    /// and lights match; refuse when they do not.
+    #[arg(long = "shadow-cache", value_name = "SHADOWS.vdb")]
+    pub shadow_cache: Option<PathBuf>,
+    /// A ground plane at height Y (world), receiving the lights through the volume: written as
+    /// the shadow.R/G/B layer (the fraction of light it receives).
+    #[arg(long, value_name = "Y", allow_hyphen_values = true)]
+    pub ground: Option<f64>,
+    /// Also show the ground plane (grey, Lambertian) in the beauty pass.
+    #[arg(long = "ground-visible")]
+    pub ground_visible: bool,
+    /// Reference quality: exact optical depth (f64, per voxel) for camera and shadow rays,
+    /// a 1/64-voxel source step (or --step), no early termination. Implies --shadows march;
+    /// refuses --shadows dsm|none and a non-zero --termination.
+    #[arg(long)]
+    pub reference: bool,
+    /// Transmittance below which a ray stops (default 1e-4).
+    #[arg(long, value_name = "T")]
+    pub termination: Option<f64>,
+    /// Samples per pixel (default 1: the pixel centre).
+    #[arg(long, value_name = "N")]
+    pub spp: Option<u32>,
+    /// Seed of the per-pixel step offsets and pixel jitter (default 0).
+    #[arg(long, value_name = "N")]
+    pub seed: Option<u64>,
+}
+
+/// The files written besides the EXR.
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct ImageArgs {
+    /// EXR compression: none, rle, zips, zip, piz, dwaa (default zips).
+    #[arg(long, value_name = "NAME")]
+    pub compression: Option<String>,
+    /// Store colour channels as 32-bit float instead of half.
+    #[arg(long)]
+    pub float: bool,
+    /// Write an 8-bit sRGB PNG of the beauty pass.
+    #[arg(long, value_name = "FILE.png")]
+    pub preview: Option<PathBuf>,
+    /// Preview exposure in stops (default 0).
+    #[arg(long, value_name = "STOPS", allow_hyphen_values = true)]
+    pub exposure: Option<f32>,
+    /// Preview background: transparent, black, checker or r,g,b (default checker).
+    #[arg(long, value_name = "BG")]
+    pub background: Option<String>,
+}
+
+/// `murk render` flags.
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct RenderArgs {
+    /// Output EXR.
+    #[arg(short = 'o', long = "output", value_name = "OUT.exr")]
+    pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub map: MapArgs,
+    #[command(flatten)]
+    pub run: RunArgs,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    #[command(flatten)]
+    pub role: RoleArgs,
+    #[command(flatten)]
+    pub look: LookArgs,
+    #[command(flatten)]
+    pub quality: QualityArgs,
+    #[command(flatten)]
+    pub image: ImageArgs,
+}
+
+/// `murk bake-shadows` flags: only what decides a shadow map, so that camera and image
+/// flags, which would change nothing, are refused rather than silently ignored. A scene
+/// file may still hold them: the bake reads the scene as a render would.
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct BakeArgs {
+    /// The .vdb to write: each light's map as float grids of optical depth (with its
+    /// slopes), for `murk render --shadow-cache`.
+    #[arg(short = 'o', long = "output", value_name = "SHADOWS.vdb")]
+    pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub map: MapArgs,
+    #[command(flatten)]
+    pub run: RunArgs,
+}
+
+impl MapArgs {
+    /// These flags over `o`.
+    fn set(self, o: &mut RenderOptions) {
+        o.density_grid = self.density_grid;
+        o.sigma_a = self.sigma_a;
+        o.sigma_s = self.sigma_s;
+        o.density_scale = self.density_scale;
+        o.light = self.light;
+        o.dsm_tolerance = self.dsm_tolerance;
+    }
+}
+
+impl RunArgs {
+    /// These flags over `o`.
+    fn set(self, o: &mut RenderOptions) {
+        o.threads = self.threads;
+        o.stats = self.stats;
+        o.quiet = self.quiet;
+    }
+}
+
+impl RenderArgs {
+    /// The options these flags give (unset ones stay unset, for a scene file to fill).
+    pub fn options(self) -> RenderOptions {
+        let a = self;
+        let mut o = RenderOptions {
+            output: a.output,
+            res: a.camera.res,
+            camera: a.camera.camera,
+            eye: a.camera.eye,
+            look_at: a.camera.look_at,
+            up: a.camera.up,
+            fov: a.camera.fov,
+            ortho_width: a.camera.ortho_width,
+            emission_grid: a.role.emission_grid,
+            temperature_grid: a.role.temperature_grid,
+            color_grid: a.role.color_grid,
+            g: a.look.g,
+            emission_color: a.look.emission_color,
+            emission_intensity: a.look.emission_intensity,
+            temperature_scale: a.look.temperature_scale,
+            temperature_offset: a.look.temperature_offset,
+            blackbody_intensity: a.look.blackbody_intensity,
+            no_lights: a.look.no_lights,
+            step: a.quality.step,
+            shadow_step: a.quality.shadow_step,
+            shadows: a.quality.shadows,
+            dsm_verify: a.quality.dsm_verify,
+            shadow_cache: a.quality.shadow_cache,
+            ground: a.quality.ground,
+            ground_visible: a.quality.ground_visible,
+            reference: a.quality.reference,
+            termination: a.quality.termination,
+            spp: a.quality.spp,
+            seed: a.quality.seed,
+            compression: a.image.compression,
+            float: a.image.float,
+            preview: a.image.preview,
+            exposure: a.image.exposure,
+            background: a.image.background,
+            ..RenderOptions::default()
+        };
+        a.map.set(&mut o);
+        a.run.set(&mut o);
+        o
+    }
+}
+
+impl BakeArgs {
+    /// The options these flags give.
+    pub fn options(self) -> RenderOptions {
+        let mut o = RenderOptions {
+            output: self.output,
+            ..RenderOptions::default()
+        };
+        self.map.set(&mut o);
+        self.run.set(&mut o);
+        o
+    }
+}

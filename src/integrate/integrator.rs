@@ -1,0 +1,78 @@
+//! The integrator seam: an integrator declares the passes it writes and computes one
+//! camera sample's values for them. The pixel loop (`render`) knows nothing else about
+//! how light is transported.
+
+use super::march::WorldRay;
+use super::pass::PassLayout;
+use crate::field::random::{mix64, unit_f64};
+
+/// A deterministic hash of a pixel sample's `k`-th random dimension to [0, 1)
+/// (SplitMix64's mixer): the same for any thread count, tile order or tiling.
+pub fn unit_random(seed: u64, x: usize, y: usize, s: u32, k: u32) -> f64 {
+    let z = seed
+        .wrapping_add((x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+        .wrapping_add((y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F))
+        .wrapping_add(((s as u64) << 32 | k as u64).wrapping_mul(0x1656_67B1_9E37_79F9));
+    unit_f64(mix64(z))
+}
+
+/// The random numbers of one pixel sample, drawn in order. Dimensions 1 and 2 are the
+/// pixel loop's jitter inside the pixel; an integrator's draws are 0, 3, 4, 5, …
+#[derive(Clone, Copy, Debug)]
+pub struct SampleRng {
+    seed: u64,
+    x: usize,
+    y: usize,
+    s: u32,
+    k: u32,
+}
+
+impl SampleRng {
+    pub fn new(seed: u64, x: usize, y: usize, s: u32) -> Self {
+        SampleRng {
+            seed,
+            x,
+            y,
+            s,
+            k: 0,
+        }
+    }
+
+    /// The next uniform number in [0, 1).
+    #[inline]
+    pub fn uniform(&mut self) -> f64 {
+        let k = self.k;
+        self.k = if k == 0 { 3 } else { k.wrapping_add(1) };
+        unit_random(self.seed, self.x, self.y, self.s, k)
+    }
+}
+
+/// One camera sample: the ray, and how fast camera-space depth grows along it (the
+/// cosine between the ray and the viewing axis): depth at ray parameter t is
+/// `t × depth_rate`.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraSample {
+    pub ray: WorldRay,
+    pub depth_rate: f64,
+}
+
+/// Computes what a camera ray sees.
+pub trait Integrator: Sync {
+    /// Per-thread buffers, made once per worker so the per-ray work does not allocate.
+    type Scratch: Send;
+
+    /// The passes this integrator writes, in the order their channels are written.
+    fn passes(&self) -> &PassLayout;
+
+    fn scratch(&self) -> Self::Scratch;
+
+    /// Integrates one camera sample and adds its values to `acc` (one pixel's buffer,
+    /// laid out by [`Integrator::passes`]). Returns the density samples it took.
+    fn sample(
+        &self,
+        camera: &CameraSample,
+        rng: &mut SampleRng,
+        scratch: &mut Self::Scratch,
+        acc: &mut [f64],
+    ) -> u64;
+}

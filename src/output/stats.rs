@@ -1,0 +1,23 @@
+//! What a render did, written with `--stats FILE.json`. Keys are stable (see README).
+
+pub use crate::scene::report::{Sanitised, SceneReport, Stage};
+use serde::Serialize;
+
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct RenderStats {
+    pub murk_version: String,
+    pub input: String,
+    pub output: String,
+    pub width: usize,
+    pub height: usize,
+    pub spp: u32,
+    /// Stages, grids in their roles, shadow maps and notes.
+    #[serde(flatten)]
+    pub scene: SceneReport,
+    /// EXR channels written.
+    pub channels: Vec<String>,
+    pub rays: u64,
+    pub samples: u64,
+    pub samples_per_second: f64,
+    pub total_seconds: f64,
+}

@@ -1,0 +1,316 @@
+//! What is rendered: the camera, the lights with their shadows, a ground plane, and the
+//! input's fields in their roles (density, emission, temperature, colour) over any
+//! [`source::FieldSource`]. [`Scene::build`] does everything a render does before its
+//! pixel loop: open the input, decode the fields it needs, frame the camera, bake the
+//! shadow maps — and reports each stage (ran, or skipped and why).
+
+pub mod camera;
+pub mod light;
+pub mod lights;
+pub mod options;
+pub mod plan;
+pub mod progress;
+pub mod report;
+pub mod roles;
+pub mod source;
+
+pub use options::RenderOptions;
+pub use plan::RenderPlan;
+
+use crate::field::union::FieldUnion;
+use crate::field::{ColorField, Field};
+use crate::integrate::blackbody::BlackbodyTable;
+use crate::integrate::ground::Ground;
+use crate::integrate::phase::{HenyeyGreenstein, PhaseFunction};
+use crate::integrate::{ColorTint, Companion, Emission, Medium, Volume};
+use crate::shadow::ShadowMap;
+use anyhow::{Result, anyhow};
+use camera::{Camera, Projection};
+use glam::DVec3;
+use lights::{SceneLights, bake_maps, light_shadows};
+use plan::{EmissionPlan, GridChoice, ShadowMode};
+use progress::Progress;
+use report::{SceneReport, Stage};
+use roles::{SceneFields, load_fields};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// A scene ready to render.
+pub struct Scene {
+    pub camera: Camera,
+    pub fields: SceneFields,
+    pub medium: Medium,
+    pub phase: Arc<dyn PhaseFunction>,
+    /// Emission settings and the blackbody colours (the fields are in `fields`); `None`
+    /// without an emission or temperature field.
+    emission: Option<(EmissionPlan, BlackbodyTable)>,
+    pub lights: Vec<light::Light>,
+    /// Per light, its transmittance source.
+    shadows: Vec<lights::LightShadow>,
+    plan_shadows: (crate::shadow::ShadowQuadrature, f64),
+    pub ground: Option<Ground>,
+    /// Something scatters light toward the camera (lights and σs > 0).
+    pub scatters: bool,
+    /// Something emits (an emission or temperature field with a non-zero intensity).
+    pub emits: bool,
+    pub report: SceneReport,
+}
+
+impl Scene {
+    /// Opens the plan's input, decodes the fields in their roles, frames the camera and
+    /// bakes (or reads) the shadow maps the render needs.
+    pub fn build(plan: &RenderPlan, progress: &dyn Progress) -> Result<Scene> {
+        let mut report = SceneReport::default();
+        // Load: descriptors and metadata only.
+        let t = Instant::now();
+        let source = source::open(&plan.input)?;
+        report
+            .stages
+            .insert("load".into(), Stage::ran(t.elapsed().as_secs_f64()));
+        let medium = plan.medium;
+        let scatters = !plan.lights.is_empty() && medium.scatters();
+        // Build: decode only the fields in a role.
+        let t = Instant::now();
+        let fields = load_fields(source.as_ref(), plan, scatters, &mut report)?;
+        report
+            .stages
+            .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
+        let camera = resolve_camera(plan, fields.density.as_ref())?;
+        let emission = (fields.emission.is_some() || fields.temperature.is_some())
+            .then(|| (plan.emission, BlackbodyTable::new(200.0, 40000.0, 2048)));
+        let mut scene = Scene {
+            camera,
+            medium,
+            phase: Arc::new(HenyeyGreenstein::new(plan.medium.g)),
+            emission,
+            lights: plan.lights.clone(),
+            shadows: Vec::new(),
+            plan_shadows: (
+                plan.shadow_quadrature(),
+                // Past T = termination the light's contribution is dropped, as the
+                // camera ray's is.
+                (1.0 / plan.march.termination).ln().max(1.0)
+                    / medium.sigma_t().min_element().max(1e-30),
+            ),
+            ground: plan.ground,
+            scatters,
+            emits: false,
+            report,
+            fields,
+        };
+        scene.emits = scene.emission.as_ref().is_some_and(|(e, _)| {
+            (scene.fields.emission.is_some() && e.intensity > 0.0 && e.color.max_element() > 0.0)
+                || (scene.fields.temperature.is_some() && e.blackbody_intensity > 0.0)
+        });
+        scene.report_emission_and_scatter(plan);
+        scene.prepare_shadows(plan, progress)?;
+        Ok(scene)
+    }
+
+    fn report_emission_and_scatter(&mut self, plan: &RenderPlan) {
+        let density = self.fields.density.as_ref();
+        for f in [&self.fields.emission, &self.fields.temperature]
+            .into_iter()
+            .flatten()
+        {
+            if Companion::new(f.as_ref(), density).offset().is_none() {
+                self.report.notes.push("an emission grid is not on the density's lattice: it is sampled only where density is non-zero".into());
+            }
+        }
+        let turned_off =
+            plan.grids.emission == GridChoice::Off && plan.grids.temperature == GridChoice::Off;
+        let emission_skip_reason = if turned_off {
+            "emission and temperature grids turned off"
+        } else if self.fields.emission_found {
+            "emission and blackbody intensities are 0"
+        } else {
+            "no emission or temperature grid in the scene"
+        };
+        let emission = if self.emits {
+            Stage::ran(0.0)
+        } else {
+            Stage::skipped(emission_skip_reason)
+        };
+        let scatter = if self.scatters {
+            Stage::ran(0.0)
+        } else {
+            Stage::skipped(self.scatter_skip_reason())
+        };
+        self.report.stages.insert("emission".into(), emission);
+        self.report.stages.insert("scatter".into(), scatter);
+    }
+
+    fn scatter_skip_reason(&self) -> &'static str {
+        if self.lights.is_empty() {
+            "no lights"
+        } else {
+            "sigma_s is 0"
+        }
+    }
+
+    /// Shadows: a map per light, baked once here (or read from a cache) and looked up by
+    /// every sample; or marched per sample.
+    fn prepare_shadows(&mut self, plan: &RenderPlan, progress: &dyn Progress) -> Result<()> {
+        let sigma_t = self.medium.sigma_t();
+        // The ground plane needs the lights' shadows even when the medium does not scatter.
+        let lit = !plan.lights.is_empty() && sigma_t.max_element() > 0.0;
+        let shadows_needed = (self.scatters || (plan.ground.is_some() && lit))
+            && plan.shadows.mode != ShadowMode::None;
+        let mut maps: Vec<ShadowMap> = Vec::new();
+        if shadows_needed && plan.shadows.mode == ShadowMode::Dsm {
+            let t = Instant::now();
+            let density = self.fields.density.as_ref();
+            let hash = density.content_hash();
+            if hash.is_none() && plan.shadows.cache.is_some() {
+                return Err(anyhow!(
+                    "{}: this input cannot be fingerprinted, so a shadow cache cannot be checked against it",
+                    plan.input.display()
+                ));
+            }
+            let (m, map_stats) = bake_maps(plan, density, hash.unwrap_or(0), sigma_t, progress)?;
+            maps = m;
+            let report = &mut self.report;
+            report.shadow_map_memory_bytes = map_stats.iter().map(|s| s.bake.memory_bytes).sum();
+            report.density_memory_bytes = density.memory_bytes();
+            report.shadow_maps = map_stats;
+            report
+                .stages
+                .insert("shadows".into(), Stage::ran(t.elapsed().as_secs_f64()));
+        } else {
+            let scatter_reason = self.scatter_skip_reason();
+            let report = &mut self.report;
+            report.stages.insert(
+                "shadows".into(),
+                if !self.scatters {
+                    Stage::skipped(scatter_reason)
+                } else if plan.shadows.mode == ShadowMode::None {
+                    Stage::skipped("--shadows none")
+                } else {
+                    Stage {
+                        status: "ran: marched per sample (inside render)".into(),
+                        seconds: 0.0,
+                    }
+                },
+            );
+        }
+        let skipped = format!("skipped: {}", self.scatter_skip_reason());
+        let report = &mut self.report;
+        report.shadows = match (self.scatters, plan.shadows.mode) {
+            (false, _) => skipped,
+            (true, ShadowMode::None) => "none".into(),
+            (true, ShadowMode::March) => "march".into(),
+            (true, ShadowMode::Dsm) => "dsm".into(),
+        };
+        report.lights = plan.lights.iter().map(|l| l.name.clone()).collect();
+        self.shadows = light_shadows(plan.shadows.mode, maps, plan.lights.len());
+        Ok(())
+    }
+
+    /// The fields whose non-zero cells a camera ray visits: the density, and the emission
+    /// and temperature fields on its lattice (elsewhere they are sampled only where the
+    /// density is non-zero, which the report notes).
+    pub fn traversal(&self) -> FieldUnion<'_> {
+        let density = self.fields.density.as_ref();
+        let mut traversal = FieldUnion::new(density);
+        for f in [&self.fields.emission, &self.fields.temperature]
+            .into_iter()
+            .flatten()
+        {
+            if let Some(o) = Companion::new(f.as_ref(), density).offset() {
+                traversal = traversal.with(f.as_ref(), o.as_ivec3());
+            }
+        }
+        traversal
+    }
+
+    /// The volume the integrators march, traversed over `traversal`
+    /// ([`Scene::traversal`]).
+    pub fn volume<'a>(&'a self, traversal: &'a FieldUnion<'a>) -> Volume<'a> {
+        let density = self.fields.density.as_ref();
+        let companion =
+            |f: &'a Option<Box<dyn Field>>| f.as_ref().map(|g| Companion::new(g.as_ref(), density));
+        Volume {
+            density,
+            medium: self.medium,
+            phase: self.phase.clone(),
+            emission: self.emission.as_ref().map(|(e, table)| Emission {
+                grid: companion(&self.fields.emission),
+                color: e.color,
+                intensity: e.intensity,
+                temperature: companion(&self.fields.temperature),
+                temperature_scale: e.temperature_scale,
+                temperature_offset: e.temperature_offset,
+                blackbody_intensity: e.blackbody_intensity,
+                table: table.clone(),
+            }),
+            color: self
+                .fields
+                .color
+                .as_ref()
+                .map(|c| ColorTint::new(c.as_ref() as &dyn ColorField, density)),
+            traversal,
+        }
+    }
+
+    /// The lights as the integrators see them, with their shadows.
+    pub fn illumination(&self) -> SceneLights<'_> {
+        SceneLights {
+            lights: &self.lights,
+            density: self.fields.density.as_ref(),
+            shadows: (&self.shadows[..]).into(),
+            quadrature: self.plan_shadows.0,
+            enough: self.plan_shadows.1,
+        }
+    }
+
+    /// Near and far planes that bracket the density (for the worldToNDC attribute).
+    pub fn depth_range(&self) -> (f64, f64) {
+        let (lo, hi) = self.fields.density.world_bounds();
+        let w2c = self.camera.world_to_camera();
+        let mut far: f64 = 1e-3;
+        for c in 0..8 {
+            let p = DVec3::new(
+                if c & 1 == 0 { lo.x } else { hi.x },
+                if c & 2 == 0 { lo.y } else { hi.y },
+                if c & 4 == 0 { lo.z } else { hi.z },
+            );
+            far = far.max(-w2c.transform_point3(p).z);
+        }
+        ((far * 1e-4).max(1e-4), far * 1.01 + 1e-3)
+    }
+}
+
+/// The camera the plan asks for, framing the density's bounds where it does not say.
+fn resolve_camera(plan: &RenderPlan, density: &dyn Field) -> Result<Camera> {
+    let (lo, hi) = density.world_bounds();
+    let (lo, hi) = if density.active_bounds().is_empty() {
+        (DVec3::splat(-1.0), DVec3::splat(1.0))
+    } else {
+        (lo, hi)
+    };
+    let req = &plan.camera.request;
+    let framed = Camera::framing(
+        lo,
+        hi,
+        plan.camera.width,
+        plan.camera.height,
+        req.projection,
+    );
+    let mut cam = framed;
+    cam.up = req.up;
+    if let Some(look) = req.look_at {
+        cam.look_at = look;
+    }
+    if let Some(eye) = req.eye {
+        cam.eye = eye;
+    } else if req.look_at.is_some() {
+        cam.eye = cam.look_at + (framed.eye - framed.look_at);
+    }
+    if let Some(Projection::Orthographic { width }) = req.projection
+        && width > 0.0
+    {
+        cam.projection = Projection::Orthographic { width };
+    }
+    cam.validate().map_err(|e| anyhow!(e))?;
+    Ok(cam)
+}
