@@ -8,7 +8,6 @@ mod error;
 mod exr;
 mod frame;
 mod preview;
-pub mod stats;
 
 pub use atomic::write_atomically;
 pub use error::OutputError;

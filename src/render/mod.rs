@@ -4,13 +4,14 @@
 
 pub mod channels;
 pub mod pixels;
+pub mod stats;
 
 pub use crate::scene::progress::{Progress, Silent};
 pub use crate::scene::{RenderOptions, RenderPlan};
 
 use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, Integrator};
-use crate::output::stats::{RenderStats, Stage};
+use stats::{RenderStats, Stage};
 use crate::output::{Frame, write_atomically, write_exr, write_preview};
 use crate::scene::Scene;
 use crate::scene::lights::bake_maps;

@@ -14,7 +14,7 @@
 //! termination 1e-4).
 
 use super::check::plan_scatter_bound;
-use crate::output::stats::RenderStats;
+use crate::render::stats::RenderStats;
 use crate::output::{Frame, is_depth_channel, names};
 use crate::render::{RenderOptions, RenderPlan, render_image};
 use crate::scene::progress::Progress;
