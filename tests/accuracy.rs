@@ -344,7 +344,7 @@ fn reference_plan_settings_and_refusals() {
                 _ => unreachable!(),
             }
         }
-        RenderPlan::new(&o, "in.vdb".into())
+        RenderPlan::new(&o, "in.vdb".into()).map_err(|e| e.to_string())
     };
     let plan = opts(&[]).unwrap();
     assert_eq!(plan.march_settings(), MarchSettings::reference());

@@ -28,7 +28,7 @@ pub fn options_for(input: &Path, options: RenderOptions) -> Result<(RenderOption
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
     if is_scene {
-        let scene = RenderOptions::from_scene_file(input).map_err(|e| anyhow!(e))?;
+        let scene = RenderOptions::from_scene_file(input)?;
         let merged = options.over(scene);
         let vdb = merged
             .input
@@ -44,10 +44,7 @@ pub fn options_for(input: &Path, options: RenderOptions) -> Result<(RenderOption
 fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> {
     let (options, vdb) = options_for(input, options)?;
     let quiet = options.quiet;
-    Ok((
-        RenderPlan::new(&options, vdb).map_err(|e| anyhow!(e))?,
-        quiet,
-    ))
+    Ok((RenderPlan::new(&options, vdb)?, quiet))
 }
 
 pub fn run(input: &Path, options: RenderOptions) -> Result<()> {

@@ -81,8 +81,7 @@ pub fn converge(input: &Path, options: RenderOptions, out: &Path, runs: usize) -
             ..options.clone()
         },
         vdb.clone(),
-    )
-    .map_err(|e| anyhow!(e))?;
+    )?;
     write_text(out, "converge.csv", &csv(&reference, &rows))?;
     let text = write_plot(&out.join("converge.png"), &rows)?;
     let mut md = markdown(

@@ -10,6 +10,14 @@ use crate::vdb::{TreeSink, ValueKind, VdbError, VdbFile};
 use glam::{DMat4, IVec3, Vec3};
 use std::collections::HashMap;
 
+/// A grid that cannot be built from the voxels given, and why.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("grid {name}: {problem}")]
+pub struct GridError {
+    pub name: String,
+    pub problem: String,
+}
+
 /// Largest dense root table (entries) before falling back to a sorted list.
 const DENSE_ROOT_LIMIT: i64 = 1 << 18;
 
@@ -450,7 +458,11 @@ impl VoxelGrid {
         name: &str,
         voxels: impl IntoIterator<Item = (IVec3, f32)>,
         index_to_world: DMat4,
-    ) -> Result<VoxelGrid, String> {
+    ) -> Result<VoxelGrid, GridError> {
+        let bad = |problem: String| GridError {
+            name: name.to_string(),
+            problem,
+        };
         /// A leaf's values and its active mask.
         type Leaf = (Box<[f32; 512]>, [u64; 8]);
         let mut leaves: HashMap<[i32; 3], Leaf> = HashMap::new();
@@ -467,12 +479,13 @@ impl VoxelGrid {
         let mut keys: Vec<_> = leaves.keys().copied().collect();
         keys.sort();
         let mut b = GridBuilder::new();
-        b.begin(1, &[0.0])?;
+        b.begin(1, &[0.0]).map_err(bad)?;
         for k in keys {
             let (values, mask) = &leaves[&k];
-            b.leaf(IVec3::from_array(k), &values[..], mask)?;
+            b.leaf(IVec3::from_array(k), &values[..], mask)
+                .map_err(bad)?;
         }
-        b.finish(name, index_to_world)
+        b.finish(name, index_to_world).map_err(bad)
     }
 }
 

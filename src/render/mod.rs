@@ -11,13 +11,13 @@ pub use crate::scene::{RenderOptions, RenderPlan};
 
 use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, Integrator};
-use stats::{RenderStats, Stage};
 use crate::output::{Frame, write_atomically, write_exr, write_preview};
 use crate::scene::Scene;
 use crate::scene::lights::bake_maps;
 use crate::scene::plan::GridChoice;
 use crate::scene::roles::load_fields;
 use anyhow::{Context, Result, anyhow};
+use stats::{RenderStats, Stage};
 use std::path::Path;
 use std::time::Instant;
 

@@ -14,11 +14,11 @@
 //! termination 1e-4).
 
 use super::check::plan_scatter_bound;
-use crate::render::stats::RenderStats;
 use crate::output::{Frame, is_depth_channel, names};
+use crate::render::stats::RenderStats;
 use crate::render::{RenderOptions, RenderPlan, render_image};
 use crate::scene::progress::Progress;
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 use serde::Serialize;
 use std::path::Path;
 
@@ -151,7 +151,7 @@ pub(super) fn plan_of(options: &RenderOptions, input: &Path, p: &Point) -> Resul
     // Exact shadows come with the reference's settings; every other point (`default`
     // included) uses the deep shadow map, murk's default.
     o.shadows = (!p.exact_shadows).then(|| "dsm".to_string());
-    let mut plan = RenderPlan::new(&o, input.to_path_buf()).map_err(|e| anyhow!(e))?;
+    let mut plan = RenderPlan::new(&o, input.to_path_buf())?;
     if let Some(t) = p.termination {
         plan.march.termination = t;
     }

@@ -21,7 +21,7 @@ use crate::integrate::{
 use crate::scene::light::Light;
 use crate::scene::lights::{LightShadow, SceneLights};
 use crate::shadow::ShadowQuadrature;
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 use glam::{DMat4, DVec3, IVec3};
 
 fn grey_medium(sigma_a: f64, sigma_s: f64, g: f64) -> Medium {
@@ -179,8 +179,7 @@ fn sheet_at_thirty_degrees() -> Result<CaseResult> {
         "density",
         sheet_voxels(rho, 48),
         DMat4::from_scale(DVec3::splat(h)),
-    )
-    .map_err(|e| anyhow!(e))?;
+    )?;
     let vol = Volume::of(&sheet, grey_medium(sigma_t, 0.0, 0.0));
     let theta = 30f64.to_radians();
     let want = (-sigma_t * rho as f64 * h / theta.cos()).exp();
@@ -212,8 +211,7 @@ fn parallel_and_grazing() -> Result<CaseResult> {
     let voxels = (-16..16).flat_map(|i| {
         (-16..16).flat_map(move |j| (0..20).map(move |k| (IVec3::new(i, j, k), 1.0f32)))
     });
-    let slab = VoxelGrid::from_voxels("density", voxels, DMat4::from_scale(DVec3::splat(0.05)))
-        .map_err(|e| anyhow!(e))?;
+    let slab = VoxelGrid::from_voxels("density", voxels, DMat4::from_scale(DVec3::splat(0.05)))?;
     let (sigma_a, sigma_s, g) = (0.3, 1.7, 0.2);
     let vol = Volume::of(&slab, grey_medium(sigma_a, sigma_s, g));
     let lights = sun("sun:0.3,0.2,1:1,1,1:3");

@@ -7,7 +7,7 @@ use crate::integrate::blackbody::BlackbodyTable;
 use crate::output::Frame;
 use crate::render::{RenderOptions, RenderPlan, render_image};
 use crate::vdb::{FloatGridOut, write_float_grids};
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Context, Result};
 use glam::{DMat4, DVec3, IVec3};
 use std::path::{Path, PathBuf};
 
@@ -71,7 +71,7 @@ fn render(vdb: &Path, adjust: impl FnOnce(&mut RenderOptions)) -> Result<(Frame,
         ..Default::default()
     };
     adjust(&mut o);
-    let plan = RenderPlan::new(&o, vdb.to_path_buf()).map_err(|e| anyhow!(e))?;
+    let plan = RenderPlan::new(&o, vdb.to_path_buf())?;
     let image = render_image(&plan)?;
     Ok((image.frame, plan))
 }

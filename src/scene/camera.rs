@@ -32,7 +32,11 @@ pub struct CameraFrame {
 impl Camera {
     /// Checks the camera makes sense: a direction to look in, an up that is not along it,
     /// a field of view in (0, 180).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), super::PlanError> {
+        self.check().map_err(super::PlanError::Invalid)
+    }
+
+    fn check(&self) -> Result<(), String> {
         let f = self.look_at - self.eye;
         if !(f.length() > 0.0) || !f.is_finite() {
             return Err("the camera's eye and look-at are the same point".into());

@@ -19,7 +19,8 @@ pub struct Light {
     pub intensity: f64,
 }
 
-fn parse_triple(s: &str, what: &str) -> Result<DVec3, String> {
+/// A vector value `x,y,z` (a flag's or a light's).
+pub(super) fn parse_triple(s: &str, what: &str) -> Result<DVec3, String> {
     let v: Vec<f64> = s
         .split(',')
         .map(|x| x.trim().parse::<f64>())
@@ -31,14 +32,13 @@ fn parse_triple(s: &str, what: &str) -> Result<DVec3, String> {
     }
 }
 
-/// A vector flag value `x,y,z`.
-pub fn parse_vec3(s: &str, what: &str) -> Result<DVec3, String> {
-    parse_triple(s, what)
-}
-
 impl Light {
     /// Parses `sun:DX,DY,DZ[:R,G,B[:INTENSITY]]` or `point:X,Y,Z[:R,G,B[:INTENSITY]]`.
-    pub fn parse(spec: &str, name: String) -> Result<Light, String> {
+    pub fn parse(spec: &str, name: String) -> Result<Light, super::PlanError> {
+        Self::parsed(spec, name).map_err(super::PlanError::Invalid)
+    }
+
+    fn parsed(spec: &str, name: String) -> Result<Light, String> {
         let parts: Vec<&str> = spec.split(':').collect();
         if parts.len() < 2 || parts.len() > 4 {
             return Err(format!(

@@ -17,6 +17,21 @@ pub mod source;
 pub use options::RenderOptions;
 pub use plan::RenderPlan;
 
+/// Why a render cannot be planned, before anything is loaded.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PlanError {
+    /// A flag's or a scene key's value is malformed or out of range, or two settings
+    /// contradict each other.
+    #[error("{0}")]
+    Invalid(String),
+    /// A scene file cannot be read or parsed.
+    #[error("{}: {problem}", path.display())]
+    SceneFile {
+        path: std::path::PathBuf,
+        problem: String,
+    },
+}
+
 use crate::field::union::FieldUnion;
 use crate::field::{ColorField, Field};
 use crate::integrate::blackbody::BlackbodyTable;
@@ -311,6 +326,6 @@ fn resolve_camera(plan: &RenderPlan, density: &dyn Field) -> Result<Camera> {
     {
         cam.projection = Projection::Orthographic { width };
     }
-    cam.validate().map_err(|e| anyhow!(e))?;
+    cam.validate()?;
     Ok(cam)
 }

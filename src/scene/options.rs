@@ -129,10 +129,14 @@ pub struct NamedLight {
 
 impl RenderOptions {
     /// Reads a scene file; relative paths in it are made relative to its folder.
-    pub fn from_scene_file(path: &std::path::Path) -> Result<RenderOptions, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let mut o: RenderOptions = toml::from_str(&text)
-            .map_err(|e| format!("{}: {}", path.display(), e.to_string().replace('\n', " ")))?;
+    pub fn from_scene_file(path: &std::path::Path) -> Result<RenderOptions, super::PlanError> {
+        let bad = |problem: String| super::PlanError::SceneFile {
+            path: path.to_path_buf(),
+            problem,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+        let mut o: RenderOptions =
+            toml::from_str(&text).map_err(|e| bad(e.to_string().replace('\n', " ")))?;
         let dir = path.parent().unwrap_or(std::path::Path::new("."));
         for p in [&mut o.input, &mut o.output, &mut o.stats, &mut o.preview]
             .into_iter()

@@ -1,8 +1,9 @@
 //! Turns [`RenderOptions`] into a validated [`RenderPlan`]: every number checked, every
 //! default filled in, before anything is loaded.
 
+use super::PlanError;
 use super::camera::Projection;
-use super::light::{Light, parse_vec3};
+use super::light::{Light, parse_triple};
 use super::options::RenderOptions;
 use crate::integrate::ground::Ground;
 use crate::integrate::march::REFERENCE_STEP;
@@ -207,7 +208,7 @@ fn non_negative(v: Option<f64>, default: f64, what: &str) -> Result<f64, String>
 
 fn colour(v: &Option<String>, default: DVec3, what: &str) -> Result<DVec3, String> {
     let c = match v {
-        Some(s) => parse_vec3(s, what)?,
+        Some(s) => parse_triple(s, what)?,
         None => default,
     };
     if c.min_element() < 0.0 {
@@ -230,7 +231,11 @@ fn resolution(v: &Option<String>) -> Result<(usize, usize), String> {
 
 impl RenderPlan {
     /// Validates options; `input` is the VDB file (from the command line or the scene).
-    pub fn new(o: &RenderOptions, input: PathBuf) -> Result<RenderPlan, String> {
+    pub fn new(o: &RenderOptions, input: PathBuf) -> Result<RenderPlan, PlanError> {
+        Self::validated(o, input).map_err(PlanError::Invalid)
+    }
+
+    fn validated(o: &RenderOptions, input: PathBuf) -> Result<RenderPlan, String> {
         let output = o
             .output
             .clone()
@@ -258,7 +263,7 @@ impl RenderPlan {
             return Err(format!("--fov {fov_deg} is outside (0, 180) degrees"));
         }
         let vec =
-            |v: &Option<String>, what: &str| v.as_ref().map(|s| parse_vec3(s, what)).transpose();
+            |v: &Option<String>, what: &str| v.as_ref().map(|s| parse_triple(s, what)).transpose();
         let camera = CameraRequest {
             projection,
             eye: vec(&o.eye, "--eye")?,
@@ -273,7 +278,7 @@ impl RenderPlan {
         if !o.no_lights {
             if !o.lights.is_empty() {
                 for l in &o.lights {
-                    lights.push(Light::parse(&l.spec, l.name.clone())?);
+                    lights.push(Light::parse(&l.spec, l.name.clone()).map_err(|e| e.to_string())?);
                 }
             } else {
                 let specs = if o.light.is_empty() {
@@ -290,7 +295,7 @@ impl RenderPlan {
                         suns += 1;
                         format!("sun{}", suns - 1)
                     };
-                    lights.push(Light::parse(s, name)?);
+                    lights.push(Light::parse(s, name).map_err(|e| e.to_string())?);
                 }
             }
         }
