@@ -5,7 +5,10 @@ Usage:
     /usr/bin/python3 scripts/make_fixtures.py OUTDIR          # write *.vdb + reference.json
     /usr/bin/python3 scripts/make_fixtures.py --check FIXDIR  # regenerate in a temp dir, compare
 
-Needs Debian's python3-openvdb (pyopenvdb + numpy) and libopenvdb-tools (vdb_tool).
+Needs Debian's python3-openvdb (pyopenvdb + numpy) and libopenvdb-tools (vdb_tool), and
+for the mesh fixtures (mesh_fixtures.py) meshio and vtk from PyPI: run under
+/usr/bin/python3 the script re-executes itself under /opt/murk-venv/bin/python (a venv
+with system site packages, set up by .ci/run) when meshio is not importable.
 All data is deterministic (integer-hash noise, fixed seeds); only the UUIDs
 inside the .vdb files change between runs.  Every reference number is
 computed from the grids as READ BACK from the written files, so half-float
@@ -23,8 +26,20 @@ import sys
 import tempfile
 import zlib
 
+VENV_PYTHON = "/opt/murk-venv/bin/python"
+try:
+    import meshio  # noqa: F401  (only to know whether this interpreter has it)
+except ImportError:
+    if os.path.exists(VENV_PYTHON) and os.environ.get("MURK_FIXTURES_REEXEC") != "1":
+        os.environ["MURK_FIXTURES_REEXEC"] = "1"
+        os.execv(VENV_PYTHON, [VENV_PYTHON] + sys.argv)
+    sys.exit("make_fixtures.py: meshio is not installed here nor in %s (see .ci/run)" % VENV_PYTHON)
+
 import numpy as np
 import pyopenvdb as vdb
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import mesh_fixtures  # noqa: E402
 
 FOG = vdb.GridClass.FOG_VOLUME
 
@@ -250,6 +265,7 @@ def generate(out):
         w("sphere.vdb", [make_homogeneous("density", lambda i, j, k: i * i + j * j + k * k <= 400)])
         w("slab.vdb", [make_homogeneous("density", lambda i, j, k: (k >= 0) & (k <= 19))])
         write_bad_types(os.path.join(out, "bad_types.vdb"), tmp)
+        mesh_fixtures.generate(out)
     finally:
         shutil.rmtree(tmp)
     ref = compute_reference(out)
@@ -465,7 +481,8 @@ def compute_reference(d):
                  for name in FILES}
     finally:
         shutil.rmtree(tmp)
-    return {"openvdb_version": ".".join(map(str, vdb.LIBRARY_VERSION)), "files": files}
+    return {"openvdb_version": ".".join(map(str, vdb.LIBRARY_VERSION)), "files": files,
+            "meshes": mesh_fixtures.reference(d)}
 
 
 def dump_json(ref):

@@ -21,3 +21,4 @@ pub mod report;
 pub mod scene;
 pub mod shadow;
 pub mod vdb;
+pub mod vtk;
