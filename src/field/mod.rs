@@ -14,6 +14,7 @@ pub mod floor;
 pub mod grid;
 pub mod grid_build;
 mod grid_integrals;
+pub mod mesh;
 pub mod procedural;
 pub mod random;
 pub mod shapes;

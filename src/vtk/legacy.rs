@@ -36,7 +36,7 @@ impl<'a> Cursor<'a> {
     fn values(&mut self, ty: Scalar, count: usize, what: &str) -> Result<Numbers, String> {
         let rest = &self.bytes[self.pos..];
         if self.binary {
-            let need = count.checked_mul(ty.size()).unwrap_or(usize::MAX);
+            let need = count.saturating_mul(ty.size());
             if need > rest.len() {
                 return Err(format!(
                     "{what}: truncated ({} bytes left where {count} values need {need})",
@@ -68,9 +68,9 @@ impl<'a> Cursor<'a> {
                 }
                 Some(std::str::from_utf8(&rest[s..at]).unwrap_or("?"))
             });
-            let v = parse_ascii(&mut tokens, ty, count, what)?;
-            drop(tokens);
+            let v = parse_ascii(&mut tokens, ty, count, what);
             self.pos += at;
+            let v = v?;
             Ok(v)
         }
     }

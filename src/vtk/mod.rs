@@ -228,7 +228,7 @@ pub fn parse_mesh(path: &Path, bytes: &[u8]) -> Result<UnstructuredMesh, MeshErr
 }
 
 fn validate(raw: RawMesh) -> Result<UnstructuredMesh, String> {
-    if raw.points.len() % 3 != 0 {
+    if !raw.points.len().is_multiple_of(3) {
         return Err(format!(
             "{} point coordinates is not a multiple of 3",
             raw.points.len()

@@ -1,0 +1,442 @@
+//! Unstructured meshes (tetrahedra, hexahedra, wedges, pyramids) as a [`Field`].
+//!
+//! [`MeshGeometry`] is built once per file: the cells cut into conforming tetrahedra
+//! ([`geometry`]), their face adjacency, a BVH over the boundary faces ([`bvh`]) and a
+//! virtual lattice of bricks ([`lattice`]). A [`MeshField`] is one data array over it
+//! (point data interpolated as VTK does, cell data constant per cell); several share
+//! one geometry (density, temperature, …).
+//!
+//! To the traversal the field is a lattice: [`Field::cell_at`] answers with 8³-voxel
+//! bricks whose ranges come from the cells overlapping them (zero included, so a brick
+//! is never taken as constant), and empty bricks are skipped. [`Field::integral`] and
+//! [`Field::piece_integrals`] walk the ray cell to cell ([`walk`]) and integrate each
+//! crossing: exactly for tetrahedra and cell data (the value is linear, resp. constant,
+//! along the crossing: one midpoint evaluation is exact), and by three-point
+//! Gauss–Legendre per crossing of one of the tetrahedra a hexahedron, wedge or pyramid
+//! is cut into for point data there (exact for parallelepipeds and straight prisms,
+//! where VTK's interpolation is a polynomial of degree ≤ 3 along the ray; otherwise
+//! the parametric map is inverted by Newton's method at each node and the error is of
+//! order h⁶ in the crossing length h).
+
+pub mod bvh;
+pub mod geometry;
+pub mod interp;
+pub mod lattice;
+pub mod walk;
+
+use super::{Cell, Field, IndexBox, IndexRay, IndexToWorld, Quadrature, ValueRange};
+use crate::vtk::{CellType, MeshError, UnstructuredMesh, read_mesh};
+pub use geometry::LoadReport;
+use geometry::TetMesh;
+use glam::{DVec3, IVec3, Vec3};
+use lattice::{BRICK, Lattice};
+use std::path::Path;
+use std::sync::Arc;
+use walk::{Line, WalkStats, Walker};
+
+/// The walkable mesh shared by the fields of one file.
+pub struct MeshGeometry {
+    pub tets: TetMesh,
+    pub bvh: bvh::FaceBvh,
+    pub lattice: Lattice,
+    /// Mesh diagonal and the walk's hair (1e-10 of it).
+    pub diag: f64,
+    pub tol: f64,
+    hash: u64,
+}
+
+fn mix(h: u64, v: u64) -> u64 {
+    crate::field::random::mix64(h ^ v).wrapping_add(0x9E37_79B9_7F4A_7C15)
+}
+
+impl MeshGeometry {
+    pub fn new(mesh: &UnstructuredMesh) -> Result<MeshGeometry, String> {
+        if mesh.cells() == 0 {
+            return Err("the mesh has no cells".into());
+        }
+        let tets = TetMesh::build(mesh)?;
+        let (lo, hi) = mesh.bounds();
+        let (lo, hi) = (DVec3::from_array(lo), DVec3::from_array(hi));
+        let diag = (hi - lo).length().max(1e-300);
+        let lattice = Lattice::build(&tets, lo, hi)?;
+        let bvh = bvh::FaceBvh::build(&tets, diag * 1e-9);
+        let mut h = 0x6d75_726b_6d65_7368u64;
+        for p in &mesh.points {
+            for c in p {
+                h = mix(h, c.to_bits());
+            }
+        }
+        for t in &mesh.cell_types {
+            h = mix(h, t.vtk_id() as u64);
+        }
+        for c in &mesh.connectivity {
+            h = mix(h, *c as u64);
+        }
+        Ok(MeshGeometry {
+            tets,
+            bvh,
+            lattice,
+            diag,
+            tol: diag * 1e-10,
+            hash: h,
+        })
+    }
+
+    pub fn report(&self) -> &LoadReport {
+        &self.tets.report
+    }
+
+    fn walker(&self) -> Walker<'_> {
+        Walker {
+            mesh: &self.tets,
+            bvh: &self.bvh,
+            lattice: &self.lattice,
+            tol: self.tol,
+            scale: self.diag,
+        }
+    }
+
+    /// The pieces of the world ray `o + t·d` over `[t0, t1]` inside the mesh, each in
+    /// one tetrahedron: `f(tet, ta, tb)`.
+    pub fn walk(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        t0: f64,
+        t1: f64,
+        f: impl FnMut(u32, f64, f64),
+    ) -> WalkStats {
+        let line = Line::new(o, d, self.diag.max(1e-300) / d.length().max(1e-300));
+        self.walker().walk(&line, t0, t1, f)
+    }
+
+    /// World length of `o + t·d, t ∈ [t0, t1]` inside the mesh, by the walk.
+    pub fn chord_length(&self, o: DVec3, d: DVec3, t0: f64, t1: f64) -> f64 {
+        let mut len = 0.0;
+        self.walk(o, d, t0, t1, |_, a, b| len += b - a);
+        len * d.length()
+    }
+
+    pub fn memory_bytes(&self) -> usize {
+        self.tets.memory_bytes() + self.bvh.memory_bytes() + self.lattice.memory_bytes()
+    }
+}
+
+/// Where a field's values live.
+#[derive(Clone, Debug)]
+enum Values {
+    /// One per mesh point, interpolated as VTK does.
+    Point(Vec<f64>),
+    /// One per cell, constant in it.
+    Cell(Vec<f64>),
+}
+
+/// One data array of a mesh as a field.
+pub struct MeshField {
+    geo: Arc<MeshGeometry>,
+    values: Values,
+    name: String,
+    bricks: Vec<ValueRange>,
+    hash: u64,
+}
+
+/// A mesh file with its geometry, handing out fields by array name.
+pub struct MeshSource {
+    pub mesh: UnstructuredMesh,
+    pub geometry: Arc<MeshGeometry>,
+}
+
+impl MeshSource {
+    pub fn open(path: &Path) -> Result<MeshSource, MeshError> {
+        let mesh = read_mesh(path)?;
+        let geometry = MeshGeometry::new(&mesh).map_err(|e| MeshError::new(path, e))?;
+        Ok(MeshSource {
+            mesh,
+            geometry: Arc::new(geometry),
+        })
+    }
+
+    /// The array `name` (point data first, then cell data) as a field.
+    pub fn field(&self, name: &str) -> Option<MeshField> {
+        if let Some(a) = self.mesh.point_array(name) {
+            let v = (0..a.tuples()).map(|i| a.scalar(i)).collect();
+            return Some(MeshField::from_point_values(self.geometry.clone(), name, v));
+        }
+        let a = self.mesh.cell_array(name)?;
+        let v = (0..a.tuples()).map(|i| a.scalar(i)).collect();
+        Some(MeshField::from_cell_values(self.geometry.clone(), name, v))
+    }
+
+    /// Names of every array (point data, then cell data).
+    pub fn array_names(&self) -> Vec<String> {
+        self.mesh
+            .point_data
+            .iter()
+            .chain(&self.mesh.cell_data)
+            .map(|a| a.name.clone())
+            .collect()
+    }
+}
+
+/// Three-point Gauss–Legendre nodes on [0, 1] and weights.
+const GL3: [(f64, f64); 3] = [
+    (0.112_701_665_379_258_31, 5.0 / 18.0),
+    (0.5, 8.0 / 18.0),
+    (0.887_298_334_620_741_7, 5.0 / 18.0),
+];
+
+impl MeshField {
+    /// Point data (one value per mesh point; NaN and infinities read as 0).
+    pub fn from_point_values(geo: Arc<MeshGeometry>, name: &str, values: Vec<f64>) -> MeshField {
+        let values = values
+            .into_iter()
+            .map(|v| if v.is_finite() { v } else { 0.0 })
+            .collect();
+        Self::with(geo, name, Values::Point(values))
+    }
+
+    /// Cell data (one value per cell; NaN and infinities read as 0).
+    pub fn from_cell_values(geo: Arc<MeshGeometry>, name: &str, values: Vec<f64>) -> MeshField {
+        let values = values
+            .into_iter()
+            .map(|v| if v.is_finite() { v } else { 0.0 })
+            .collect();
+        Self::with(geo, name, Values::Cell(values))
+    }
+
+    fn with(geo: Arc<MeshGeometry>, name: &str, values: Values) -> MeshField {
+        let tm = &geo.tets;
+        let n_cells = tm.cell_types.len();
+        let cell_range: Vec<ValueRange> = (0..n_cells as u32)
+            .map(|c| {
+                let mut r = ValueRange::ZERO;
+                match &values {
+                    Values::Cell(v) => r.include(v[c as usize] as f32),
+                    // VTK's shape functions are non-negative in the cell: its values
+                    // lie between the corners'.
+                    Values::Point(v) => tm
+                        .cell(c)
+                        .iter()
+                        .for_each(|&p| r.include(v[p as usize] as f32)),
+                }
+                // f32 rounding: widen so the range still bounds the f64 values.
+                ValueRange {
+                    min: if r.min < 0.0 {
+                        r.min.next_down()
+                    } else {
+                        r.min
+                    },
+                    max: if r.max > 0.0 { r.max.next_up() } else { r.max },
+                }
+            })
+            .collect();
+        let lat = &geo.lattice;
+        let bricks = (0..lat.brick_count())
+            .map(|b| {
+                lat.tets_in(b).iter().fold(ValueRange::ZERO, |r, &t| {
+                    r.union(&cell_range[tm.tet_cell[t as usize] as usize])
+                })
+            })
+            .collect();
+        let mut h = mix(geo.hash, name.len() as u64);
+        let (tag, vs) = match &values {
+            Values::Point(v) => (1, v),
+            Values::Cell(v) => (2, v),
+        };
+        h = mix(h, tag);
+        for v in vs {
+            h = mix(h, v.to_bits());
+        }
+        MeshField {
+            geo,
+            values,
+            name: name.to_string(),
+            bricks,
+            hash: h,
+        }
+    }
+
+    pub fn geometry(&self) -> &Arc<MeshGeometry> {
+        &self.geo
+    }
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// VTK's interpolated value at world point `x` in tetrahedron `tet`.
+    fn value_in(&self, tet: u32, x: DVec3) -> f64 {
+        let tm = &self.geo.tets;
+        let cell = tm.tet_cell[tet as usize];
+        match &self.values {
+            Values::Cell(v) => v[cell as usize],
+            Values::Point(v) => {
+                let ty = tm.cell_types[cell as usize];
+                if ty == CellType::Tetra {
+                    let c = tm.corners(tet);
+                    let t = tm.tets[tet as usize];
+                    match interp::barycentric(&c, x) {
+                        Some(l) => {
+                            (1.0 - l.x - l.y - l.z) * v[t[0] as usize]
+                                + l.x * v[t[1] as usize]
+                                + l.y * v[t[2] as usize]
+                                + l.z * v[t[3] as usize]
+                        }
+                        None => v[t[0] as usize],
+                    }
+                } else {
+                    let ids = tm.cell(cell);
+                    let mut xs = [DVec3::ZERO; 8];
+                    let mut vals = [0.0; 8];
+                    for (k, &p) in ids.iter().enumerate() {
+                        xs[k] = tm.points[p as usize];
+                        vals[k] = v[p as usize];
+                    }
+                    let n = ids.len();
+                    let xi = interp::parametric(ty, &xs[..n], x, interp::centre(ty));
+                    interp::interpolate(ty, &vals[..n], xi)
+                }
+            }
+        }
+    }
+
+    /// `∫ value dt` over `[a, b]` of the world ray, all in tetrahedron `tet`.
+    fn piece(&self, tet: u32, line_o: DVec3, d: DVec3, a: f64, b: f64) -> f64 {
+        let tm = &self.geo.tets;
+        let cell = tm.tet_cell[tet as usize];
+        let linear = matches!(self.values, Values::Cell(_))
+            || tm.cell_types[cell as usize] == CellType::Tetra;
+        let h = b - a;
+        if linear {
+            h * self.value_in(tet, line_o + d * (0.5 * (a + b)))
+        } else {
+            GL3.iter()
+                .map(|(u, w)| w * self.value_in(tet, line_o + d * (a + u * h)))
+                .sum::<f64>()
+                * h
+        }
+    }
+
+    /// `∫ value dt` along the world ray `o + t·d` over `[t0, t1]` (t in units of d).
+    pub fn integrate_world(&self, o: DVec3, d: DVec3, t0: f64, t1: f64) -> f64 {
+        let mut sum = 0.0;
+        self.geo
+            .walk(o, d, t0, t1, |tet, a, b| sum += self.piece(tet, o, d, a, b));
+        sum
+    }
+
+    /// The value at a world point (0 outside the mesh).
+    pub fn value_at_world_point(&self, x: DVec3) -> f64 {
+        match self.geo.lattice.locate(&self.geo.tets, x) {
+            Some(t) => self.value_in(t, x),
+            None => 0.0,
+        }
+    }
+
+    /// The cell containing a world point (by the tetrahedra it is cut into), or `None`.
+    pub fn cell_at_world_point(&self, x: DVec3) -> Option<u32> {
+        let t = self.geo.lattice.locate(&self.geo.tets, x)?;
+        Some(self.geo.tets.tet_cell[t as usize])
+    }
+
+    fn world_ray(&self, ray: &IndexRay) -> (DVec3, DVec3) {
+        let tr = &self.geo.lattice.transform;
+        (tr.index_to_world(ray.origin), tr.linear() * ray.dir)
+    }
+}
+
+impl Field for MeshField {
+    fn value_at_index(&self, p: DVec3) -> f32 {
+        let x = self.geo.lattice.transform.index_to_world(p);
+        self.value_at_world_point(x) as f32
+    }
+
+    fn transform(&self) -> &IndexToWorld {
+        &self.geo.lattice.transform
+    }
+
+    fn active_bounds(&self) -> IndexBox {
+        IndexBox::new(Vec3::ZERO, (self.geo.lattice.dims * BRICK).as_vec3())
+    }
+
+    fn cell_at(&self, ijk: IVec3) -> Cell {
+        let b = ijk >> 3;
+        let range = match self.geo.lattice.brick_index(b) {
+            Some(k) => self.bricks[k],
+            None => ValueRange::ZERO,
+        };
+        Cell {
+            origin: b << 3,
+            size: BRICK,
+            range,
+        }
+    }
+
+    fn range_over(&self, b: &IndexBox) -> ValueRange {
+        if b.is_empty() {
+            return ValueRange::ZERO;
+        }
+        let lat = &self.geo.lattice;
+        let lo = (b.min.as_dvec3() / BRICK as f64)
+            .floor()
+            .as_ivec3()
+            .max(IVec3::ZERO);
+        let hi = (b.max.as_dvec3() / BRICK as f64)
+            .floor()
+            .as_ivec3()
+            .min(lat.dims - 1);
+        let mut r = ValueRange::ZERO;
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    if let Some(k) = lat.brick_index(IVec3::new(x, y, z)) {
+                        r = r.union(&self.bricks[k]);
+                    }
+                }
+            }
+        }
+        r
+    }
+
+    fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
+        let (o, d) = self.world_ray(ray);
+        self.integrate_world(o, d, t0, t1)
+    }
+
+    fn piece_integrals(&self, ray: &IndexRay, t0: f64, ends: &[f64], out: &mut [f64]) {
+        out.iter_mut().for_each(|v| *v = 0.0);
+        let Some(&t_end) = ends.last() else { return };
+        let (o, d) = self.world_ray(ray);
+        let mut i = 0usize;
+        self.geo.walk(o, d, t0, t_end, |tet, a, b| {
+            let mut a = a;
+            while i < ends.len() && ends[i] <= a {
+                i += 1;
+            }
+            while a < b && i < ends.len() {
+                let e = ends[i].min(b);
+                if e > a {
+                    out[i] += self.piece(tet, o, d, a, e);
+                }
+                a = e;
+                if ends[i] <= b {
+                    i += 1;
+                }
+            }
+        });
+    }
+
+    fn quadrature(&self) -> Quadrature {
+        Quadrature::ExactPerVoxel
+    }
+
+    fn content_hash(&self) -> Option<u64> {
+        Some(self.hash)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        let values = match &self.values {
+            Values::Point(v) | Values::Cell(v) => v.capacity() * 8,
+        };
+        self.geo.memory_bytes() + values + self.bricks.capacity() * 8
+    }
+}
