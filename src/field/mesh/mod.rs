@@ -110,6 +110,25 @@ impl MeshGeometry {
         self.walker().walk(&line, t0, t1, f)
     }
 
+    /// World length inside the mesh of the segment from `p + t0·(q − p)` to
+    /// `p + t1·(q − p)`, walking the exact line through the points `p` and `q` (so a
+    /// ray aimed at a vertex passes exactly through it), with the walk's counters; NaN
+    /// if the pieces came out of order.
+    pub fn chord_through(&self, p: DVec3, q: DVec3, t0: f64, t1: f64) -> (f64, WalkStats) {
+        let line = Line::through(p, q);
+        let mut len = 0.0;
+        let mut last = f64::NEG_INFINITY;
+        let mut ordered = true;
+        let st = self.walker().walk(&line, t0, t1, |_, a, b| {
+            ordered &= a >= last && b >= a;
+            last = b;
+            len += b - a;
+        });
+        // Pieces out of order would be a walk bug: NaN makes any comparison fail.
+        let len = if ordered { len } else { f64::NAN };
+        (len * (q - p).length(), st)
+    }
+
     /// World length of `o + t·d, t ∈ [t0, t1]` inside the mesh, by the walk.
     pub fn chord_length(&self, o: DVec3, d: DVec3, t0: f64, t1: f64) -> f64 {
         let mut len = 0.0;

@@ -45,6 +45,17 @@ impl Line {
             inv_dd: 1.0 / dir.length_squared(),
         }
     }
+    /// The line through `p` and `q` exactly (`t` in units of `q − p`, 0 at `p`).
+    pub fn through(p: DVec3, q: DVec3) -> Line {
+        let dir = q - p;
+        Line {
+            origin: p,
+            dir,
+            p,
+            q,
+            inv_dd: 1.0 / dir.length_squared(),
+        }
+    }
     #[inline]
     pub fn at(&self, t: f64) -> DVec3 {
         self.origin + self.dir * t
