@@ -2,6 +2,7 @@
 
 mod args;
 mod info;
+mod info_mesh;
 mod progress;
 mod render;
 mod report;
@@ -22,12 +23,13 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Describe a .vdb file: its metadata and every grid (no trees are decoded without --stats).
+    /// Describe a .vdb file: its metadata and every grid (no trees are decoded without --stats);
+    /// or a mesh (.vtu, .vtk): points, cells by type, bounds, point and cell data arrays.
     #[command(
         after_help = "Examples:\n  murk info fixtures/cloud.vdb\n  murk info fixtures/pyro.vdb --stats --json"
     )]
     Info {
-        /// The .vdb file.
+        /// The .vdb, .vtu or .vtk file.
         file: PathBuf,
         /// Decode every float and vec3 grid and report value statistics and memory.
         #[arg(long)]
@@ -112,6 +114,9 @@ pub fn run() -> i32 {
             Ok(false) => return 1,
             Err(e) => Err(e),
         },
+        Command::Info { file, json, .. } if murk::vtk::is_mesh_path(&file) => {
+            info_mesh::run(&file, json)
+        }
         Command::Info { file, stats, json } => info::run(&file, stats, json),
         Command::Render { input, options } => render::run(&input, options.options()),
         Command::BakeShadows { input, options } => render::bake(&input, options.options()),

@@ -226,7 +226,9 @@ fn header_len(layout: &BinaryLayout, first: &[u8], what: &str) -> Result<usize, 
     let nb = layout.read_words(first, 1, what)?[0];
     // A block holds at least one compressed byte: more blocks than bytes is a lie.
     if nb > (1 << 40) {
-        return Err(format!("{what}: header declares {nb} compressed blocks"));
+        return Err(format!(
+            "{what}: header declares {nb} compressed blocks (wrong byte order or header type?)"
+        ));
     }
     Ok((3 + nb as usize) * layout.word())
 }

@@ -62,7 +62,8 @@ fn appended(bytes: &[u8], at: usize) -> Result<(&[u8], bool), String> {
     let after = &rest[close + 1..];
     let us = find(after, b"_").ok_or("<AppendedData> has no '_' before its data")?;
     let data = &after[us + 1..];
-    let end = rfind(data, b"</AppendedData>").unwrap_or(data.len());
+    let end = rfind(data, b"</AppendedData>")
+        .ok_or("truncated: the file ends inside <AppendedData> (no </AppendedData>)")?;
     Ok((&data[..end], base64))
 }
 
@@ -75,6 +76,7 @@ pub fn read(bytes: &[u8]) -> Result<RawMesh, String> {
     let mut section = Section::None;
     let mut arrays: Vec<ArrayDecl> = Vec::new();
     let mut open_array: Option<ArrayDecl> = None;
+    let mut closed = false;
     loop {
         let ev = reader.read_event().map_err(|e| {
             format!(
@@ -131,6 +133,7 @@ pub fn read(bytes: &[u8]) -> Result<RawMesh, String> {
                     }
                 }
                 b"PointData" | b"CellData" | b"Points" | b"Cells" => section = Section::None,
+                b"VTKFile" => closed = true,
                 _ => {}
             },
             Event::Eof => break,
@@ -138,6 +141,9 @@ pub fn read(bytes: &[u8]) -> Result<RawMesh, String> {
         }
     }
     let file = file_attrs.ok_or("no <VTKFile> element: not a VTK XML file")?;
+    if open_array.is_some() || (app_at.is_none() && !closed) {
+        return Err("truncated: the XML ends before </VTKFile>".into());
+    }
     match file.get("type").map(String::as_str) {
         Some("UnstructuredGrid") => {}
         other => {

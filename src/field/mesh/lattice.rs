@@ -22,7 +22,9 @@ pub struct Lattice {
 }
 
 /// List entries at most (beyond it the lattice is coarsened).
-const MAX_ITEMS: u64 = 1 << 30;
+fn max_items(tets: usize) -> u64 {
+    (64 * tets as u64).max(1 << 20)
+}
 
 impl Lattice {
     pub fn build(mesh: &TetMesh, lo: DVec3, hi: DVec3) -> Result<Lattice, String> {
@@ -59,7 +61,7 @@ impl Lattice {
                 let d = (i1 - i0 + 1).as_i64vec3();
                 total += (d.x * d.y * d.z) as u64;
             }
-            if total > MAX_ITEMS {
+            if total > max_items(mesh.tets.len()) {
                 edge *= 2.0;
                 continue;
             }

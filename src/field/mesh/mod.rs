@@ -58,6 +58,9 @@ impl MeshGeometry {
         let (lo, hi) = mesh.bounds();
         let (lo, hi) = (DVec3::from_array(lo), DVec3::from_array(hi));
         let diag = (hi - lo).length().max(1e-300);
+        if !diag.is_finite() {
+            return Err("point coordinates span more than a double can hold".into());
+        }
         let lattice = Lattice::build(&tets, lo, hi)?;
         let bvh = bvh::FaceBvh::build(&tets, diag * 1e-9);
         let mut h = 0x6d75_726b_6d65_7368u64;
