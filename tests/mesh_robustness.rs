@@ -140,8 +140,8 @@ fn run(rays_per_kind: usize, seed: u64) -> usize {
     let all = |_: usize, _: usize, _: usize| true;
     // A square hole through the middle along z: rays leave and re-enter.
     let holed = |i: usize, j: usize, _: usize| !((2..4).contains(&i) && (1..3).contains(&j));
-    let meshes: Vec<(&str, Box<dyn Fn(usize, usize, usize) -> bool>)> =
-        vec![("cube", Box::new(all)), ("holed", Box::new(holed))];
+    type Keep = Box<dyn Fn(usize, usize, usize) -> bool>;
+    let meshes: Vec<(&str, Keep)> = vec![("cube", Box::new(all)), ("holed", Box::new(holed))];
     let mut s = seed;
     let mut checked = 0;
     let mut relocations = 0;
