@@ -77,7 +77,7 @@ const ATTRIBUTE_EDITS: &[(&str, &str)] = &[
 ];
 
 fn mutants(name: &str, b: &[u8], random: usize, seed: u64) -> Vec<(String, Vec<u8>)> {
-    let mut rng = Rng(SplitMix64(seed ^ name.len() as u64 * 0x9E37_79B9));
+    let mut rng = Rng(SplitMix64(seed ^ (name.len() as u64 * 0x9E37_79B9)));
     let mut out = Vec::new();
     // Truncations: 40 spread over the file, and inside the first kilobyte.
     for k in 0..40 {
@@ -281,7 +281,7 @@ fn run_all(random_per_file: usize, seed: u64) {
         bad.len()
     );
     let mut by: Vec<_> = kinds.into_iter().collect();
-    by.sort_by(|a, b| b.1.cmp(&a.1));
+    by.sort_by_key(|k| std::cmp::Reverse(k.1));
     for (m, n) in by.iter().take(40) {
         println!("{n:>6}  {m}");
     }
