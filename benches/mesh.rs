@@ -12,6 +12,7 @@
 //!    N×N through the library's march, from the mesh and from the VDB resample, on one
 //!    thread and on all; the difference of the two alpha images (mean, RMS, max).
 //!    With `--out`, writes both as PNG (8-bit alpha).
+//!
 //! Prints a JSON line.
 
 use glam::DVec3;
