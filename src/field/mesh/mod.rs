@@ -32,7 +32,16 @@ use glam::{DVec3, IVec3, Vec3};
 use lattice::{BRICK, Lattice};
 use std::path::Path;
 use std::sync::Arc;
-use walk::{Line, WalkStats, Walker};
+use walk::{Line, Resume, WalkStats, Walker};
+
+thread_local! {
+    /// The last walk of this thread: its ray (origin, direction), end and where it
+    /// stopped. A march asks for consecutive stretches of one ray; the next walk goes
+    /// on from there instead of locating its start again (the same tetrahedra, so the
+    /// same result).
+    static LAST_WALK: std::cell::Cell<Option<(DVec3, DVec3, f64, Resume)>> =
+        const { std::cell::Cell::new(None) };
+}
 
 /// The walkable mesh shared by the fields of one file.
 pub struct MeshGeometry {
@@ -130,6 +139,17 @@ impl MeshGeometry {
         // Pieces out of order would be a walk bug: NaN makes any comparison fail.
         let len = if ordered { len } else { f64::NAN };
         (len * (q - p).length(), st)
+    }
+
+    /// [`MeshGeometry::walk`], going on from this thread's previous walk when it was
+    /// of the same ray and ended at `t0`.
+    fn walk_continued(&self, o: DVec3, d: DVec3, t0: f64, t1: f64, f: impl FnMut(u32, f64, f64)) {
+        let line = Line::new(o, d, self.diag.max(1e-300) / d.length().max(1e-300));
+        let start = LAST_WALK
+            .get()
+            .and_then(|(lo, ld, lt, r)| (lo == o && ld == d && lt == t0).then_some(r));
+        let (_, end) = self.walker().walk_from(&line, t0, t1, start, f);
+        LAST_WALK.set(end.map(|r| (o, d, t1, r)));
     }
 
     /// World length of `o + t·d, t ∈ [t0, t1]` inside the mesh, by the walk.
@@ -342,7 +362,7 @@ impl MeshField {
     pub fn integrate_world(&self, o: DVec3, d: DVec3, t0: f64, t1: f64) -> f64 {
         let mut sum = 0.0;
         self.geo
-            .walk(o, d, t0, t1, |tet, a, b| sum += self.piece(tet, o, d, a, b));
+            .walk_continued(o, d, t0, t1, |tet, a, b| sum += self.piece(tet, o, d, a, b));
         sum
     }
 
@@ -429,7 +449,7 @@ impl Field for MeshField {
         let Some(&t_end) = ends.last() else { return };
         let (o, d) = self.world_ray(ray);
         let mut i = 0usize;
-        self.geo.walk(o, d, t0, t_end, |tet, a, b| {
+        self.geo.walk_continued(o, d, t0, t_end, |tet, a, b| {
             let mut a = a;
             while i < ends.len() && ends[i] <= a {
                 i += 1;

@@ -119,23 +119,43 @@ pub struct Walker<'a> {
 
 const RING: usize = 8;
 
+/// Where a walk stopped at its end `t1`, to go on from there without locating the
+/// point again: inside a tetrahedron (entered through face `from`, 4 for none), or
+/// outside the mesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Resume {
+    Inside(u32, usize),
+    Outside,
+}
+
 impl Walker<'_> {
     /// Calls `f(tet, ta, tb)` for consecutive pieces of `[t0, t1]` inside the mesh,
     /// front to back, each in the tetrahedron `tet`.
-    pub fn walk(
+    pub fn walk(&self, line: &Line, t0: f64, t1: f64, f: impl FnMut(u32, f64, f64)) -> WalkStats {
+        self.walk_from(line, t0, t1, None, f).0
+    }
+
+    /// [`Walker::walk`] starting from where a previous walk of the same line ended at
+    /// `t0` (`None`: locate the point at `t0`), returning where this one ends.
+    pub fn walk_from(
         &self,
         line: &Line,
         t0: f64,
         t1: f64,
+        start: Option<Resume>,
         mut f: impl FnMut(u32, f64, f64),
-    ) -> WalkStats {
+    ) -> (WalkStats, Option<Resume>) {
         let mut st = WalkStats::default();
         if !(t1 > t0) {
-            return st;
+            return (st, start);
         }
         let mut t = t0;
-        let mut cur: Option<(u32, usize)> =
-            self.lattice.locate(self.mesh, line.at(t0)).map(|c| (c, 4));
+        let mut cur: Option<(u32, usize)> = match start {
+            Some(Resume::Inside(tet, from)) => Some((tet, from)),
+            Some(Resume::Outside) => None,
+            None => self.lattice.locate(self.mesh, line.at(t0)).map(|c| (c, 4)),
+        };
+        let mut stop = None;
         let mut entered: [u32; RING] = [NONE; RING];
         let mut n_entered = 0usize;
         let mut recent: [u32; RING] = [NONE; RING];
@@ -153,6 +173,7 @@ impl Walker<'_> {
                         break;
                     };
                     if e.t >= t1 {
+                        stop = Some(Resume::Outside);
                         break;
                     }
                     st.entries += 1;
@@ -234,6 +255,7 @@ impl Walker<'_> {
                 }
             }
             if t_exit >= t1 {
+                stop = Some(Resume::Inside(tet, from));
                 break;
             }
             t = t_exit;
@@ -244,6 +266,6 @@ impl Walker<'_> {
                 Some((nb >> 2, (nb & 3) as usize))
             };
         }
-        st
+        (st, stop)
     }
 }
