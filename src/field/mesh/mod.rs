@@ -209,6 +209,26 @@ impl MeshSource {
         Some(MeshField::from_cell_values(self.geometry.clone(), name, v))
     }
 
+    /// Component `c` of the array `name` as a field (a colour's channel).
+    pub fn component_field(&self, name: &str, c: usize) -> Option<MeshField> {
+        let (a, point) = match self.mesh.point_array(name) {
+            Some(a) => (a, true),
+            None => (self.mesh.cell_array(name)?, false),
+        };
+        if c >= a.components {
+            return None;
+        }
+        let v = (0..a.tuples())
+            .map(|i| a.values[i * a.components + c])
+            .collect();
+        let label = format!("{name}[{c}]");
+        Some(if point {
+            MeshField::from_point_values(self.geometry.clone(), &label, v)
+        } else {
+            MeshField::from_cell_values(self.geometry.clone(), &label, v)
+        })
+    }
+
     /// Names of every array (point data, then cell data).
     pub fn array_names(&self) -> Vec<String> {
         self.mesh
