@@ -156,6 +156,9 @@ impl Walker<'_> {
             None => self.lattice.locate(self.mesh, line.at(t0)).map(|c| (c, 4)),
         };
         let mut stop = None;
+        // The previous tet's vertex ids and edge sides (NONE ids: none yet).
+        let mut prev_ids = [NONE; 4];
+        let mut prev_s = [[0.0f64; 4]; 4];
         let mut entered: [u32; RING] = [NONE; RING];
         let mut n_entered = 0usize;
         let mut recent: [u32; RING] = [NONE; RING];
@@ -185,13 +188,23 @@ impl Walker<'_> {
             };
             st.steps += 1;
             let c = self.mesh.corners(tet);
-            // Sides of the six edges: s[i][j] for i < j.
+            let ids = self.mesh.tets[tet as usize];
+            // Sides of the six edges: s[i][j] for i < j. The three edges of the face
+            // just crossed were decided in the previous tet: the same exact values.
             let mut s = [[0.0f64; 4]; 4];
             for i in 0..4 {
                 for j in i + 1..4 {
-                    s[i][j] = line.side(c[i], c[j]);
+                    let pi = prev_ids.iter().position(|&v| v == ids[i]);
+                    let pj = prev_ids.iter().position(|&v| v == ids[j]);
+                    s[i][j] = match (pi, pj) {
+                        (Some(a), Some(b)) if a < b => prev_s[a][b],
+                        (Some(a), Some(b)) => -prev_s[b][a],
+                        _ => line.side(c[i], c[j]),
+                    };
                 }
             }
+            prev_ids = ids;
+            prev_s = s;
             let side = |i: usize, j: usize| if i < j { s[i][j] } else { -s[j][i] };
             let mut best: Option<(usize, f64, u32, bool)> = None;
             for (k, fv) in FACES.iter().enumerate() {
