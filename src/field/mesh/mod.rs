@@ -209,6 +209,46 @@ impl MeshSource {
         Some(MeshField::from_cell_values(self.geometry.clone(), name, v))
     }
 
+    /// [`MeshSource::component_field`] with NaN, infinite and negative values replaced
+    /// by 0, as a density must be, and how many of each there were.
+    pub fn sanitised_component(&self, name: &str, c: usize) -> Option<(MeshField, [u64; 3])> {
+        let (a, point) = match self.mesh.point_array(name) {
+            Some(a) => (a, true),
+            None => (self.mesh.cell_array(name)?, false),
+        };
+        if c >= a.components {
+            return None;
+        }
+        let mut counts = [0u64; 3];
+        let v: Vec<f64> = (0..a.tuples())
+            .map(|i| {
+                let x = a.values[i * a.components + c];
+                let bad = if x.is_nan() {
+                    0
+                } else if x.is_infinite() {
+                    1
+                } else if x < 0.0 {
+                    2
+                } else {
+                    return x;
+                };
+                counts[bad] += 1;
+                0.0
+            })
+            .collect();
+        let label = if a.components == 1 {
+            name.to_string()
+        } else {
+            format!("{name}[{c}]")
+        };
+        let f = if point {
+            MeshField::from_point_values(self.geometry.clone(), &label, v)
+        } else {
+            MeshField::from_cell_values(self.geometry.clone(), &label, v)
+        };
+        Some((f, counts))
+    }
+
     /// Component `c` of the array `name` as a field (a colour's channel).
     pub fn component_field(&self, name: &str, c: usize) -> Option<MeshField> {
         let (a, point) = match self.mesh.point_array(name) {
