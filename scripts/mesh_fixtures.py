@@ -139,6 +139,27 @@ def make_graded():
                        cell_data={"one": [np.ones(n)]})
 
 
+def make_plume():
+    """A smoke plume on hexahedra over [-1,1]×[-1,1]×[0,3] (8×8×12 cells, their height
+    growing upward as a CFD mesh's would, and the columns sheared sideways with height),
+    with point data density, temperature and a colour Cd: the README's render."""
+    xs = np.linspace(-1.0, 1.0, 9)
+    zs = 3.0 * (np.linspace(0.0, 1.0, 13) ** 1.4)
+    pts, idx = lattice(xs, xs, zs)
+    pts[:, 0] += 0.15 * pts[:, 2] ** 2 / 9.0
+    hexes = [hex_corners(idx, i, j, k)
+             for k, j, i in itertools.product(range(12), range(8), range(8))]
+    x, y, z = pts[:, 0] - 0.15 * pts[:, 2] ** 2 / 9.0, pts[:, 1], pts[:, 2]
+    r = np.sqrt(x * x + y * y)
+    width = 0.25 + 0.22 * z
+    core = np.clip(1.0 - (r / width) ** 2, 0.0, None)
+    density = core * (0.6 + 0.4 * np.sin(5.0 * z + 2.0 * x) ** 2) * np.exp(-0.25 * z)
+    temperature = 400.0 + 1100.0 * core * np.exp(-1.5 * z)
+    cd = np.stack([0.9 - 0.1 * z / 3.0, 0.8 + 0.0 * z, 0.7 + 0.1 * z / 3.0], axis=1)
+    return meshio.Mesh(pts, [("hexahedron", np.array(hexes))],
+                       point_data={"density": density, "temperature": temperature, "Cd": cd})
+
+
 def write_appended(src, dst):
     """ParaView's default: appended raw data, zlib-compressed, UInt64 headers."""
     r = vtk.vtkXMLUnstructuredGridReader()
@@ -174,6 +195,7 @@ MESH_FILES = {
     "mixed_ascii.vtk": (make_mixed, _vtk(False)),
     "mixed_binary.vtk": (make_mixed, _vtk(True)),
     "graded.vtu": (make_graded, _vtu(True, "zlib")),
+    "plume.vtu": (make_plume, _vtu(True, "zlib")),
 }
 # Written by VTK from another fixture (appended raw zlib, as ParaView saves).
 APPENDED = {"tets_appended.vtu": "tets_zlib.vtu", "mixed_appended.vtu": "mixed_zlib.vtu"}

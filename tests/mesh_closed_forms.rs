@@ -172,7 +172,8 @@ fn values_match_vtk_interpolation() {
         let cells = want["in_cell"]["cell"].as_array().unwrap();
         let tets_only = src.mesh.cells_by_type().len() == 1;
         for (array, vals) in want["in_cell"]["values"].as_object().unwrap() {
-            let field: MeshField = src.field(array).unwrap();
+            // VTK's reference holds a vector array's first component.
+            let field: MeshField = src.component_field(array, 0).unwrap();
             let cell_data = src.mesh.cell_array(array).is_some();
             for (i, p) in pts.iter().enumerate() {
                 if cells[i].as_i64().unwrap() < 0 {
