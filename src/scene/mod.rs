@@ -7,6 +7,7 @@
 pub mod camera;
 pub mod light;
 pub mod lights;
+pub mod mesh_source;
 pub mod options;
 pub mod plan;
 pub mod progress;

@@ -76,8 +76,11 @@ pub trait FieldSource: Send + Sync {
     }
 }
 
-/// Opens `path` by its kind.
+/// Opens `path` by its kind: a mesh by its extension (`.vtu`, `.vtk`), else a VDB.
 pub fn open(path: &Path) -> Result<Box<dyn FieldSource>> {
+    if crate::vtk::is_mesh_path(path) {
+        return Ok(Box::new(super::mesh_source::MeshFieldSource::open(path)?));
+    }
     Ok(Box::new(VdbSource::open(path)?))
 }
 

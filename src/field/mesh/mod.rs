@@ -41,6 +41,8 @@ thread_local! {
     /// same result).
     static LAST_WALK: std::cell::Cell<Option<(DVec3, DVec3, f64, Resume)>> =
         const { std::cell::Cell::new(None) };
+    /// The tetrahedron this thread last located a point in, with its geometry's address.
+    static LAST_TET: std::cell::Cell<Option<(usize, u32)>> = const { std::cell::Cell::new(None) };
 }
 
 /// The walkable mesh shared by the fields of one file.
@@ -141,13 +143,43 @@ impl MeshGeometry {
         (len * (q - p).length(), st)
     }
 
+    /// A tetrahedron containing the world point `x` (closed, exact), or `None`: first
+    /// the one this thread found last (for this geometry) and its neighbours — samples
+    /// along a ray move little — then the lattice's lists.
+    pub fn locate(&self, x: DVec3) -> Option<u32> {
+        let me = self as *const MeshGeometry as usize;
+        if let Some((g, t)) = LAST_TET.get()
+            && g == me
+            && (t as usize) < self.tets.tets.len()
+        {
+            if self.tets.contains(t, x) {
+                return Some(t);
+            }
+            for nb in self.tets.neighbors[t as usize] {
+                if nb != geometry::NONE && self.tets.contains(nb >> 2, x) {
+                    LAST_TET.set(Some((me, nb >> 2)));
+                    return Some(nb >> 2);
+                }
+            }
+        }
+        let t = self.lattice.locate(&self.tets, x)?;
+        LAST_TET.set(Some((me, t)));
+        Some(t)
+    }
+
     /// [`MeshGeometry::walk`], going on from this thread's previous walk when it was
     /// of the same ray and ended at `t0`.
     fn walk_continued(&self, o: DVec3, d: DVec3, t0: f64, t1: f64, f: impl FnMut(u32, f64, f64)) {
         let line = Line::new(o, d, self.diag.max(1e-300) / d.length().max(1e-300));
         let start = LAST_WALK
             .get()
-            .and_then(|(lo, ld, lt, r)| (lo == o && ld == d && lt == t0).then_some(r));
+            .and_then(|(lo, ld, lt, r)| (lo == o && ld == d && lt == t0).then_some(r))
+            .or_else(|| {
+                Some(match self.locate(line.at(t0)) {
+                    Some(t) => Resume::Inside(t, 4),
+                    None => Resume::Outside,
+                })
+            });
         let (_, end) = self.walker().walk_from(&line, t0, t1, start, f);
         LAST_WALK.set(end.map(|r| (o, d, t1, r)));
     }
@@ -428,7 +460,7 @@ impl MeshField {
 
     /// The value at a world point (0 outside the mesh).
     pub fn value_at_world_point(&self, x: DVec3) -> f64 {
-        match self.geo.lattice.locate(&self.geo.tets, x) {
+        match self.geo.locate(x) {
             Some(t) => self.value_in(t, x),
             None => 0.0,
         }
@@ -436,7 +468,7 @@ impl MeshField {
 
     /// The cell containing a world point (by the tetrahedra it is cut into), or `None`.
     pub fn cell_at_world_point(&self, x: DVec3) -> Option<u32> {
-        let t = self.geo.lattice.locate(&self.geo.tets, x)?;
+        let t = self.geo.locate(x)?;
         Some(self.geo.tets.tet_cell[t as usize])
     }
 
