@@ -72,10 +72,11 @@ enum Command {
         #[command(flatten)]
         options: Box<args::RenderArgs>,
     },
-    /// Render a .vdb (or a scene .toml that names one) to a multi-layer EXR.
+    /// Render a .vdb or a mesh (.vtu, .vtk), or a scene .toml that names one, to a
+    /// multi-layer EXR.
     #[command(after_help = render::EXAMPLES)]
     Render {
-        /// A .vdb file, or a scene .toml (flags override what it says).
+        /// A .vdb file, a mesh (.vtu, .vtk: its arrays are the grids), or a scene .toml (flags override what it says).
         input: PathBuf,
         #[command(flatten)]
         options: Box<args::RenderArgs>,
