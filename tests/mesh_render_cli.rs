@@ -139,3 +139,24 @@ fn a_mesh_renders_with_shadows_and_every_layer() {
     );
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// The same image for any thread count: every channel bit for bit.
+#[test]
+fn a_mesh_render_does_not_depend_on_the_thread_count() {
+    let d = dir().join("threads");
+    std::fs::create_dir_all(&d).unwrap();
+    let one = d.join("one.exr");
+    let two = d.join("two.exr");
+    render(&one, &["--shadows", "march", "--threads", "1"]);
+    render(&two, &["--shadows", "march", "--threads", "2"]);
+    let (a, b) = (channels(&one), channels(&two));
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    for (name, v) in &a {
+        let w = &b[name];
+        assert!(
+            v.iter().zip(w).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "{name} differs between 1 and 2 threads"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
