@@ -234,6 +234,14 @@ impl TetMesh {
         })
     }
 
+    /// True if `x` is strictly inside the tetrahedron (on no face; exactly).
+    pub fn strictly_contains(&self, tet: u32, x: DVec3) -> bool {
+        (0..4).all(|k| {
+            let f = self.face(tet, k);
+            orient(f[0], f[1], f[2], x) > 0.0
+        })
+    }
+
     /// The cell's point ids.
     pub fn cell(&self, c: u32) -> &[u32] {
         &self.connectivity[self.offsets[c as usize]..self.offsets[c as usize + 1]]

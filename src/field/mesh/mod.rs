@@ -145,18 +145,21 @@ impl MeshGeometry {
 
     /// A tetrahedron containing the world point `x` (closed, exact), or `None`: first
     /// the one this thread found last (for this geometry) and its neighbours — samples
-    /// along a ray move little — then the lattice's lists.
+    /// along a ray move little — then the lattice's lists. The shortcut is taken only
+    /// for a point strictly inside (on no face), where the answer is the only one: a
+    /// point on a face always gets the lattice's answer, whatever the thread did before,
+    /// so images do not depend on the thread count or tiling.
     pub fn locate(&self, x: DVec3) -> Option<u32> {
         let me = self as *const MeshGeometry as usize;
         if let Some((g, t)) = LAST_TET.get()
             && g == me
             && (t as usize) < self.tets.tets.len()
         {
-            if self.tets.contains(t, x) {
+            if self.tets.strictly_contains(t, x) {
                 return Some(t);
             }
             for nb in self.tets.neighbors[t as usize] {
-                if nb != geometry::NONE && self.tets.contains(nb >> 2, x) {
+                if nb != geometry::NONE && self.tets.strictly_contains(nb >> 2, x) {
                     LAST_TET.set(Some((me, nb >> 2)));
                     return Some(nb >> 2);
                 }
