@@ -100,3 +100,180 @@ fn default_render_of_root_tiles_finishes() {
         "{header}"
     );
 }
+
+// ---------------------------------------------------------------------------------------
+// 5. Outputs never replace an input, another output, or anything but a regular file.
+
+#[test]
+fn outputs_that_would_clobber_are_refused() {
+    let dir = scratch("clobber");
+    let input = dir.join("c.vdb");
+    std::fs::copy(fixture("cloud.vdb"), &input).unwrap();
+    let original = std::fs::read(&input).unwrap();
+    let out = dir.join("out.exr");
+    let i = s(&input);
+    let o = s(&out);
+    // -o is the input, also spelled differently.
+    let other_spelling = format!("{}/./c.vdb", dir.display());
+    for target in [i, other_spelling.as_str()] {
+        refused(
+            &murk(&["render", i, "-o", target]),
+            &["would overwrite the input"],
+        );
+    }
+    // --stats or --preview equal to -o or to the input.
+    refused(
+        &murk(&["render", i, "-o", o, "--stats", o]),
+        &["the stats file would overwrite the output"],
+    );
+    refused(
+        &murk(&["render", i, "-o", o, "--preview", i]),
+        &["the preview would overwrite the input"],
+    );
+    // A scene file as an output.
+    let scene = dir.join("s.toml");
+    std::fs::write(&scene, "input = \"c.vdb\"\noutput = \"s.exr\"\n").unwrap();
+    refused(
+        &murk(&["render", s(&scene), "--stats", s(&scene)]),
+        &["would overwrite the scene file"],
+    );
+    // Not regular files: a FIFO, a symbolic link, a read-only file, a device node.
+    let fifo = dir.join("fifo.exr");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    refused(
+        &murk(&["render", i, "-o", s(&fifo)]),
+        &["not a regular file"],
+    );
+    let link = dir.join("link.exr");
+    std::os::unix::fs::symlink(&out, &link).unwrap();
+    refused(&murk(&["render", i, "-o", s(&link)]), &["symbolic link"]);
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    let ro = dir.join("ro.exr");
+    std::fs::write(&ro, "keep").unwrap();
+    let mut perm = std::fs::metadata(&ro).unwrap().permissions();
+    perm.set_readonly(true);
+    std::fs::set_permissions(&ro, perm).unwrap();
+    refused(&murk(&["render", i, "-o", s(&ro)]), &["read-only"]);
+    assert_eq!(std::fs::read(&ro).unwrap(), b"keep");
+    // A character device (the null device's numbers) made here, where murk replacing it
+    // would harm nothing; only where the test may make device nodes (root).
+    let dev = dir.join("null.exr");
+    if Command::new("mknod")
+        .arg(&dev)
+        .args(["c", "1", "3"])
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        refused(
+            &murk(&["render", i, "-o", s(&dev)]),
+            &["not a regular file"],
+        );
+        assert!(
+            std::fs::symlink_metadata(&dev)
+                .unwrap()
+                .file_type()
+                .is_char_device()
+        );
+    } else {
+        eprintln!("note: mknod not permitted here: the device case was not run");
+    }
+    assert_eq!(
+        std::fs::read(&input).unwrap(),
+        original,
+        "the input changed"
+    );
+    use std::os::unix::fs::FileTypeExt;
+    assert!(
+        std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo()
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// 7. Absurd settings are refused in one line, at once.
+
+#[test]
+fn absurd_thread_counts_and_light_counts_are_refused() {
+    let cloud = fixture("cloud.vdb");
+    let dir = scratch("absurd");
+    let out = dir.join("o.exr");
+    let t = Instant::now();
+    refused(
+        &murk(&[
+            "render",
+            s(&cloud),
+            "-o",
+            s(&out),
+            "--threads",
+            "4294967296",
+        ]),
+        &["--threads 4294967296", "at most 1024"],
+    );
+    let mut args: Vec<String> = ["render", s(&cloud), "-o", s(&out)]
+        .map(String::from)
+        .to_vec();
+    for k in 0..100 {
+        args.push("--light".into());
+        args.push(format!("sun:1,{k},1"));
+    }
+    let a: Vec<&str> = args.iter().map(String::as_str).collect();
+    refused(&murk(&a), &["100 lights", "at most 32"]);
+    assert!(t.elapsed() < Duration::from_secs(5), "{:?}", t.elapsed());
+    assert!(!out.exists());
+}
+
+// ---------------------------------------------------------------------------------------
+// 8. Messages: scene-mode errors name the scene and its keys; duplicate light names.
+
+#[test]
+fn scene_errors_name_the_scene_and_its_keys() {
+    let dir = scratch("scene-messages");
+    std::fs::copy(fixture("cloud.vdb"), dir.join("c.vdb")).unwrap();
+    let scene = dir.join("s.toml");
+    std::fs::write(
+        &scene,
+        "input = \"c.vdb\"\noutput = \"s.exr\"\nfov = 300.0\nthreads = 4294967296\n",
+    )
+    .unwrap();
+    let err = refused(&murk(&["render", s(&scene)]), &[s(&scene), "`fov` 300"]);
+    assert!(!err.contains("--fov"), "{err}");
+    // A flag the user did type keeps its name.
+    let err = refused(
+        &murk(&["render", s(&scene), "--fov", "200"]),
+        &[s(&scene), "--fov 200"],
+    );
+    assert!(!err.contains("`fov`"), "{err}");
+    std::fs::write(
+        &scene,
+        "input = \"c.vdb\"\noutput = \"s.exr\"\nthreads = 4294967296\n",
+    )
+    .unwrap();
+    refused(
+        &murk(&["render", s(&scene)]),
+        &[s(&scene), "`threads` 4294967296"],
+    );
+    std::fs::write(
+        &scene,
+        "input = \"c.vdb\"\noutput = \"s.exr\"\n[[lights]]\nname = \"key\"\nspec = \"sun:1,1,1\"\n\
+         [[lights]]\nname = \"key\"\nspec = \"sun:-1,1,1\"\n",
+    )
+    .unwrap();
+    refused(
+        &murk(&["render", s(&scene)]),
+        &[s(&scene), "two lights named \"key\""],
+    );
+}

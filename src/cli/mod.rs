@@ -1,6 +1,7 @@
 //! Command-line parsing and dispatch. Errors are printed as one line; exit code 2.
 
 mod args;
+mod guard;
 mod info;
 mod progress;
 mod render;

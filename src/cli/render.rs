@@ -44,7 +44,16 @@ pub fn options_for(input: &Path, options: RenderOptions) -> Result<(RenderOption
 fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> {
     let (options, vdb) = options_for(input, options)?;
     let quiet = options.quiet;
-    Ok((RenderPlan::new(&options, vdb)?, quiet))
+    let scene = (vdb != input).then_some(input);
+    let plan = RenderPlan::new(&options, vdb)
+        .map_err(|e| e.to_string())
+        .and_then(|p| {
+            super::guard::check_plan(&p, scene)
+                .map_err(|e| e.to_string())
+                .map(|_| p)
+        })
+        .map_err(|e| anyhow!(scene.map_or(e.clone(), |s| super::guard::in_scene(s, &e))))?;
+    Ok((plan, quiet))
 }
 
 pub fn run(input: &Path, options: RenderOptions) -> Result<()> {

@@ -202,7 +202,7 @@ const MAX_COARSENINGS: usize = 60;
 /// (a power of two, at most 2^30), so their number falls with the bricks'.
 fn block_edge(coarsening: f64) -> i32 {
     let factor = coarsening.max(1.0).log2().floor().min(27.0) as u32;
-    BRICK as i32 * (1i32 << factor)
+    BRICK * (1i32 << factor)
 }
 
 /// The 8 world corners of every non-empty block of `edge`³ voxels of the density; `None`
