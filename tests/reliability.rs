@@ -277,3 +277,35 @@ fn scene_errors_name_the_scene_and_its_keys() {
         &[s(&scene), "two lights named \"key\""],
     );
 }
+
+// ---------------------------------------------------------------------------------------
+// 6. What a kill during a write leaves is cleaned by the next write of the same target.
+
+#[test]
+fn a_killed_write_s_temporary_is_removed_by_the_next_run() {
+    let dir = scratch("stale-temp");
+    let out = dir.join("o.exr");
+    // What `kill -9` during the write of o.exr by process 4194305 (above Linux's largest
+    // pid, so surely dead) leaves behind, and the same for the stats file.
+    let stale = [".o.exr.tmp-4194305-0", ".o.json.tmp-4194305-2"];
+    for f in stale {
+        std::fs::write(dir.join(f), vec![0u8; 4096]).unwrap();
+    }
+    ok(&murk(&[
+        "render",
+        s(&fixture("sphere.vdb")),
+        "-o",
+        s(&out),
+        "--stats",
+        s(&dir.join("o.json")),
+        "--res",
+        "32x18",
+        "--quiet",
+    ]));
+    let mut left: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["o.exr", "o.json"]);
+}
