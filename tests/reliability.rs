@@ -309,3 +309,113 @@ fn a_killed_write_s_temporary_is_removed_by_the_next_run() {
     left.sort();
     assert_eq!(left, ["o.exr", "o.json"]);
 }
+
+// ---------------------------------------------------------------------------------------
+// 4. No non-finite value in an EXR: layers beyond half float's range are written as float.
+
+/// `oiiotool --stats` per channel: (name, min, max, NaN count, Inf count).
+fn oiio_stats(path: &Path) -> Vec<(String, f64, f64, u64, u64)> {
+    let text = common::tool(
+        "oiiotool",
+        &["--stats", path.to_str().unwrap()],
+        "openimageio-tools",
+    );
+    let header = common::exrheader(path);
+    let names: Vec<String> = common::exrheader_channels(&header)
+        .into_iter()
+        .map(|(n, _)| n)
+        .collect();
+    let row = |key: &str| -> Vec<f64> {
+        let line = text
+            .lines()
+            .find(|l| l.trim_start().starts_with(key))
+            .unwrap_or_else(|| panic!("no `{key}` in {text}"));
+        line.split(':')
+            .nth(1)
+            .unwrap()
+            .split_whitespace()
+            .filter_map(|v| v.parse::<f64>().ok())
+            .collect()
+    };
+    let (min, max, nan, inf) = (
+        row("Stats Min:"),
+        row("Stats Max:"),
+        row("Stats NanCount:"),
+        row("Stats InfCount:"),
+    );
+    assert_eq!(min.len(), names.len(), "{text}");
+    (0..names.len())
+        .map(|i| {
+            (
+                names[i].clone(),
+                min[i],
+                max[i],
+                nan[i] as u64,
+                inf[i] as u64,
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn emission_beyond_half_range_is_written_as_float_and_said() {
+    let dir = scratch("half-overflow");
+    let out = dir.join("hot.exr");
+    let stats = dir.join("hot.json");
+    let o = murk(&[
+        "render",
+        s(&fixture("pyro.vdb")),
+        "-o",
+        s(&out),
+        "--no-lights",
+        "--emission-intensity",
+        "1e6",
+        "--res",
+        "96x54",
+        "--stats",
+        s(&stats),
+    ]);
+    let err = ok(&o);
+    assert!(err.contains("layer emission reaches"), "{err}");
+    // Colour channels: finite everywhere, and beyond half's range (so stored as float).
+    let mut peak: f64 = 0.0;
+    for (name, _min, max, nan, inf) in oiio_stats(&out) {
+        if name == "Z" {
+            continue; // +inf there is the documented "no depth"
+        }
+        assert_eq!((nan, inf), (0, 0), "{name}: {nan} NaN, {inf} Inf");
+        peak = peak.max(max);
+    }
+    assert!(peak > 65504.0, "the test should overflow half: peak {peak}");
+    let channels = common::exrheader_channels(&common::exrheader(&out));
+    for (name, ty) in &channels {
+        if name.starts_with("emission.") || name == "R" {
+            assert_eq!(ty, "32-bit floating-point", "{name}");
+        }
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let notes = json["notes"].to_string();
+    assert!(
+        notes.contains("emission") && notes.contains("32-bit float"),
+        "{notes}"
+    );
+    // Without the overflow the colour stays half.
+    let cool = dir.join("cool.exr");
+    ok(&murk(&[
+        "render",
+        s(&fixture("pyro.vdb")),
+        "-o",
+        s(&cool),
+        "--no-lights",
+        "--res",
+        "96x54",
+        "--quiet",
+    ]));
+    let channels = common::exrheader_channels(&common::exrheader(&cool));
+    assert!(
+        channels
+            .iter()
+            .any(|(n, t)| n == "emission.R" && t == "16-bit floating-point")
+    );
+}

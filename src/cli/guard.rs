@@ -19,7 +19,7 @@ pub const MAX_LIGHTS: usize = 32;
 /// Refuses settings past murk's limits and outputs that would clobber an input, another
 /// output or something other than a regular file. `scene` is the scene file, if any.
 pub fn check_plan(plan: &RenderPlan, scene: Option<&Path>) -> Result<()> {
-    if let Some(n) = plan.threads
+    if let Some(n) = plan.sampling.threads
         && n > MAX_THREADS
     {
         return Err(anyhow!(
@@ -45,14 +45,14 @@ pub fn check_plan(plan: &RenderPlan, scene: Option<&Path>) -> Result<()> {
     if let Some(s) = scene {
         inputs.push((s, "the scene file"));
     }
-    if let Some(c) = &plan.shadow_cache {
+    if let Some(c) = &plan.shadows.cache {
         inputs.push((c.as_path(), "the shadow cache"));
     }
-    let mut outputs: Vec<(&Path, &str)> = vec![(plan.output.as_path(), "the output (-o)")];
-    if let Some(p) = &plan.stats {
+    let mut outputs: Vec<(&Path, &str)> = vec![(plan.outputs.path.as_path(), "the output (-o)")];
+    if let Some(p) = &plan.outputs.stats {
         outputs.push((p.as_path(), "the stats file"));
     }
-    if let Some((p, _)) = &plan.preview {
+    if let Some((p, _)) = &plan.outputs.preview {
         outputs.push((p.as_path(), "the preview"));
     }
     for (i, (out, what)) in outputs.iter().enumerate() {
