@@ -419,3 +419,92 @@ fn emission_beyond_half_range_is_written_as_float_and_said() {
             .any(|(n, t)| n == "emission.R" && t == "16-bit floating-point")
     );
 }
+
+// ---------------------------------------------------------------------------------------
+// 3. A cache replaced while murk reads it: what was checked is what is decoded.
+
+/// Two different caches are renamed over one path in a loop while `murk info --stats`
+/// reads it, again and again. The structural scan and the reader opened the path
+/// separately, so the reader could decode a file the scan never saw, and abort on a
+/// 4 GiB allocation (21–33 of 150 runs). Every run must now end with 0 or 2.
+#[test]
+fn a_cache_replaced_while_read_never_crashes_murk() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let dir = scratch("swap");
+    let target = dir.join("cache.vdb");
+    // A sound cache, and the same with its first Blosc frame's block
+    // size 0xFFFFFFF0: the scan refuses that one, and the reader, given it unchecked,
+    // allocates 4 GiB for the block.
+    let sound = std::fs::read(fixture("cloud.vdb")).unwrap();
+    let frame = (0..sound.len() - 24)
+        .find(|&p| {
+            let n = i64::from_le_bytes(sound[p..p + 8].try_into().unwrap());
+            let h = &sound[p + 8..];
+            n > 16
+                && n < 1 << 20
+                && h[0] == 2
+                && h[1] == 1
+                && h[2] & 0x2 == 0 // compressed, not copied: the block size is used
+                && i64::from(u32::from_le_bytes(h[12..16].try_into().unwrap())) == n
+        })
+        .expect("a Blosc frame in cloud.vdb");
+    let mut hostile = sound.clone();
+    hostile[frame + 16..frame + 20].copy_from_slice(&0xFFFF_FFF0u32.to_le_bytes());
+    let other = std::fs::read(fixture("pyro.vdb")).unwrap();
+    let pairs = [
+        ("cloud/hostile", &sound, &hostile),
+        ("cloud/pyro", &sound, &other),
+    ];
+    let mut bad = Vec::new();
+    let mut runs = 0;
+    for (what, a, b) in pairs {
+        let sources: Vec<PathBuf> = [a, b]
+            .iter()
+            .enumerate()
+            .map(|(i, bytes)| {
+                let p = dir.join(format!("src{i}.vdb"));
+                std::fs::write(&p, bytes).unwrap();
+                p
+            })
+            .collect();
+        std::fs::copy(&sources[0], &target).unwrap();
+        let stop = AtomicBool::new(false);
+        std::thread::scope(|scope| {
+            scope.spawn(|| {
+                let mut k = 0usize;
+                while !stop.load(Ordering::Relaxed) {
+                    // A hard link renamed over the target: a swap takes microseconds.
+                    let tmp = dir.join("swap");
+                    let _ = std::fs::remove_file(&tmp);
+                    std::fs::hard_link(&sources[k % 2], &tmp).unwrap();
+                    std::fs::rename(&tmp, &target).unwrap();
+                    k += 1;
+                }
+            });
+            for _ in 0..150 {
+                // Under an address-space limit, as a failed allocation would be anywhere
+                // memory is short (here: 4 GiB more than the 512 MiB allowed).
+                let o = Command::new("sh")
+                    .arg("-c")
+                    .arg("ulimit -v 524288 || exit 99; exec \"$0\" \"$@\"")
+                    .arg(env!("CARGO_BIN_EXE_murk"))
+                    .args(["info", "--stats", "--json", s(&target)])
+                    .stdin(Stdio::null())
+                    .output()
+                    .unwrap();
+                runs += 1;
+                match o.status.code() {
+                    Some(0) | Some(2) => {}
+                    _ => bad.push(format!("{what}: {:?}: {}", o.status, stderr(&o))),
+                }
+            }
+            stop.store(true, Ordering::Relaxed);
+        });
+    }
+    assert!(
+        bad.is_empty(),
+        "{} of {runs} runs crashed:\n{}",
+        bad.len(),
+        bad.join("\n")
+    );
+}

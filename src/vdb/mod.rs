@@ -9,6 +9,7 @@ mod decode;
 mod error;
 pub mod guard;
 mod scan;
+mod snapshot;
 mod write;
 
 pub use decode::{DecodedValues, TreeSink};
@@ -83,6 +84,8 @@ pub struct VdbFile {
     file: File,
     /// The structure scan made before the reader opened the file (same grid order).
     scanned: scan::ScannedFile,
+    /// The bytes both read (held open while the reader may read grids).
+    snapshot: snapshot::Snapshot,
     /// File format version (e.g. 224).
     pub file_version: u32,
     /// Version of the library that wrote the file, `major.minor`.
@@ -153,22 +156,40 @@ impl VdbFile {
     /// Opens a file and reads everything but the trees.
     pub fn open(path: impl AsRef<Path>) -> Result<VdbFile, VdbError> {
         let path = path.as_ref();
-        let meta = std::fs::metadata(path).map_err(|e| VdbError::file(path, io_problem(&e)))?;
+        let opened = std::fs::File::open(path).map_err(|e| VdbError::file(path, io_problem(&e)));
+        let meta = match &opened {
+            Ok(f) => f.metadata(),
+            Err(_) => std::fs::metadata(path),
+        }
+        .map_err(|e| VdbError::file(path, io_problem(&e)))?;
         if meta.is_dir() {
             return Err(VdbError::file(path, "is a directory, not a .vdb file"));
+        }
+        if !meta.is_file() {
+            return Err(VdbError::file(
+                path,
+                "is not a regular file (a device, FIFO or socket)",
+            ));
         }
         if meta.len() == 0 {
             return Err(VdbError::file(path, "file is empty"));
         }
+        // One copy of the bytes, read once: the scan and the reader both read it.
+        let snapshot = snapshot::Snapshot::take(path, opened?, meta.len())?;
         // Structure checks first: what would abort the reader must not reach it.
         let scanned = guarded(path, || {
-            scan::scan_file(path).map_err(|p| VdbError::file(path, p))
+            scan::scan_file(snapshot.path()).map_err(|p| VdbError::file(path, p))
         })?;
-        guarded(path, || Self::open_unguarded(path, scanned))
+        guarded(path, || Self::open_unguarded(path, snapshot, scanned))
     }
 
-    fn open_unguarded(path: &Path, scanned: scan::ScannedFile) -> Result<VdbFile, VdbError> {
-        let file = File::open(path).map_err(|e| VdbError::file(path, reader_problem(&e)))?;
+    fn open_unguarded(
+        path: &Path,
+        snapshot: snapshot::Snapshot,
+        scanned: scan::ScannedFile,
+    ) -> Result<VdbFile, VdbError> {
+        let file =
+            File::open(snapshot.path()).map_err(|e| VdbError::file(path, reader_problem(&e)))?;
         let descs = file.descriptors();
         if descs.is_empty() {
             return Err(VdbError::file(path, "the file holds no grids"));
@@ -218,6 +239,7 @@ impl VdbFile {
             grids,
             file,
             scanned,
+            snapshot,
         })
     }
 
@@ -282,7 +304,9 @@ impl VdbFile {
         // The raw unique name, as in the file (the printable one may have been escaped).
         let unique = &self.scanned.grids[index].unique_name;
         guarded(&self.path, || {
-            self.scanned.check_tree(&self.path, unique).map_err(gerr)?;
+            self.scanned
+                .check_tree(self.snapshot.path(), unique)
+                .map_err(gerr)?;
             let grid = self
                 .file
                 .read_grid(unique)
