@@ -508,3 +508,58 @@ fn a_cache_replaced_while_read_never_crashes_murk() {
         bad.join("\n")
     );
 }
+
+/// Writes a .vdb with pyopenvdb (Debian's python3-openvdb), a writer nobody here wrote.
+fn pyopenvdb_write(path: &Path, script: &str) {
+    let full = format!(
+        "import pyopenvdb as vdb, numpy as np, sys\n{script}\nvdb.write(sys.argv[1], grids=[g])\n"
+    );
+    let o = Command::new("/usr/bin/python3")
+        .args(["-c", &full, s(path)])
+        .output()
+        .expect("/usr/bin/python3 with pyopenvdb (Debian package python3-openvdb) is required");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn file_text_is_escaped_and_huge_numbers_are_compact() {
+    let dir = scratch("messages");
+    let file = dir.join("esc.vdb");
+    pyopenvdb_write(
+        &file,
+        "g = vdb.FloatGrid()\n\
+         g.name = 'den\\x1b[31msity'\n\
+         g.copyFromArray(np.ones((8, 8, 8), dtype=np.float32))\n\
+         g['class'] = 'fog\\x1b[2J'\n\
+         g['big'] = -1e308\n",
+    );
+    for args in [vec!["info"], vec!["info", "--stats"]] {
+        let mut a = args.clone();
+        a.push(s(&file));
+        let o = murk(&a);
+        let out = String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o);
+        assert!(
+            !out.contains('\u{1b}'),
+            "raw escape in `murk {a:?}`: {out:?}"
+        );
+        assert!(out.contains("den\\u{1b}[31msity"), "{out}");
+        assert!(out.contains("fog\\u{1b}[2J"), "{out}");
+    }
+    let o = murk(&["render", s(&file), "-o", s(&dir.join("o.exr"))]);
+    let err = refused(&o, &["no density grid found", "den\\u{1b}[31msity"]);
+    assert!(!err.contains('\u{1b}'));
+    // A number near f64's limits prints as 1e308, not as 309 digits.
+    let o = murk(&[
+        "render",
+        s(&fixture("cloud.vdb")),
+        "-o",
+        s(&dir.join("o.exr")),
+        "--density-scale=-1e308",
+    ]);
+    refused(&o, &["--density-scale", "-1e308"]);
+    // A device is not "empty": it is not a regular file.
+    refused(
+        &murk(&["info", "/dev/zero"]),
+        &["/dev/zero", "not a regular file"],
+    );
+}

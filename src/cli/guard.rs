@@ -128,6 +128,31 @@ pub fn printable(s: &str) -> String {
         .collect()
 }
 
+/// A message as printed: control characters escaped (whatever file text it quotes), and
+/// numbers of more than 17 digits (an f64 near its limits printed plainly) in
+/// scientific notation.
+pub fn message_text(s: &str) -> String {
+    let s = printable(s);
+    let mut out = String::with_capacity(s.len());
+    let mut rest = s.as_str();
+    while let Some(start) = rest.find(|c: char| c.is_ascii_digit()) {
+        let (before, from) = rest.split_at(start);
+        let len = from
+            .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .unwrap_or(from.len());
+        let number = from[..len].trim_end_matches('.');
+        let digits = number.chars().filter(char::is_ascii_digit).count();
+        out.push_str(before);
+        match number.parse::<f64>() {
+            Ok(v) if digits > 17 => out.push_str(&murk::vdb::guard::number_text(v)),
+            _ => out.push_str(number),
+        }
+        rest = &from[number.len()..];
+    }
+    out.push_str(rest);
+    out
+}
+
 /// A plan error in scene mode: prefixed with the scene's path, and each `--flag` the user
 /// did not type (so the value came from the scene) named as the scene's key `flag`.
 pub fn in_scene(scene: &Path, message: &str) -> String {
@@ -169,6 +194,16 @@ mod tests {
         let m = in_scene(Path::new("s.toml"), "--sigma-a \"x\" is not three numbers");
         assert_eq!(m, "s.toml: `sigma_a` \"x\" is not three numbers");
         assert_eq!(in_scene(Path::new("s.toml"), "s.toml: bad"), "s.toml: bad");
+    }
+
+    #[test]
+    fn long_numbers_are_compact() {
+        let huge = format!("--density-scale must be a positive number, not {}", -1e308);
+        assert_eq!(
+            message_text(&huge),
+            "--density-scale must be a positive number, not -1e308"
+        );
+        assert_eq!(message_text("grid 12 at byte 3.5."), "grid 12 at byte 3.5.");
     }
 
     #[test]

@@ -142,7 +142,7 @@ fn error_chain(e: &anyhow::Error) -> String {
 }
 
 fn one_line(s: &str) -> String {
-    s.replace('\n', " ")
+    guard::message_text(&s.replace('\n', " "))
 }
 
 /// Writes to stdout; a closed pipe (`murk info ... | head`) is not an error.

@@ -69,7 +69,7 @@ pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
             stats.total_seconds
         );
         for n in &stats.scene.notes {
-            eprintln!("murk: note: {n}");
+            eprintln!("murk: note: {}", super::guard::message_text(n));
         }
     }
     Ok(())

@@ -53,6 +53,20 @@ pub fn check_instance_chains(unique_names: &[String], parents: &[String]) -> Res
 }
 
 /// Grid names as they may be shown on one line (control characters escaped).
+/// A number as messages and tables print it: plain when that is short, else in
+/// scientific notation (`-1e308` is `-1e308`, not 309 digits).
+pub fn number_text(f: f64) -> String {
+    let a = f.abs();
+    if f == 0.0 || !f.is_finite() || (1e-4..1e15).contains(&a) {
+        let plain = format!("{f}");
+        if plain.len() <= 20 {
+            return plain;
+        }
+        return format!("{f:.6}");
+    }
+    format!("{f:e}")
+}
+
 pub fn printable(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
     for c in s.chars().take(200) {

@@ -381,7 +381,8 @@ fn grid_info(path: &Path, m: &GridMetadata) -> Result<GridInfo, VdbError> {
         _ => None,
     };
     let compression = compression_name(m.compression);
-    let class = m.metadata.get_str("class").unwrap_or("unknown").to_string();
+    let class = guard::printable(m.metadata.get_str("class").unwrap_or("unknown"));
+    let value_type = guard::printable(&value_type);
     let metadata = m
         .metadata
         .iter()
@@ -395,7 +396,7 @@ fn grid_info(path: &Path, m: &GridMetadata) -> Result<GridInfo, VdbError> {
         class,
         half: d.save_float_as_half,
         compression,
-        map_type: m.map_type.clone(),
+        map_type: guard::printable(&m.map_type),
         index_to_world,
         instance_of: (!d.instance_parent.is_empty()).then(|| guard::printable(&d.instance_parent)),
         file_voxel_count,
@@ -426,12 +427,22 @@ fn meta_text(v: &openvdb::metadata::MetaValue) -> String {
         M::Bool(b) => b.to_string(),
         M::Int32(i) => i.to_string(),
         M::Int64(i) => i.to_string(),
-        M::Float(f) => f.to_string(),
-        M::Double(f) => f.to_string(),
+        M::Float(f) => guard::number_text(f64::from(*f)),
+        M::Double(f) => guard::number_text(*f),
         M::String(s) => guard::printable(s),
         M::Vec3i(v) => format!("({}, {}, {})", v[0], v[1], v[2]),
-        M::Vec3s(v) => format!("({}, {}, {})", v[0], v[1], v[2]),
-        M::Vec3d(v) => format!("({}, {}, {})", v[0], v[1], v[2]),
+        M::Vec3s(v) => format!(
+            "({}, {}, {})",
+            guard::number_text(f64::from(v[0])),
+            guard::number_text(f64::from(v[1])),
+            guard::number_text(f64::from(v[2]))
+        ),
+        M::Vec3d(v) => format!(
+            "({}, {}, {})",
+            guard::number_text(v[0]),
+            guard::number_text(v[1]),
+            guard::number_text(v[2])
+        ),
         M::Unknown { type_name, data } => {
             format!("<{} bytes of {}>", data.len(), guard::printable(type_name))
         }
