@@ -563,3 +563,81 @@ fn file_text_is_escaped_and_huge_numbers_are_compact() {
         &["/dev/zero", "not a regular file"],
     );
 }
+
+// ---------------------------------------------------------------------------------------
+// 2. Valid but extreme transforms: refused up front, in one line.
+
+/// A 32³ block of density 1 written by pyopenvdb with a ScaleMap of (0.1, 0.5, 0.25),
+/// then the map's y and z edges patched to `edge` (pyopenvdb refuses to make such a map,
+/// but a file may hold one: every edge is positive and finite).
+fn needle_grid(path: &Path, edge: f64) {
+    let plain = path.with_extension("plain.vdb");
+    let script = "g = vdb.FloatGrid()\n\
+                  g.name = 'density'\n\
+                  g.copyFromArray(np.ones((32, 32, 32), dtype=np.float32))\n\
+                  g.transform = vdb.createLinearTransform(\
+                  [[0.1, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 0.25, 0], [0, 0, 0, 1]])\n";
+    pyopenvdb_write(&plain, script);
+    let mut b = std::fs::read(&plain).unwrap();
+    let at = b
+        .windows(8)
+        .position(|w| w == b"ScaleMap")
+        .expect("a ScaleMap")
+        + 8;
+    // scale, voxel size, 1/scale, 1/scale², 1/(2·scale): 3 doubles each.
+    for (k, v) in [edge, edge, 1.0 / edge, 1.0 / (edge * edge), 0.5 / edge]
+        .into_iter()
+        .enumerate()
+    {
+        for axis in [1, 2] {
+            let p = at + 8 * (3 * k + axis);
+            b[p..p + 8].copy_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(path, b).unwrap();
+}
+
+/// Voxels of 0.1 × 1e-8 × 1e-8 passed every check, then the bake ran past 150 s (its
+/// lattice follows the shortest edge). Now the grid is refused at once, naming the
+/// shape; voxels of 10:1 still render.
+#[test]
+fn needle_voxels_are_refused_at_once() {
+    let dir = scratch("needle");
+    let needle = dir.join("needle.vdb");
+    needle_grid(&needle, 1e-8);
+    let t = Instant::now();
+    let o = murk_within(
+        Duration::from_secs(90),
+        &[
+            "render",
+            s(&needle),
+            "-o",
+            s(&dir.join("n.exr")),
+            "--res",
+            "160x90",
+        ],
+    );
+    refused(
+        &o,
+        &[
+            "needle.vdb",
+            "grid \"density\"",
+            "0.1 × 1e-8 × 1e-8",
+            "up to 100 times",
+        ],
+    );
+    assert!(t.elapsed() < Duration::from_secs(5), "{:?}", t.elapsed());
+    let info = murk(&["info", s(&needle)]);
+    assert!(ok(&info).is_empty());
+    let flat = dir.join("flat.vdb");
+    needle_grid(&flat, 0.01);
+    ok(&murk(&[
+        "render",
+        s(&flat),
+        "-o",
+        s(&dir.join("f.exr")),
+        "--res",
+        "160x90",
+        "--quiet",
+    ]));
+}

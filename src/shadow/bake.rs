@@ -335,10 +335,11 @@ fn bake_at(
     // The columns of the first level sampled must fit the work budget: else a coarser
     // lattice (fewer columns) is needed.
     let per_unit = cells_per_unit(density);
+    let cap = cells_per_column(density);
     let first: f64 = charts
         .iter()
         .zip(&marked)
-        .map(|(chart, keys)| column_cells(keys, &BTreeMap::new(), 1, chart.unit * per_unit))
+        .map(|(chart, keys)| column_cells(keys, &BTreeMap::new(), 1, chart.unit * per_unit, cap))
         .sum();
     if first > settings.max_cells {
         return None;
@@ -369,16 +370,29 @@ fn cells_per_unit(density: &dyn Field) -> f64 {
     if r.is_finite() { r } else { f64::MAX }
 }
 
+/// A bound on the cells any one column crosses where there is density: a line crosses
+/// at most one more than the index extent of the active bounds along each axis.
+fn cells_per_column(density: &dyn Field) -> f64 {
+    let b = density.active_bounds();
+    if b.is_empty() {
+        return 0.0;
+    }
+    let e = (b.max - b.min).as_dvec3() + DVec3::splat(3.0);
+    e.x + e.y + e.z
+}
+
 /// A bound on the density cells the columns sampling `keys` at `level` cross (see
 /// [`super::columns::sample_level`]): per brick stack, `side(level)²` columns from the
 /// stack's top to the bottom of its deepest brick, `cells_per_lattice_unit` cells a
-/// lattice step (plus one per column for the cell it starts in). A stack starts at its
-/// entry in `tops` if there is one (refinement marches from the top of the whole stack).
+/// lattice step (plus one per column for the cell it starts in), but no more than
+/// `column_cap` a column ([`cells_per_column`]). A stack starts at its entry in `tops` if
+/// there is one (refinement marches from the top of the whole stack).
 pub(super) fn column_cells(
     keys: &[IVec3],
     tops: &BTreeMap<(i32, i32), i32>,
     level: u8,
     cells_per_lattice_unit: f64,
+    column_cap: f64,
 ) -> f64 {
     let mut stacks: BTreeMap<(i32, i32), (i32, i32)> = BTreeMap::new();
     for k in keys {
@@ -391,7 +405,7 @@ pub(super) fn column_cells(
         .values()
         .map(|(top, bottom)| {
             let depth = (f64::from(*bottom) - f64::from(*top) + 1.0) * BRICK as f64;
-            m * m * (depth * cells_per_lattice_unit + 1.0)
+            m * m * (depth * cells_per_lattice_unit + 1.0).min(column_cap)
         })
         .sum()
 }
@@ -624,6 +638,7 @@ fn refine(
             &stack_start,
             trial + 1,
             chart.unit * cells_per_unit(density),
+            cells_per_column(density),
         );
         if held + needed > settings.max_values || *cells + marched > settings.max_cells {
             // Out of budget (samples or work): keep what there is.

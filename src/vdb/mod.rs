@@ -301,6 +301,9 @@ impl VdbFile {
                 info.map_type
             )));
         };
+        if let Some(problem) = guard::voxel_shape_problem(info.voxel_size()) {
+            return Err(gerr(problem));
+        }
         // The raw unique name, as in the file (the printable one may have been escaped).
         let unique = &self.scanned.grids[index].unique_name;
         guarded(&self.path, || {
