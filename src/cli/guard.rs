@@ -16,6 +16,11 @@ pub const MAX_THREADS: usize = 1024;
 /// bake's budget) and three float channels of the frame, so 1,000 lights took 1 GB.
 pub const MAX_LIGHTS: usize = 32;
 
+/// The most memory the frame's channels may take: width × height × channels × 4 bytes.
+/// 16384 × 16384 with the default channels would be 8.6 GB, allocated before the first
+/// pixel; past this murk refuses at once rather than fail an allocation later.
+pub const MAX_FRAME_BYTES: f64 = 4.0 * 1024.0 * 1024.0 * 1024.0;
+
 /// Refuses settings past murk's limits and outputs that would clobber an input, another
 /// output or something other than a regular file. `scene` is the scene file, if any.
 pub fn check_plan(plan: &RenderPlan, scene: Option<&Path>) -> Result<()> {
@@ -30,6 +35,19 @@ pub fn check_plan(plan: &RenderPlan, scene: Option<&Path>) -> Result<()> {
         return Err(anyhow!(
             "{} lights: murk renders at most {MAX_LIGHTS} (each costs a shadow map and three channels)",
             plan.lights.len()
+        ));
+    }
+    // Beauty (R, G, B, A), Z, emission and shadow layers, and a scatter layer per light:
+    // a bound on the channels a render writes.
+    let channels = 5 + 3 + 3 + 3 * plan.lights.len();
+    let bytes = plan.camera.width as f64 * plan.camera.height as f64 * channels as f64 * 4.0;
+    if bytes > MAX_FRAME_BYTES {
+        return Err(anyhow!(
+            "a {}x{} frame of up to {channels} channels needs {:.1} GiB; murk renders frames up to {} GiB (lower --res)",
+            plan.camera.width,
+            plan.camera.height,
+            bytes / 1024f64.powi(3),
+            MAX_FRAME_BYTES / 1024f64.powi(3)
         ));
     }
     let mut names = HashSet::new();
@@ -129,8 +147,8 @@ pub fn printable(s: &str) -> String {
 }
 
 /// A message as printed: control characters escaped (whatever file text it quotes), and
-/// numbers of more than 17 digits (an f64 near its limits printed plainly) in
-/// scientific notation.
+/// numbers of more than 24 digits (an f64 near its limits printed plainly; 64-bit
+/// integers such as byte offsets have at most 20) in scientific notation.
 pub fn message_text(s: &str) -> String {
     let s = printable(s);
     let mut out = String::with_capacity(s.len());
@@ -144,13 +162,24 @@ pub fn message_text(s: &str) -> String {
         let digits = number.chars().filter(char::is_ascii_digit).count();
         out.push_str(before);
         match number.parse::<f64>() {
-            Ok(v) if digits > 17 => out.push_str(&murk::vdb::guard::number_text(v)),
+            Ok(v) if digits > 24 => out.push_str(&murk::vdb::guard::number_text(v)),
             _ => out.push_str(number),
         }
         rest = &from[number.len()..];
     }
     out.push_str(rest);
     out
+}
+
+/// An error of a render or bake in scene mode, named after the scene when it names no
+/// file (the input's errors name the input).
+pub fn name_scene(e: anyhow::Error, scene: Option<&Path>, input: &Path) -> anyhow::Error {
+    match scene {
+        Some(s) if !e.to_string().contains(&*input.to_string_lossy()) => {
+            anyhow!(in_scene(s, &format!("{e:#}")))
+        }
+        _ => e,
+    }
 }
 
 /// A plan error in scene mode: prefixed with the scene's path, and each `--flag` the user
@@ -204,6 +233,8 @@ mod tests {
             "--density-scale must be a positive number, not -1e308"
         );
         assert_eq!(message_text("grid 12 at byte 3.5."), "grid 12 at byte 3.5.");
+        let offset = "byte 9223372036854775807 of f-9223372036854775808.vdb";
+        assert_eq!(message_text(offset), offset);
     }
 
     #[test]

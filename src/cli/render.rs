@@ -44,7 +44,7 @@ pub fn options_for(input: &Path, options: RenderOptions) -> Result<(RenderOption
 fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> {
     let (options, vdb) = options_for(input, options)?;
     let quiet = options.quiet;
-    let scene = (vdb != input).then_some(input);
+    let scene = scene_of(input, &vdb);
     let plan = RenderPlan::new(&options, vdb)
         .map_err(|e| e.to_string())
         .and_then(|p| {
@@ -56,9 +56,16 @@ fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> 
     Ok((plan, quiet))
 }
 
+/// The scene file, if `input` is one (the .vdb it names is then another path).
+fn scene_of<'a>(input: &'a Path, vdb: &Path) -> Option<&'a Path> {
+    (vdb != input).then_some(input)
+}
+
 pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
     let (plan, quiet) = plan_for(input, options)?;
-    let stats = render(&plan, &super::progress::Bars::new(quiet))?;
+    let scene = scene_of(input, &plan.input);
+    let stats = render(&plan, &super::progress::Bars::new(quiet))
+        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
     if !quiet {
         eprintln!(
             "murk: wrote {} ({}x{}, {} channels) in {:.2} s",
@@ -77,7 +84,9 @@ pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
 
 pub fn bake(input: &Path, options: RenderOptions) -> Result<()> {
     let (plan, quiet) = plan_for(input, options)?;
-    let stats = bake_shadow_file(&plan, &super::progress::Bars::new(quiet))?;
+    let scene = scene_of(input, &plan.input);
+    let stats = bake_shadow_file(&plan, &super::progress::Bars::new(quiet))
+        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
     if !quiet {
         for m in &stats.scene.shadow_maps {
             eprintln!(
