@@ -1214,7 +1214,8 @@ fn run_all(tag: &str, fixtures: &[Fixture], mutants: Vec<Mutant>, render_step: u
                     let scratch = dir.join(format!("run-{i}"));
                     let mut outcome = run_murk(&path, &scratch);
                     let slow = SLOW_TO_RENDER.contains(&fixtures[m.fixture].stem.as_str());
-                    if i % render_step == 0 && !slow && !matches!(outcome, Outcome::Bad(_)) {
+                    if i.is_multiple_of(render_step) && !slow && !matches!(outcome, Outcome::Bad(_))
+                    {
                         let rendered = render_murk(&path, &scratch);
                         if let Outcome::Bad(_) = rendered {
                             outcome = rendered;

@@ -137,7 +137,7 @@ fn mutate(rng: &mut SplitMix64, base: &str) -> (String, String) {
         6 => {
             // A light's name or spec made hostile.
             let value = HOSTILE[below(rng, HOSTILE.len())];
-            let field = if rng.next_u64() % 2 == 0 {
+            let field = if rng.next_u64().is_multiple_of(2) {
                 "name"
             } else {
                 "spec"
