@@ -2,7 +2,8 @@
 //! byte overwrites and structural edits such as huge length fields, bad offsets, renamed
 //! grid types, cyclic instances, nested frustum maps and corrupted Blosc frames) and
 //! `murk info --stats --json` is run on each mutant in a child process, under a time
-//! limit and an address-space limit. Every run must end cleanly: exit 0 with JSON on
+//! limit and an address-space limit; every 16th mutant (every 4th in the long run) is
+//! also rendered (`murk render`, a small image, default flags) under its own limits. Every run must end cleanly: exit 0 with JSON on
 //! stdout, or exit 2 with exactly one line `murk: error: <path>: ...` on stderr. A panic,
 //! abort (stack overflow, failed allocation), signal or hang fails the test; the failing
 //! mutants are kept in `target/tmp/mutation-failures-<run>/` and named in the message.
