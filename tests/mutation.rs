@@ -2,7 +2,8 @@
 //! byte overwrites and structural edits such as huge length fields, bad offsets, renamed
 //! grid types, cyclic instances, nested frustum maps and corrupted Blosc frames) and
 //! `murk info --stats --json` is run on each mutant in a child process, under a time
-//! limit and an address-space limit. Every run must end cleanly: exit 0 with JSON on
+//! limit and an address-space limit; every 16th mutant (every 4th in the long run) is
+//! also rendered (`murk render`, a small image, default flags) under its own limits. Every run must end cleanly: exit 0 with JSON on
 //! stdout, or exit 2 with exactly one line `murk: error: <path>: ...` on stderr. A panic,
 //! abort (stack overflow, failed allocation), signal or hang fails the test; the failing
 //! mutants are kept in `target/tmp/mutation-failures-<run>/` and named in the message.
@@ -34,6 +35,17 @@ const TIMEOUT: Duration = Duration::from_secs(10);
 const MEMORY_LIMIT_KIB: u64 = 512 * 1024;
 /// Concurrent children (the machine has few cores; the children are short).
 const WORKERS: usize = 3;
+/// Every n-th mutant is also rendered (`murk render`, default flags but a small image:
+/// the shadow bake, the march and the EXR writer see the mutant too); the long test
+/// renders every `LONG_RENDER_STEP`-th.
+const DEFAULT_RENDER_STEP: usize = 16;
+const LONG_RENDER_STEP: usize = 4;
+/// A render may take this long (a bake of a mutant is bounded by the bake's budgets,
+/// which a loaded machine runs in well under a minute).
+const RENDER_TIMEOUT: Duration = Duration::from_secs(60);
+/// Address space for a render: its worker threads' stacks and the frame need more than
+/// `info` does, but nothing near this for a half-megabyte fixture.
+const RENDER_MEMORY_LIMIT_KIB: u64 = 2048 * 1024;
 
 // ------------------------------------------------------------------------------------
 // A small deterministic PRNG over the crate's SplitMix64.
@@ -1010,18 +1022,50 @@ enum Outcome {
 
 /// Runs `murk info --stats --json path` under the time and memory limits and judges it.
 fn run_murk(path: &Path, scratch: &Path) -> Outcome {
+    run_limited(path, scratch, None)
+}
+
+/// Runs `murk render path -o <scratch>.exr` (a small image, default flags otherwise)
+/// under the render's limits and judges it: exit 0 must leave the EXR, exit 2 one line.
+fn render_murk(path: &Path, scratch: &Path) -> Outcome {
+    let exr = scratch.with_extension("exr");
+    let outcome = run_limited(path, scratch, Some(&exr));
+    let wrote = exr.exists();
+    let _ = std::fs::remove_file(&exr);
+    match outcome {
+        Outcome::Ok if !wrote => Outcome::Bad("render: exit 0 but no EXR".to_string()),
+        Outcome::Err(_) if wrote => Outcome::Bad("render: exit 2 but an EXR".to_string()),
+        Outcome::Bad(why) => Outcome::Bad(format!("render: {why}")),
+        other => other,
+    }
+}
+
+/// Runs murk on `path`: `info --stats --json`, or with `render`, a render to that EXR.
+fn run_limited(path: &Path, scratch: &Path, render: Option<&Path>) -> Outcome {
     let out_path = scratch.with_extension("out");
     let err_path = scratch.with_extension("err");
     let stdout = std::fs::File::create(&out_path).unwrap();
     let stderr = std::fs::File::create(&err_path).unwrap();
-    let mut child = Command::new("sh")
+    let (memory, timeout) = match render {
+        Some(_) => (RENDER_MEMORY_LIMIT_KIB, RENDER_TIMEOUT),
+        None => (MEMORY_LIMIT_KIB, TIMEOUT),
+    };
+    let mut command = Command::new("sh");
+    command
         .arg("-c")
-        .arg(format!(
-            "ulimit -v {MEMORY_LIMIT_KIB} || exit 99; exec \"$0\" \"$@\""
-        ))
-        .arg(env!("CARGO_BIN_EXE_murk"))
-        .args(["info", "--stats", "--json"])
-        .arg(path)
+        .arg(format!("ulimit -v {memory} || exit 99; exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_murk"));
+    match render {
+        Some(exr) => command.arg("render").arg(path).arg("-o").arg(exr).args([
+            "--res",
+            "48x27",
+            "--quiet",
+            "--threads",
+            "2",
+        ]),
+        None => command.args(["info", "--stats", "--json"]).arg(path),
+    };
+    let mut child = command
         .stdin(Stdio::null())
         .stdout(stdout)
         .stderr(stderr)
@@ -1032,10 +1076,10 @@ fn run_murk(path: &Path, scratch: &Path) -> Outcome {
         if let Some(s) = child.try_wait().unwrap() {
             break s;
         }
-        if start.elapsed() > TIMEOUT {
+        if start.elapsed() > timeout {
             let _ = child.kill();
             let _ = child.wait();
-            return Outcome::Bad(format!("hang (killed after {TIMEOUT:?})"));
+            return Outcome::Bad(format!("hang (killed after {timeout:?})"));
         }
         std::thread::sleep(Duration::from_millis(2));
     };
@@ -1043,10 +1087,16 @@ fn run_murk(path: &Path, scratch: &Path) -> Outcome {
     let err = String::from_utf8_lossy(&std::fs::read(&err_path).unwrap_or_default()).into_owned();
     let _ = std::fs::remove_file(&out_path);
     let _ = std::fs::remove_file(&err_path);
-    judge(status, &out, &err, path)
+    judge(status, &out, &err, path, render.is_some())
 }
 
-fn judge(status: std::process::ExitStatus, out: &[u8], err: &str, path: &Path) -> Outcome {
+fn judge(
+    status: std::process::ExitStatus,
+    out: &[u8],
+    err: &str,
+    path: &Path,
+    render: bool,
+) -> Outcome {
     use std::os::unix::process::ExitStatusExt;
     let first = err
         .lines()
@@ -1068,6 +1118,9 @@ fn judge(status: std::process::ExitStatus, out: &[u8], err: &str, path: &Path) -
         Some(0) => {
             if err.contains("panicked") {
                 return Outcome::Bad(format!("exit 0 but a panic was printed: {first}"));
+            }
+            if render {
+                return Outcome::Ok;
             }
             match serde_json::from_slice::<serde_json::Value>(out) {
                 Ok(_) => Outcome::Ok,
@@ -1129,8 +1182,10 @@ fn message_kind(msg: &str) -> String {
     out.chars().take(60).collect()
 }
 
-/// Runs every mutant, prints a summary and fails listing the bad ones.
-fn run_all(tag: &str, fixtures: &[Fixture], mutants: Vec<Mutant>) {
+/// Runs every mutant (and renders every `render_step`-th, but not those of fixtures
+/// whose own render takes tens of seconds), prints a summary and fails listing the bad
+/// ones.
+fn run_all(tag: &str, fixtures: &[Fixture], mutants: Vec<Mutant>, render_step: usize) {
     // MUTATION_FILTER=text runs only the mutants whose names contain `text`.
     let filter = std::env::var("MUTATION_FILTER").ok();
     let mutants: Vec<Mutant> = match &filter {
@@ -1147,6 +1202,7 @@ fn run_all(tag: &str, fixtures: &[Fixture], mutants: Vec<Mutant>) {
     let _ = std::fs::remove_dir_all(failure_dir(tag));
     let dir = work_dir(tag);
     let next = AtomicUsize::new(0);
+    let renders = AtomicUsize::new(0);
     let results: Mutex<Vec<(usize, Outcome)>> = Mutex::new(Vec::with_capacity(mutants.len()));
     std::thread::scope(|s| {
         for _ in 0..WORKERS {
@@ -1156,7 +1212,17 @@ fn run_all(tag: &str, fixtures: &[Fixture], mutants: Vec<Mutant>) {
                     let Some(m) = mutants.get(i) else { break };
                     let path = dir.join(format!("{}.vdb", m.name));
                     std::fs::write(&path, apply(&fixtures[m.fixture].bytes, &m.edit)).unwrap();
-                    let outcome = run_murk(&path, &dir.join(format!("run-{i}")));
+                    let scratch = dir.join(format!("run-{i}"));
+                    let mut outcome = run_murk(&path, &scratch);
+                    let slow = SLOW_TO_RENDER.contains(&fixtures[m.fixture].stem.as_str());
+                    if i.is_multiple_of(render_step) && !slow && !matches!(outcome, Outcome::Bad(_))
+                    {
+                        let rendered = render_murk(&path, &scratch);
+                        if let Outcome::Bad(_) = rendered {
+                            outcome = rendered;
+                        }
+                        renders.fetch_add(1, Ordering::Relaxed);
+                    }
                     if let Outcome::Bad(_) = outcome {
                         let keep = failure_dir(tag);
                         std::fs::create_dir_all(&keep).unwrap();
@@ -1188,8 +1254,9 @@ fn run_all(tag: &str, fixtures: &[Fixture], mutants: Vec<Mutant>) {
     let mut by_count: Vec<_> = messages.into_iter().collect();
     by_count.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
     println!(
-        "mutation ({tag}): {} mutants in {:.1} s: {ok} clean Ok, {err} clean Err, {} bad",
+        "mutation ({tag}): {} mutants ({} also rendered) in {:.1} s: {ok} clean Ok, {err} clean Err, {} bad",
         results.len(),
+        renders.load(Ordering::Relaxed),
         started.elapsed().as_secs_f64(),
         bad.len()
     );
@@ -1208,20 +1275,25 @@ fn run_all(tag: &str, fixtures: &[Fixture], mutants: Vec<Mutant>) {
     );
 }
 
+/// Fixtures whose sound render takes tens of seconds (tiles.vdb: 2^28 voxels of tiles):
+/// their mutants are inspected, not rendered.
+const SLOW_TO_RENDER: &[&str] = &["tiles"];
+
 #[test]
 fn mutated_fixtures_end_cleanly() {
     let f = fixtures();
     let m = mutants(&f, DEFAULT_MUTANTS, DEFAULT_STRUCTURAL_STEP, 0x6d75_726b);
-    run_all("default", &f, m);
+    run_all("default", &f, m, DEFAULT_RENDER_STEP);
 }
 
+/// The long run (README, "Reliability", says how long it takes).
 #[test]
 #[ignore = "long: tens of thousands of mutants; run with --ignored"]
 fn mutated_fixtures_end_cleanly_long() {
     let f = fixtures();
     let m = mutants(&f, LONG_MUTANTS, 1, 0x1000_0000_6d75_726b);
     assert!(m.len() >= 20_000, "only {} mutants", m.len());
-    run_all("long", &f, m);
+    run_all("long", &f, m, LONG_RENDER_STEP);
 }
 
 // ------------------------------------------------------------------------------------

@@ -118,7 +118,10 @@ fn text(v: &Value) -> String {
         Value::String(s) => s.clone(),
         Value::Array(a) => format!("({})", a.iter().map(text).collect::<Vec<_>>().join(", ")),
         Value::Number(n) => match n.as_f64() {
-            Some(f) if n.is_f64() => format!("{f:.6}"),
+            Some(f) if n.is_f64() && (f == 0.0 || (1e-4..1e15).contains(&f.abs())) => {
+                format!("{f:.6}")
+            }
+            Some(f) if n.is_f64() => murk::vdb::guard::number_text(f),
             _ => n.to_string(),
         },
         other => other.to_string(),

@@ -1,6 +1,7 @@
 //! Command-line parsing and dispatch. Errors are printed as one line; exit code 2.
 
 mod args;
+mod guard;
 mod info;
 mod info_mesh;
 mod progress;
@@ -147,7 +148,7 @@ fn error_chain(e: &anyhow::Error) -> String {
 }
 
 fn one_line(s: &str) -> String {
-    s.replace('\n', " ")
+    guard::message_text(&s.replace('\n', " "))
 }
 
 /// Writes to stdout; a closed pipe (`murk info ... | head`) is not an error.

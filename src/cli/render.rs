@@ -44,12 +44,28 @@ pub fn options_for(input: &Path, options: RenderOptions) -> Result<(RenderOption
 fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> {
     let (options, vdb) = options_for(input, options)?;
     let quiet = options.quiet;
-    Ok((RenderPlan::new(&options, vdb)?, quiet))
+    let scene = scene_of(input, &vdb);
+    let plan = RenderPlan::new(&options, vdb)
+        .map_err(|e| e.to_string())
+        .and_then(|p| {
+            super::guard::check_plan(&p, scene)
+                .map_err(|e| e.to_string())
+                .map(|_| p)
+        })
+        .map_err(|e| anyhow!(scene.map_or(e.clone(), |s| super::guard::in_scene(s, &e))))?;
+    Ok((plan, quiet))
+}
+
+/// The scene file, if `input` is one (the .vdb it names is then another path).
+fn scene_of<'a>(input: &'a Path, vdb: &Path) -> Option<&'a Path> {
+    (vdb != input).then_some(input)
 }
 
 pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
     let (plan, quiet) = plan_for(input, options)?;
-    let stats = render(&plan, &super::progress::Bars::new(quiet))?;
+    let scene = scene_of(input, &plan.input);
+    let stats = render(&plan, &super::progress::Bars::new(quiet))
+        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
     if !quiet {
         eprintln!(
             "murk: wrote {} ({}x{}, {} channels) in {:.2} s",
@@ -60,7 +76,7 @@ pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
             stats.total_seconds
         );
         for n in &stats.scene.notes {
-            eprintln!("murk: note: {n}");
+            eprintln!("murk: note: {}", super::guard::message_text(n));
         }
     }
     Ok(())
@@ -68,7 +84,9 @@ pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
 
 pub fn bake(input: &Path, options: RenderOptions) -> Result<()> {
     let (plan, quiet) = plan_for(input, options)?;
-    let stats = bake_shadow_file(&plan, &super::progress::Bars::new(quiet))?;
+    let scene = scene_of(input, &plan.input);
+    let stats = bake_shadow_file(&plan, &super::progress::Bars::new(quiet))
+        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
     if !quiet {
         for m in &stats.scene.shadow_maps {
             eprintln!(

@@ -23,6 +23,42 @@ fn temp_path_for(path: &Path) -> Result<PathBuf, OutputError> {
     Ok(path.with_file_name(temp_name))
 }
 
+/// Removes the temporary files of `path` left by murk processes that no longer run
+/// (killed while writing): `.<name>.tmp-<pid>-<n>` whose `<pid>` has no `/proc/<pid>`.
+/// Those of a live process (another murk writing the same target) are left alone, and so
+/// is anything else. Best effort: an error here only leaves the file.
+fn remove_stale_temporaries(path: &Path) {
+    let (Some(name), Some(dir)) = (path.file_name(), path.parent()) else {
+        return;
+    };
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let prefix = format!(".{}.tmp-", name.to_string_lossy());
+    let Ok(entries) = fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let file = e.file_name();
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)) else {
+            continue;
+        };
+        let Some((pid, n)) = rest.split_once('-') else {
+            continue;
+        };
+        let (Ok(pid), Ok(_)) = (pid.parse::<u32>(), n.parse::<u64>()) else {
+            continue;
+        };
+        let alive = pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists();
+        let regular = e.file_type().is_ok_and(|t| t.is_file());
+        if !alive && regular && Path::new("/proc/self").exists() {
+            let _ = fs::remove_file(e.path());
+        }
+    }
+}
+
 /// Write `path` atomically.
 ///
 /// Creates an empty temporary file `.<name>.tmp-<pid>-<n>` in the target's
@@ -40,6 +76,7 @@ where
     E: From<OutputError>,
 {
     let temp = temp_path_for(path)?;
+    remove_stale_temporaries(path);
     if let Err(source) = fs::File::create(&temp) {
         return Err(OutputError::CreateTemp {
             path: path.to_owned(),
@@ -94,6 +131,37 @@ mod tests {
         let name = t.file_name().unwrap().to_string_lossy().into_owned();
         assert!(name.starts_with(".out.exr.tmp-"), "{name}");
         assert!(temp_path_for(Path::new("/")).is_err());
+    }
+
+    #[test]
+    fn stale_temporaries_of_dead_processes_are_removed() {
+        let dir = scratch_dir("stale");
+        let target = dir.join("out.exr");
+        // 4194305 is above Linux's largest pid: no process has it.
+        let stale = dir.join(".out.exr.tmp-4194305-0");
+        let live = dir.join(format!(".out.exr.tmp-{}-99", std::process::id()));
+        let other = dir.join(".other.exr.tmp-4194305-0");
+        let odd = dir.join(".out.exr.tmp-notapid-0");
+        for f in [&stale, &live, &other, &odd] {
+            fs::write(f, "partial").unwrap();
+        }
+        let r: Result<(), OutputError> = write_atomically(&target, |tmp| {
+            fs::write(tmp, "new").map_err(|source| OutputError::Io {
+                path: tmp.into(),
+                source,
+            })
+        });
+        r.unwrap();
+        assert_eq!(
+            entries(&dir),
+            vec![
+                ".other.exr.tmp-4194305-0".to_string(),
+                format!(".out.exr.tmp-{}-99", std::process::id()),
+                ".out.exr.tmp-notapid-0".to_string(),
+                "out.exr".to_string(),
+            ]
+        );
+        fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -146,6 +146,55 @@ pub struct ExrWriteSummary {
     pub nan_count: usize,
 }
 
+/// The largest finite half float.
+pub const HALF_MAX: f32 = 65504.0;
+
+/// The layer of a channel: its name up to the last `.` (`""` for `R`, `G`, `B`, `A`).
+fn layer_of(channel: &str) -> String {
+    channel
+        .rsplit_once('.')
+        .map_or(String::new(), |(l, _)| l.to_string())
+}
+
+/// The layers [`write_exr`] writes as 32-bit float although `opts` asks for half: those
+/// with a colour value beyond ±[`HALF_MAX`] (as half it would be ±inf), in channel order.
+pub fn overflowing_layers(frame: &Frame, opts: &ExrOptions) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    if opts.float {
+        return out;
+    }
+    for c in frame.channels() {
+        let layer = layer_of(c.name());
+        if !is_depth_channel(c.name())
+            && !out.contains(&layer)
+            && c.data().iter().any(|v| v.abs() > HALF_MAX)
+        {
+            out.push(layer);
+        }
+    }
+    out
+}
+
+/// One note per layer [`write_exr`] will widen to float (see [`overflowing_layers`]),
+/// for stderr and the stats.
+pub fn half_overflow_notes(frame: &Frame, opts: &ExrOptions) -> Vec<String> {
+    overflowing_layers(frame, opts)
+        .into_iter()
+        .map(|layer| {
+            let name = if layer.is_empty() { "beauty (R, G, B, A)" } else { &layer };
+            let peak = frame
+                .channels()
+                .iter()
+                .filter(|c| layer_of(c.name()) == layer && !is_depth_channel(c.name()))
+                .flat_map(|c| c.data().iter())
+                .fold(0f32, |m, v| m.max(v.abs()));
+            format!(
+                "layer {name} reaches {peak:.3e}, beyond half float's largest value {HALF_MAX}: written as 32-bit float"
+            )
+        })
+        .collect()
+}
+
 /// Rec.709 / sRGB primaries with a D65 white point.
 pub const REC709_CHROMATICITIES: [[f32; 2]; 4] =
     [[0.64, 0.33], [0.30, 0.60], [0.15, 0.06], [0.3127, 0.3290]];
@@ -196,6 +245,7 @@ pub fn write_exr(
     }
 
     let window = frame.data_window();
+    let wide = overflowing_layers(frame, opts);
     let mut nan_count = 0;
     let mut channels = Vec::with_capacity(frame.channels().len());
     for channel in frame.channels() {
@@ -208,12 +258,21 @@ pub fn write_exr(
             .skip(window.y)
             .take(window.height)
             .flat_map(|row| row.iter().skip(window.x).take(window.width))
-            .map(|&v| if v.is_nan() { fill } else { v });
-        let samples = if channel.always_float() || opts.float {
-            FlatSamples::F32(cropped.collect())
-        } else {
-            FlatSamples::F16(cropped.map(f16::from_f32).collect())
-        };
+            .map(|&v| if v.is_nan() { fill } else { v })
+            // Colour is never infinite in the file (depth's +inf means "no depth").
+            .map(|v| {
+                if depth {
+                    v
+                } else {
+                    v.clamp(f32::MIN, f32::MAX)
+                }
+            });
+        let samples =
+            if channel.always_float() || opts.float || wide.contains(&layer_of(channel.name())) {
+                FlatSamples::F32(cropped.collect())
+            } else {
+                FlatSamples::F16(cropped.map(f16::from_f32).collect())
+            };
         // pLinear is a hint for lossy compressors; like Nuke, mark nothing linear.
         channels.push(AnyChannel {
             quantize_linearly: false,

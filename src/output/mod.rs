@@ -11,7 +11,10 @@ mod preview;
 
 pub use atomic::write_atomically;
 pub use error::OutputError;
-pub use exr::{ExrCompression, ExrOptions, ExrWriteSummary, REC709_CHROMATICITIES, write_exr};
+pub use exr::{
+    ExrCompression, ExrOptions, ExrWriteSummary, HALF_MAX, REC709_CHROMATICITIES,
+    half_overflow_notes, overflowing_layers, write_exr,
+};
 pub use frame::{Channel, Frame, PixelRect, is_depth_channel, names};
 pub use preview::{
     Background, CHECKER_GREYS, CHECKER_SIZE, PreviewOptions, srgb_encode, to_u8, write_preview,

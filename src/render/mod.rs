@@ -40,6 +40,9 @@ pub fn run(plan: &RenderPlan, progress: &dyn Progress) -> Result<RenderStats> {
     } = render_image_with(plan, progress)?;
     let t = Instant::now();
     exr.render_time_seconds = Some(start.elapsed().as_secs_f64());
+    st.scene
+        .notes
+        .extend(crate::output::half_overflow_notes(&frame, &exr));
     // Every output or none: if a later one fails, the earlier ones of this run go.
     let mut written: Vec<&Path> = Vec::new();
     let result = (|| -> Result<()> {

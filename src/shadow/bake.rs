@@ -71,6 +71,10 @@ impl LightGeometry {
     }
 }
 
+/// The default [`BakeSettings::max_cells`]: about 20 s of one core (slopes along a
+/// column cost ~70 ns a cell). The fixtures' bakes cross 50 times fewer or less.
+pub const MAX_COLUMN_CELLS: f64 = 3e8;
+
 /// What a bake is asked for.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BakeSettings {
@@ -84,6 +88,11 @@ pub struct BakeSettings {
     pub max_bricks: usize,
     /// Largest number of samples held before refinement stops.
     pub max_values: usize,
+    /// Largest number of density cells the light columns may cross, over the whole bake
+    /// (a bound computed before marching: see [`column_cells`]). Past it at the coarsest
+    /// level the lattice is made coarser; past it later refinement stops. This bounds the
+    /// bake's time whatever the voxels' shape or the grid's size.
+    pub max_cells: f64,
 }
 
 impl BakeSettings {
@@ -94,6 +103,7 @@ impl BakeSettings {
             max_level: finest_level(tolerance),
             max_bricks: 4 << 20,
             max_values: 16 << 20,
+            max_cells: MAX_COLUMN_CELLS,
         }
     }
 }
@@ -151,20 +161,56 @@ pub fn bake(
     } else {
         1.0
     };
-    loop {
-        if let Some(done) = bake_at(density, light, settings, unit) {
+    let voxel_unit = unit;
+    for _ in 0..MAX_COARSENINGS {
+        if let Some(done) = bake_at(
+            density,
+            light,
+            settings,
+            unit,
+            block_edge(unit / voxel_unit),
+        ) {
             return done;
         }
-        // Too many bricks for this lattice: a coarser one.
+        // Too many bricks for this lattice: a coarser one, over coarser density blocks
+        // (the same blocks again would fail the same way).
         unit *= 2.0;
     }
+    // Past any lattice a field's bounds allow (2^60 voxels): a map with no bricks, read as
+    // unshadowed, and said so.
+    let report = BakeReport {
+        lattice_step: unit,
+        points_per_level: vec![0; LEVELS],
+        bricks_over_tolerance: 1,
+        ..Default::default()
+    };
+    (
+        ShadowMap {
+            charts: Vec::new(),
+            select: ChartSelect::Single,
+        },
+        report,
+    )
 }
 
-/// The 8 world corners of every non-empty 8³ block of the density; `None` past `limit`.
-fn block_corners(density: &dyn Field, limit: usize) -> Option<Vec<[DVec3; 8]>> {
+/// How many times [`bake`] coarsens its lattice before giving up: each doubling halves
+/// the bricks along every axis, so 60 take any grid an `i32` index can hold to one brick.
+const MAX_COARSENINGS: usize = 60;
+
+/// The edge in voxels of the density blocks mapped into a lattice `coarsening` times
+/// the voxel: 8 voxels at the voxel's lattice, and as many more as the lattice is coarser
+/// (a power of two, at most 2^30), so their number falls with the bricks'.
+fn block_edge(coarsening: f64) -> i32 {
+    let factor = coarsening.max(1.0).log2().floor().min(27.0) as u32;
+    BRICK * (1i32 << factor)
+}
+
+/// The 8 world corners of every non-empty block of `edge`³ voxels of the density; `None`
+/// past `limit`.
+fn block_corners(density: &dyn Field, edge: i32, limit: usize) -> Option<Vec<[DVec3; 8]>> {
     let tr = density.transform();
     let mut out = Vec::new();
-    let ok = nonzero_blocks(density, BRICK, limit, &mut |b| {
+    let ok = nonzero_blocks(density, edge, limit, &mut |b| {
         let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
         out.push(std::array::from_fn(|i| {
             tr.index_to_world(DVec3::new(
@@ -234,8 +280,11 @@ fn bake_at(
     light: LightGeometry,
     settings: &BakeSettings,
     unit: f64,
+    edge: i32,
 ) -> Option<(ShadowMap, BakeReport)> {
-    let blocks = block_corners(density, settings.max_bricks)?;
+    // A block maps to up to 2³ bricks at least: more blocks than an eighth of the brick
+    // budget cannot fit, and would only cost their enumeration.
+    let blocks = block_corners(density, edge, settings.max_bricks / 8)?;
     let (charts, select, lateral_limit) = charts_for(density, light, &blocks, unit);
     let mut report = BakeReport {
         lattice_step: unit,
@@ -283,9 +332,22 @@ fn bake_at(
     if marked.iter().map(Vec::len).sum::<usize>() > settings.max_bricks {
         return None;
     }
+    // The columns of the first level sampled must fit the work budget: else a coarser
+    // lattice (fewer columns) is needed.
+    let per_unit = cells_per_unit(density);
+    let cap = cells_per_column(density);
+    let first: f64 = charts
+        .iter()
+        .zip(&marked)
+        .map(|(chart, keys)| column_cells(keys, &BTreeMap::new(), 1, chart.unit * per_unit, cap))
+        .sum();
+    if first > settings.max_cells {
+        return None;
+    }
     let mut maps = Vec::with_capacity(charts.len());
+    let mut cells = first;
     for (chart, keys) in charts.iter().zip(&marked) {
-        let bricks = refine(density, chart, keys, settings, &mut report);
+        let bricks = refine(density, chart, keys, settings, &mut report, &mut cells);
         maps.push(ChartMap::new(
             *chart,
             bricks,
@@ -298,6 +360,54 @@ fn bake_at(
     };
     report.count(&map);
     Some((map, report))
+}
+
+/// A bound on the density cells a straight line crosses per world unit, whatever its
+/// direction: `Σ |dᵢ| / vᵢ ≤ |1/v|` for a unit direction `d` and voxel edges `v`.
+fn cells_per_unit(density: &dyn Field) -> f64 {
+    let v = density.transform().voxel_size();
+    let r = DVec3::new(1.0 / v.x, 1.0 / v.y, 1.0 / v.z).length();
+    if r.is_finite() { r } else { f64::MAX }
+}
+
+/// A bound on the cells any one column crosses where there is density: a line crosses
+/// at most one more than the index extent of the active bounds along each axis.
+fn cells_per_column(density: &dyn Field) -> f64 {
+    let b = density.active_bounds();
+    if b.is_empty() {
+        return 0.0;
+    }
+    let e = (b.max - b.min).as_dvec3() + DVec3::splat(3.0);
+    e.x + e.y + e.z
+}
+
+/// A bound on the density cells the columns sampling `keys` at `level` cross (see
+/// [`super::columns::sample_level`]): per brick stack, `side(level)²` columns from the
+/// stack's top to the bottom of its deepest brick, `cells_per_lattice_unit` cells a
+/// lattice step (plus one per column for the cell it starts in), but no more than
+/// `column_cap` a column ([`cells_per_column`]). A stack starts at its entry in `tops` if
+/// there is one (refinement marches from the top of the whole stack).
+pub(super) fn column_cells(
+    keys: &[IVec3],
+    tops: &BTreeMap<(i32, i32), i32>,
+    level: u8,
+    cells_per_lattice_unit: f64,
+    column_cap: f64,
+) -> f64 {
+    let mut stacks: BTreeMap<(i32, i32), (i32, i32)> = BTreeMap::new();
+    for k in keys {
+        let top = tops.get(&(k.x, k.y)).map_or(k.z, |t| (*t).min(k.z));
+        let e = stacks.entry((k.x, k.y)).or_insert((top, k.z));
+        *e = (e.0.min(top), e.1.max(k.z));
+    }
+    let m = side(level) as f64;
+    stacks
+        .values()
+        .map(|(top, bottom)| {
+            let depth = (f64::from(*bottom) - f64::from(*top) + 1.0) * BRICK as f64;
+            m * m * (depth * cells_per_lattice_unit + 1.0).min(column_cap)
+        })
+        .sum()
 }
 
 /// The distinct extinction coefficients of the channels.
@@ -454,6 +564,7 @@ fn refine(
     keys: &[IVec3],
     settings: &BakeSettings,
     report: &mut BakeReport,
+    cells: &mut f64,
 ) -> Vec<(IVec3, u8, BrickSamples)> {
     let sigmas = channels(settings.sigma_t);
     // Where each brick stack starts: density lies only inside marked bricks.
@@ -521,13 +632,21 @@ fn refine(
         }
         trial += 1;
         let needed = next.len() * side(trial + 1).pow(3);
-        if held + needed > settings.max_values {
-            // Out of budget: keep what there is.
+        let keys: Vec<IVec3> = next.iter().map(|(k, _, _)| *k).collect();
+        let marched = column_cells(
+            &keys,
+            &stack_start,
+            trial + 1,
+            chart.unit * cells_per_unit(density),
+            cells_per_column(density),
+        );
+        if held + needed > settings.max_values || *cells + marched > settings.max_cells {
+            // Out of budget (samples or work): keep what there is.
             report.bricks_over_tolerance += next.len();
             done.extend(next.into_iter().map(|(k, _, v)| (k, trial, v)));
             break;
         }
-        let keys: Vec<IVec3> = next.iter().map(|(k, _, _)| *k).collect();
+        *cells += marched;
         let vals = sample_level(density, chart, &keys, trial + 1, &stack_start, report);
         pending = next
             .into_iter()

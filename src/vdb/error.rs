@@ -40,10 +40,11 @@ impl VdbError {
 
 /// Turns a panic payload into a message (the reader is run under `catch_unwind`).
 pub(crate) fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    use super::guard::printable;
     if let Some(s) = payload.downcast_ref::<&str>() {
-        format!("the reader failed on malformed data ({s})")
+        format!("the reader failed on malformed data ({})", printable(s))
     } else if let Some(s) = payload.downcast_ref::<String>() {
-        format!("the reader failed on malformed data ({s})")
+        format!("the reader failed on malformed data ({})", printable(s))
     } else {
         "the reader failed on malformed data".to_string()
     }

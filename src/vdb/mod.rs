@@ -9,6 +9,7 @@ mod decode;
 mod error;
 pub mod guard;
 mod scan;
+mod snapshot;
 mod write;
 
 pub use decode::{DecodedValues, TreeSink};
@@ -83,6 +84,8 @@ pub struct VdbFile {
     file: File,
     /// The structure scan made before the reader opened the file (same grid order).
     scanned: scan::ScannedFile,
+    /// The bytes both read (held open while the reader may read grids).
+    snapshot: snapshot::Snapshot,
     /// File format version (e.g. 224).
     pub file_version: u32,
     /// Version of the library that wrote the file, `major.minor`.
@@ -153,22 +156,40 @@ impl VdbFile {
     /// Opens a file and reads everything but the trees.
     pub fn open(path: impl AsRef<Path>) -> Result<VdbFile, VdbError> {
         let path = path.as_ref();
-        let meta = std::fs::metadata(path).map_err(|e| VdbError::file(path, io_problem(&e)))?;
+        let opened = std::fs::File::open(path).map_err(|e| VdbError::file(path, io_problem(&e)));
+        let meta = match &opened {
+            Ok(f) => f.metadata(),
+            Err(_) => std::fs::metadata(path),
+        }
+        .map_err(|e| VdbError::file(path, io_problem(&e)))?;
         if meta.is_dir() {
             return Err(VdbError::file(path, "is a directory, not a .vdb file"));
+        }
+        if !meta.is_file() {
+            return Err(VdbError::file(
+                path,
+                "is not a regular file (a device, FIFO or socket)",
+            ));
         }
         if meta.len() == 0 {
             return Err(VdbError::file(path, "file is empty"));
         }
+        // One copy of the bytes, read once: the scan and the reader both read it.
+        let snapshot = snapshot::Snapshot::take(path, opened?, meta.len())?;
         // Structure checks first: what would abort the reader must not reach it.
         let scanned = guarded(path, || {
-            scan::scan_file(path).map_err(|p| VdbError::file(path, p))
+            scan::scan_file(snapshot.path()).map_err(|p| VdbError::file(path, p))
         })?;
-        guarded(path, || Self::open_unguarded(path, scanned))
+        guarded(path, || Self::open_unguarded(path, snapshot, scanned))
     }
 
-    fn open_unguarded(path: &Path, scanned: scan::ScannedFile) -> Result<VdbFile, VdbError> {
-        let file = File::open(path).map_err(|e| VdbError::file(path, reader_problem(&e)))?;
+    fn open_unguarded(
+        path: &Path,
+        snapshot: snapshot::Snapshot,
+        scanned: scan::ScannedFile,
+    ) -> Result<VdbFile, VdbError> {
+        let file =
+            File::open(snapshot.path()).map_err(|e| VdbError::file(path, reader_problem(&e)))?;
         let descs = file.descriptors();
         if descs.is_empty() {
             return Err(VdbError::file(path, "the file holds no grids"));
@@ -218,6 +239,7 @@ impl VdbFile {
             grids,
             file,
             scanned,
+            snapshot,
         })
     }
 
@@ -279,10 +301,15 @@ impl VdbFile {
                 info.map_type
             )));
         };
+        if let Some(problem) = guard::voxel_shape_problem(info.voxel_size()) {
+            return Err(gerr(problem));
+        }
         // The raw unique name, as in the file (the printable one may have been escaped).
         let unique = &self.scanned.grids[index].unique_name;
         guarded(&self.path, || {
-            self.scanned.check_tree(&self.path, unique).map_err(gerr)?;
+            self.scanned
+                .check_tree(self.snapshot.path(), unique)
+                .map_err(gerr)?;
             let grid = self
                 .file
                 .read_grid(unique)
@@ -357,7 +384,8 @@ fn grid_info(path: &Path, m: &GridMetadata) -> Result<GridInfo, VdbError> {
         _ => None,
     };
     let compression = compression_name(m.compression);
-    let class = m.metadata.get_str("class").unwrap_or("unknown").to_string();
+    let class = guard::printable(m.metadata.get_str("class").unwrap_or("unknown"));
+    let value_type = guard::printable(&value_type);
     let metadata = m
         .metadata
         .iter()
@@ -371,7 +399,7 @@ fn grid_info(path: &Path, m: &GridMetadata) -> Result<GridInfo, VdbError> {
         class,
         half: d.save_float_as_half,
         compression,
-        map_type: m.map_type.clone(),
+        map_type: guard::printable(&m.map_type),
         index_to_world,
         instance_of: (!d.instance_parent.is_empty()).then(|| guard::printable(&d.instance_parent)),
         file_voxel_count,
@@ -402,12 +430,22 @@ fn meta_text(v: &openvdb::metadata::MetaValue) -> String {
         M::Bool(b) => b.to_string(),
         M::Int32(i) => i.to_string(),
         M::Int64(i) => i.to_string(),
-        M::Float(f) => f.to_string(),
-        M::Double(f) => f.to_string(),
+        M::Float(f) => guard::number_text(f64::from(*f)),
+        M::Double(f) => guard::number_text(*f),
         M::String(s) => guard::printable(s),
         M::Vec3i(v) => format!("({}, {}, {})", v[0], v[1], v[2]),
-        M::Vec3s(v) => format!("({}, {}, {})", v[0], v[1], v[2]),
-        M::Vec3d(v) => format!("({}, {}, {})", v[0], v[1], v[2]),
+        M::Vec3s(v) => format!(
+            "({}, {}, {})",
+            guard::number_text(f64::from(v[0])),
+            guard::number_text(f64::from(v[1])),
+            guard::number_text(f64::from(v[2]))
+        ),
+        M::Vec3d(v) => format!(
+            "({}, {}, {})",
+            guard::number_text(v[0]),
+            guard::number_text(v[1]),
+            guard::number_text(v[2])
+        ),
         M::Unknown { type_name, data } => {
             format!("<{} bytes of {}>", data.len(), guard::printable(type_name))
         }

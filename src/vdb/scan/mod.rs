@@ -160,7 +160,7 @@ pub(super) fn scan_file(path: &Path) -> Result<ScannedFile, String> {
         if has_offsets {
             if (g.end_pos as i64) < b.pos as i64 {
                 return Err(format!(
-                    "invalid end offset for grid {}",
+                    "grid \"{}\": invalid end offset (before the grid's own descriptor ends)",
                     printable(&g.display_name())
                 ));
             }
