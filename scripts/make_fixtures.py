@@ -6,9 +6,10 @@ Usage:
     /usr/bin/python3 scripts/make_fixtures.py --check FIXDIR  # regenerate in a temp dir, compare
 
 Needs Debian's python3-openvdb (pyopenvdb + numpy) and libopenvdb-tools (vdb_tool), and
-for the mesh fixtures (mesh_fixtures.py) meshio and vtk from PyPI: run under
-/usr/bin/python3 the script re-executes itself under /opt/murk-venv/bin/python (a venv
-with system site packages, set up by .ci/run) when meshio is not importable.
+for the mesh fixtures (mesh_fixtures.py) meshio and vtk, for the water-drop phase
+functions (mie_reference.py) miepython, from PyPI: run under /usr/bin/python3 the script
+re-executes itself under /opt/murk-venv/bin/python (a venv with system site packages,
+set up by .ci/run) when meshio or miepython is not importable.
 All data is deterministic (integer-hash noise, fixed seeds); only the UUIDs
 inside the .vdb files change between runs.  Every reference number is
 computed from the grids as READ BACK from the written files, so half-float
@@ -29,17 +30,20 @@ import zlib
 VENV_PYTHON = "/opt/murk-venv/bin/python"
 try:
     import meshio  # noqa: F401  (only to know whether this interpreter has it)
+    import miepython  # noqa: F401
 except ImportError:
     if os.path.exists(VENV_PYTHON) and os.environ.get("MURK_FIXTURES_REEXEC") != "1":
         os.environ["MURK_FIXTURES_REEXEC"] = "1"
         os.execv(VENV_PYTHON, [VENV_PYTHON] + sys.argv)
-    sys.exit("make_fixtures.py: meshio is not installed here nor in %s (see .ci/run)" % VENV_PYTHON)
+    sys.exit("make_fixtures.py: meshio or miepython is not installed here nor in %s "
+             "(see .ci/run)" % VENV_PYTHON)
 
 import numpy as np
 import pyopenvdb as vdb
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mesh_fixtures  # noqa: E402
+import mie_reference  # noqa: E402
 
 FOG = vdb.GridClass.FOG_VOLUME
 
@@ -482,7 +486,17 @@ def compute_reference(d):
     finally:
         shutil.rmtree(tmp)
     return {"openvdb_version": ".".join(map(str, vdb.LIBRARY_VERSION)), "files": files,
-            "meshes": mesh_fixtures.reference(d)}
+            "meshes": mesh_fixtures.reference(d), "water_drop_mie": water_drop_mie()}
+
+
+_MIE = []
+
+
+def water_drop_mie():
+    """miepython's water-drop phase functions (computed once per run: ~10 s)."""
+    if not _MIE:
+        _MIE.append(mie_reference.reference())
+    return _MIE[0]
 
 
 def dump_json(ref):
