@@ -119,16 +119,16 @@ pub fn coefficients(m: f64, x: f64) -> Option<Coefficients> {
     let mut a = Vec::with_capacity(n_max);
     let mut b = Vec::with_capacity(n_max);
     let mut q_sum = 0.0;
-    for n in 1..=n_max {
-        let nf = n as f64;
+    for (i, &dn) in d[1..=n_max].iter().enumerate() {
+        let nf = (i + 1) as f64;
         let f = (2.0 * nf - 1.0) / x;
         let psi_n = f * psi - psi_prev;
         let chi_n = f * chi - chi_prev;
         let xi_n = (psi_n, -chi_n);
         let xi_prev = (psi, -chi);
         let nx = nf / x;
-        let da = d[n] / m + nx;
-        let db = d[n] * m + nx;
+        let da = dn / m + nx;
+        let db = dn * m + nx;
         let an = cdiv(
             (da * psi_n - psi, 0.0),
             (da * xi_n.0 - xi_prev.0, da * xi_n.1 - xi_prev.1),
@@ -155,9 +155,21 @@ pub fn coefficients(m: f64, x: f64) -> Option<Coefficients> {
 
 /// `|S₁|² + |S₂|²` at each cosine in `mu`, for every coefficient set in `spheres`
 /// (same angles): `out[k][j]` for sphere `k`, angle `j`. The angular functions
-/// `πₙ, τₙ` are computed once and shared by all spheres; the inner loop runs over
-/// angles so it vectorises.
+/// `πₙ, τₙ` are computed once and shared by all spheres; angles go in blocks small
+/// enough for every sphere's accumulators to stay in the L1 cache, and the inner loop
+/// runs over a block's angles so it vectorises.
 pub fn intensities(spheres: &[Coefficients], mu: &[f64]) -> Vec<Vec<f64>> {
+    const BLOCK: usize = 64;
+    let mut out = vec![vec![0.0f64; mu.len()]; spheres.len()];
+    for (b, block) in mu.chunks(BLOCK).enumerate() {
+        for (k, v) in intensities_block(spheres, block).into_iter().enumerate() {
+            out[k][b * BLOCK..b * BLOCK + v.len()].copy_from_slice(&v);
+        }
+    }
+    out
+}
+
+fn intensities_block(spheres: &[Coefficients], mu: &[f64]) -> Vec<Vec<f64>> {
     let na = mu.len();
     let n_max = spheres.iter().map(|s| s.a.len()).max().unwrap_or(0);
     let mut pi_prev = vec![0.0f64; na]; // π₀ = 0

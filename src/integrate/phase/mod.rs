@@ -18,8 +18,11 @@
 //! [`scattering_cosine`].
 
 pub mod hg;
+pub mod mie;
+pub mod water_drop;
 
 pub use hg::{G_MAX, HenyeyGreenstein, hg};
+pub use water_drop::WaterDrop;
 
 use glam::DVec3;
 use std::f64::consts::PI;
