@@ -4,6 +4,7 @@ mod args;
 mod guard;
 mod info;
 mod info_mesh;
+mod phase;
 mod progress;
 mod render;
 mod report;
@@ -73,6 +74,11 @@ enum Command {
         #[command(flatten)]
         options: Box<args::RenderArgs>,
     },
+    /// Tabulate and plot a phase function (CSV, PNG), to see what a render will get.
+    Phase {
+        #[command(subcommand)]
+        which: phase::PhaseCommand,
+    },
     /// Render a .vdb or a mesh (.vtu, .vtk), or a scene .toml that names one, to a
     /// multi-layer EXR.
     #[command(after_help = render::EXAMPLES)]
@@ -120,6 +126,7 @@ pub fn run() -> i32 {
             info_mesh::run(&file, json)
         }
         Command::Info { file, stats, json } => info::run(&file, stats, json),
+        Command::Phase { which } => phase::run(which),
         Command::Render { input, options } => render::run(&input, options.options()),
         Command::BakeShadows { input, options } => render::bake(&input, options.options()),
     };

@@ -4,6 +4,7 @@
 pub mod check;
 pub mod converge;
 pub mod converge_table;
+pub mod phase_plot;
 pub mod plot;
 pub mod stability;
 pub mod stability_rendered;

@@ -29,7 +29,7 @@ const FONT_FILES: [&str; 4] = [
 ];
 
 /// Registers a font once; whether one was found.
-fn font() -> bool {
+pub(crate) fn font() -> bool {
     static FOUND: OnceLock<bool> = OnceLock::new();
     *FOUND.get_or_init(|| {
         for path in FONT_FILES {
