@@ -17,10 +17,12 @@
 //! `cos_theta = dot(−to_light, −view_dir) = dot(to_light, view_dir)`; see
 //! [`scattering_cosine`].
 
+pub mod choice;
 pub mod hg;
 pub mod mie;
 pub mod water_drop;
 
+pub use choice::PhaseKind;
 pub use hg::{G_MAX, HenyeyGreenstein, hg};
 pub use water_drop::WaterDrop;
 

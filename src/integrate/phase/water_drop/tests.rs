@@ -259,3 +259,42 @@ fn check_sampling(drop: &WaterDrop) {
         .sum();
     assert!((total - 1.0).abs() < 1e-9, "∫pdf = {total}");
 }
+
+/// Run with `cargo test --release --lib eval_cost -- --ignored --nocapture`: the
+/// per-call cost of `eval` and `sample` against Henyey–Greenstein's (timing, so not
+/// in the default run).
+#[test]
+#[ignore]
+fn eval_cost_against_hg() {
+    use std::hint::black_box;
+    use std::time::Instant;
+    let drop = WaterDrop::cached(FOG_UM).unwrap();
+    let hg = crate::integrate::phase::HenyeyGreenstein::new(0.8);
+    let n = 10_000_000;
+    let time = |p: &dyn PhaseFunction| {
+        let t = Instant::now();
+        let mut acc = DVec3::ZERO;
+        for i in 0..n {
+            acc += p.eval(black_box(-1.0 + 2.0 * (i as f64 + 0.5) / n as f64));
+        }
+        black_box(acc);
+        let eval = t.elapsed().as_secs_f64() / n as f64;
+        let t = Instant::now();
+        for i in 0..n / 10 {
+            let u = [(i as f64 + 0.5) / (n / 10) as f64, 0.3];
+            acc += p.sample(black_box(DVec3::Z), u).weight;
+        }
+        black_box(acc);
+        (eval, t.elapsed().as_secs_f64() / (n / 10) as f64)
+    };
+    let (e_hg, s_hg) = time(&hg);
+    let (e_wd, s_wd) = time(drop.as_ref());
+    eprintln!(
+        "eval: HG {:.1} ns, water drop {:.1} ns; sample: HG {:.1} ns, water drop {:.1} ns",
+        e_hg * 1e9,
+        e_wd * 1e9,
+        s_hg * 1e9,
+        s_wd * 1e9
+    );
+    assert!(e_wd < 200e-9 && s_wd < 500e-9, "{e_wd} {s_wd}");
+}
