@@ -90,6 +90,18 @@ pub struct LookArgs {
     /// Henyey–Greenstein anisotropy in (-1, 1) (default 0).
     #[arg(long, value_name = "F", allow_hyphen_values = true)]
     pub g: Option<f64>,
+    /// Phase function: hg (Henyey–Greenstein with --g, grey) or water-drop (Lorenz–Mie
+    /// for water drops of --drop-radius, in colour: rainbows). Default hg.
+    #[arg(long, value_name = "hg|water-drop")]
+    pub phase: Option<murk::integrate::phase::PhaseKind>,
+    /// Water-drop radius in micrometres for --phase water-drop: fog ~10, drizzle ~100,
+    /// rain 500–1000 (default 500; 0.05–1000).
+    #[arg(
+        long = "drop-radius",
+        value_name = "MICRONS",
+        allow_hyphen_values = true
+    )]
+    pub drop_radius: Option<f64>,
     /// Emission colour, r,g,b (default 1,0.45,0.12).
     #[arg(long = "emission-color", value_name = "r,g,b")]
     pub emission_color: Option<String>,
@@ -253,6 +265,8 @@ impl RenderArgs {
             temperature_grid: a.role.temperature_grid,
             color_grid: a.role.color_grid,
             g: a.look.g,
+            phase: a.look.phase,
+            drop_radius: a.look.drop_radius,
             emission_color: a.look.emission_color,
             emission_intensity: a.look.emission_intensity,
             temperature_scale: a.look.temperature_scale,

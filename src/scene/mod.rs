@@ -37,7 +37,7 @@ use crate::field::union::FieldUnion;
 use crate::field::{ColorField, Field};
 use crate::integrate::blackbody::BlackbodyTable;
 use crate::integrate::ground::Ground;
-use crate::integrate::phase::{HenyeyGreenstein, PhaseFunction};
+use crate::integrate::phase::PhaseFunction;
 use crate::integrate::{ColorTint, Companion, Emission, Medium, Volume};
 use crate::shadow::ShadowMap;
 use anyhow::{Result, anyhow};
@@ -94,10 +94,18 @@ impl Scene {
         let camera = resolve_camera(plan, fields.density.as_ref())?;
         let emission = (fields.emission.is_some() || fields.temperature.is_some())
             .then(|| (plan.emission, BlackbodyTable::new(200.0, 40000.0, 2048)));
+        // The phase function: water-drop tables are built (or read from the disk
+        // cache) here, once per process and radius.
+        let t = Instant::now();
+        let phase =
+            crate::integrate::phase::choice::build(plan.phase, plan.medium.g, plan.drop_radius_um)?;
+        report
+            .stages
+            .insert("phase".into(), Stage::ran(t.elapsed().as_secs_f64()));
         let mut scene = Scene {
             camera,
             medium,
-            phase: Arc::new(HenyeyGreenstein::new(plan.medium.g)),
+            phase,
             emission,
             lights: plan.lights.clone(),
             shadows: Vec::new(),

@@ -49,6 +49,12 @@ pub struct RenderOptions {
     pub density_scale: Option<f64>,
     /// Henyey–Greenstein anisotropy in (-1, 1) (default 0).
     pub g: Option<f64>,
+    /// Phase function: hg (Henyey–Greenstein with --g, grey) or water-drop (Lorenz–Mie
+    /// for water drops of --drop-radius, in colour: rainbows). Default hg.
+    pub phase: Option<crate::integrate::phase::PhaseKind>,
+    /// Water-drop radius in micrometres for --phase water-drop: fog ~10, drizzle ~100,
+    /// rain 500–1000 (default 500; 0.05–1000).
+    pub drop_radius: Option<f64>,
     /// Emission colour, r,g,b (default 1,0.45,0.12).
     pub emission_color: Option<String>,
     /// Emission intensity per world unit at emission-grid value 1 (default 4).
@@ -186,6 +192,8 @@ impl RenderOptions {
             sigma_s,
             density_scale,
             g,
+            phase,
+            drop_radius,
             emission_color,
             emission_intensity,
             temperature_scale,

@@ -7,6 +7,8 @@ use super::light::{Light, parse_triple};
 use super::options::RenderOptions;
 use crate::integrate::ground::Ground;
 use crate::integrate::march::REFERENCE_STEP;
+use crate::integrate::phase::PhaseKind;
+use crate::integrate::phase::water_drop::{DEFAULT_RADIUS_UM, RADIUS_RANGE_UM};
 use crate::integrate::{MarchSettings, Medium};
 use crate::output::{Background, ExrCompression, ExrOptions, PreviewOptions};
 use crate::shadow::ShadowQuadrature;
@@ -162,6 +164,10 @@ pub struct RenderPlan {
     pub camera: CameraPlan,
     pub grids: GridRoles,
     pub medium: Medium,
+    /// The phase function (`--phase`; Henyey–Greenstein takes `medium.g`) and the drop
+    /// radius in µm for water drops (`--drop-radius`).
+    pub phase: PhaseKind,
+    pub drop_radius_um: f64,
     pub emission: EmissionPlan,
     pub lights: Vec<Light>,
     pub shadows: ShadowPlan,
@@ -392,6 +398,8 @@ impl RenderPlan {
                 )?,
                 g,
             },
+            phase: o.phase.unwrap_or_default(),
+            drop_radius_um: drop_radius(o.drop_radius)?,
             emission: EmissionPlan {
                 color: colour(
                     &o.emission_color,
@@ -483,5 +491,18 @@ impl RenderPlan {
         } else {
             ShadowQuadrature::Step(self.shadows.step)
         }
+    }
+}
+
+/// `--drop-radius` in µm (default [`DEFAULT_RADIUS_UM`]), within [`RADIUS_RANGE_UM`].
+fn drop_radius(r: Option<f64>) -> Result<f64, String> {
+    let r = r.unwrap_or(DEFAULT_RADIUS_UM);
+    if r >= RADIUS_RANGE_UM.0 && r <= RADIUS_RANGE_UM.1 {
+        Ok(r)
+    } else {
+        Err(format!(
+            "--drop-radius {r} is outside {}–{} µm",
+            RADIUS_RANGE_UM.0, RADIUS_RANGE_UM.1
+        ))
     }
 }
