@@ -38,6 +38,8 @@ fn rainbow_bows_at_their_angles_in_the_exr() {
     std::fs::create_dir_all(&dir).unwrap();
     let exr = dir.join("rainbow.exr");
     let out = Command::new(MURK)
+        // Hermetic: build the tables here rather than load a user's cached ones.
+        .env("MURK_CACHE_DIR", dir.join("cache"))
         .args(["render", root.join("fixtures/slab.vdb").to_str().unwrap()])
         .args(["-o", exr.to_str().unwrap(), "--float", "--quiet"])
         .args(["--res", &format!("{W}x{H}"), "--fov", &FOV_DEG.to_string()])

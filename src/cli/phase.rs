@@ -36,7 +36,7 @@ pub fn run(command: PhaseCommand) -> anyhow::Result<()> {
             spectral,
             plot,
         } => {
-            let drop = WaterDrop::cached(drop_radius)?;
+            let drop = WaterDrop::for_render(drop_radius)?;
             if let Some(path) = &csv {
                 phase_plot::write_csv(path, &drop, spectral)?;
             }

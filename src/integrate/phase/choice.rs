@@ -26,8 +26,8 @@ pub enum PhaseKind {
     WaterDrop,
 }
 
-/// The phase function of `kind`: Henyey–Greenstein with `g`, or the (process-wide
-/// cached) water-drop tables for `drop_radius_um`.
+/// The phase function of `kind`: Henyey–Greenstein with `g`, or the water-drop tables
+/// for `drop_radius_um` (cached in the process and on disk: [`WaterDrop::for_render`]).
 pub fn build(
     kind: PhaseKind,
     g: f64,
@@ -35,6 +35,6 @@ pub fn build(
 ) -> Result<Arc<dyn PhaseFunction>, RadiusError> {
     Ok(match kind {
         PhaseKind::Hg => Arc::new(HenyeyGreenstein::new(g)),
-        PhaseKind::WaterDrop => WaterDrop::cached(drop_radius_um)?,
+        PhaseKind::WaterDrop => WaterDrop::for_render(drop_radius_um)?,
     })
 }

@@ -27,7 +27,9 @@
 //! Building the tables sums the Mie series (`N ≈ x` terms) at every node, for 17
 //! wavelengths × 12 radii: about a second for 10 µm drops, tens of seconds at 500 µm.
 //! [`WaterDrop::cached`] keeps every table built in this process (keyed by radius), so
-//! a render builds it once and every integrator, tile and test shares it.
+//! a render builds it once and every integrator, tile and test shares it;
+//! [`WaterDrop::for_render`] also keeps them on disk ([`disk_cache`]), so later renders
+//! of the same radius load them in milliseconds.
 
 use super::mie::{self, averaged_radii, water_refractive_index};
 use super::{PhaseFunction, PhaseSample, frame_around};
@@ -152,6 +154,23 @@ pub fn integrate_table(nodes: &[f64], values: &[f64]) -> f64 {
     2.0 * PI * s
 }
 
+/// Each wavelength's Mie phase function at `nodes` for drops of `radius_um` (averaged
+/// over ±10 %), normalised to 1 by its exact integral under linear interpolation, and
+/// that integral before normalising (by `Q_sca`: 1 up to the grid's error).
+fn mie_tables(radius_um: f64, nodes: &[f64]) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let mu: Vec<f64> = nodes.iter().map(|t| t.cos()).collect();
+    let radii = averaged_radii(radius_um * 1e3); // nm, like the wavelengths
+    WAVELENGTHS_NM
+        .par_iter()
+        .map(|&l| {
+            let p = mie::averaged_phase(water_refractive_index(l), l, &radii, &mu)
+                .expect("radius range keeps x within mie::X_MAX");
+            let integral = integrate_table(nodes, &p);
+            (p.iter().map(|v| v / integral).collect(), integral)
+        })
+        .unzip()
+}
+
 /// The tabulated spectral phase function of water drops of one radius.
 #[derive(Debug)]
 pub struct WaterDrop {
@@ -199,20 +218,19 @@ impl WaterDrop {
             return Err(RadiusError(radius_um));
         }
         let grid = AngleGrid::standard();
+        let (spectral, mie_integral) = mie_tables(radius_um, grid.nodes());
+        Ok(Self::from_spectral(radius_um, grid, spectral, mie_integral))
+    }
+
+    /// The colour tables and sampling data from per-wavelength tables (normalised to 1
+    /// at the nodes of `grid`): milliseconds, where [`mie_tables`] takes seconds.
+    fn from_spectral(
+        radius_um: f64,
+        grid: AngleGrid,
+        spectral: Vec<Vec<f64>>,
+        mie_integral: Vec<f64>,
+    ) -> Self {
         let nodes = grid.nodes().to_vec();
-        let mu: Vec<f64> = nodes.iter().map(|t| t.cos()).collect();
-        let radii = averaged_radii(radius_um * 1e3); // nm, like the wavelengths
-        let mut computed: Vec<(Vec<f64>, f64)> = WAVELENGTHS_NM
-            .par_iter()
-            .map(|&l| {
-                let p = mie::averaged_phase(water_refractive_index(l), l, &radii, &mu)
-                    .expect("radius range keeps x within mie::X_MAX");
-                let integral = integrate_table(&nodes, &p);
-                (p.iter().map(|v| v / integral).collect(), integral)
-            })
-            .collect();
-        let mie_integral = computed.iter().map(|c| c.1).collect();
-        let spectral: Vec<Vec<f64>> = computed.drain(..).map(|c| c.0).collect();
         let weights = channel_weights();
         let mut channels = [
             vec![0.0; nodes.len()],
@@ -258,7 +276,7 @@ impl WaterDrop {
         cdf.iter_mut().for_each(|c| *c /= acc);
         bin_pdf.iter_mut().for_each(|p| *p /= acc);
         let max_value = rgb.iter().map(|v| v.max_element()).fold(0.0, f64::max);
-        Ok(WaterDrop {
+        WaterDrop {
             radius_um,
             grid,
             spectral,
@@ -269,13 +287,23 @@ impl WaterDrop {
             bin_pdf,
             one_minus_cos,
             max_value,
-        })
+        }
     }
 
     /// The tables for `radius_um`, computed on first use in this process and shared
     /// afterwards (a process-wide map keyed by the radius's bits; never evicted — a
     /// table is ~0.6 MB).
     pub fn cached(radius_um: f64) -> Result<Arc<WaterDrop>, RadiusError> {
+        Self::cached_with(radius_um, false)
+    }
+
+    /// [`Self::cached`], and on disk ([`disk_cache`]): what a render uses, so only the
+    /// first render of a radius on a machine pays for the Mie sums.
+    pub fn for_render(radius_um: f64) -> Result<Arc<WaterDrop>, RadiusError> {
+        Self::cached_with(radius_um, true)
+    }
+
+    fn cached_with(radius_um: f64, disk: bool) -> Result<Arc<WaterDrop>, RadiusError> {
         type Slot = Arc<OnceLock<Result<Arc<WaterDrop>, RadiusError>>>;
         static CACHE: OnceLock<Mutex<HashMap<u64, Slot>>> = OnceLock::new();
         let slot = CACHE
@@ -287,8 +315,30 @@ impl WaterDrop {
             .clone();
         // Built outside the map's lock (another radius need not wait); callers asking
         // for the same radius meanwhile wait for this one build.
-        slot.get_or_init(|| WaterDrop::new(radius_um).map(Arc::new))
-            .clone()
+        slot.get_or_init(|| {
+            if !disk {
+                return WaterDrop::new(radius_um).map(Arc::new);
+            }
+            Self::load_or_build(radius_um).map(Arc::new)
+        })
+        .clone()
+    }
+
+    fn load_or_build(radius_um: f64) -> Result<WaterDrop, RadiusError> {
+        if !(radius_um >= RADIUS_RANGE_UM.0 && radius_um <= RADIUS_RANGE_UM.1) {
+            return Err(RadiusError(radius_um));
+        }
+        let grid = AngleGrid::standard();
+        let path = disk_cache::dir().map(|d| disk_cache::file(&d, radius_um, &grid));
+        if let Some((spectral, integrals)) = path.as_ref().and_then(|p| disk_cache::load(p, &grid))
+        {
+            return Ok(Self::from_spectral(radius_um, grid, spectral, integrals));
+        }
+        let (spectral, integrals) = mie_tables(radius_um, grid.nodes());
+        if let Some(p) = &path {
+            disk_cache::store(p, &grid, &spectral, &integrals);
+        }
+        Ok(Self::from_spectral(radius_um, grid, spectral, integrals))
     }
 
     pub fn radius_um(&self) -> f64 {
@@ -378,5 +428,6 @@ impl PhaseFunction for WaterDrop {
     }
 }
 
+pub mod disk_cache;
 #[cfg(test)]
 mod tests;

@@ -298,3 +298,44 @@ fn eval_cost_against_hg() {
     );
     assert!(e_wd < 200e-9 && s_wd < 500e-9, "{e_wd} {s_wd}");
 }
+
+#[test]
+fn disk_cache_round_trips_and_refuses_what_does_not_fit() {
+    let dir = std::env::temp_dir().join(format!("murk-wd-cache-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let grid = AngleGrid::standard();
+    let drop = WaterDrop::cached(FOG_UM).unwrap();
+    let path = disk_cache::file(&dir, FOG_UM, &grid);
+    let spectral: Vec<Vec<f64>> = (0..WAVELENGTHS_NM.len())
+        .map(|j| drop.spectral_table(j).to_vec())
+        .collect();
+    assert!(disk_cache::store(
+        &path,
+        &grid,
+        &spectral,
+        drop.mie_integral()
+    ));
+    let (s, i) = disk_cache::load(&path, &grid).expect("stored tables load");
+    assert_eq!(
+        (s.as_slice(), i.as_slice()),
+        (spectral.as_slice(), drop.mie_integral())
+    );
+    let again = WaterDrop::from_spectral(FOG_UM, grid.clone(), s, i);
+    assert_eq!(again.rgb_table(), drop.rgb_table());
+    assert_eq!(again.cdf, drop.cdf);
+    // A truncated file, a corrupted magic or a NaN are not used.
+    let bytes = std::fs::read(&path).unwrap();
+    std::fs::write(&path, &bytes[..bytes.len() - 8]).unwrap();
+    assert!(disk_cache::load(&path, &grid).is_none());
+    let mut bad = bytes.clone();
+    bad[0] ^= 1;
+    std::fs::write(&path, &bad).unwrap();
+    assert!(disk_cache::load(&path, &grid).is_none());
+    let mut nan = bytes.clone();
+    let at = nan.len() - 8;
+    nan[at..].copy_from_slice(&f64::NAN.to_le_bytes());
+    std::fs::write(&path, &nan).unwrap();
+    assert!(disk_cache::load(&path, &grid).is_none());
+    assert!(disk_cache::load(&dir.join("missing.bin"), &grid).is_none());
+    let _ = std::fs::remove_dir_all(&dir);
+}
