@@ -14,7 +14,7 @@ pub enum PhaseCommand {
     #[command(after_help = EXAMPLES)]
     WaterDrop {
         /// Drop radius in micrometres (fog ~10, drizzle ~100, rain 500–1000; 0.05–1000).
-        #[arg(long, value_name = "MICRONS", default_value_t = DEFAULT_RADIUS_UM)]
+        #[arg(long, value_name = "MICRONS", default_value_t = DEFAULT_RADIUS_UM, allow_hyphen_values = true)]
         drop_radius: f64,
         /// Write the table: scattering angle, angle from the antisolar point, R, G, B.
         #[arg(long, value_name = "FILE")]
