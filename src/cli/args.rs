@@ -92,7 +92,7 @@ pub struct LookArgs {
     pub g: Option<f64>,
     /// Phase function: hg (Henyey–Greenstein with --g, grey) or water-drop (Lorenz–Mie
     /// for water drops of --drop-radius, in colour: rainbows). Default hg.
-    #[arg(long, value_name = "hg|water-drop")]
+    #[arg(long, value_name = "hg|water-drop", hide_possible_values = true)]
     pub phase: Option<murk::integrate::phase::PhaseKind>,
     /// Water-drop radius in micrometres for --phase water-drop: fog ~10, drizzle ~100,
     /// rain 500–1000 (default 500; 0.05–1000).
