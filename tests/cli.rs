@@ -678,6 +678,7 @@ fn help_states_every_default() {
         ("--spp", format!("default {}", d::SPP)),
         ("--seed", format!("default {}", d::SEED)),
         ("--exposure", format!("default {}", d::EXPOSURE)),
+        ("--drop-radius", format!("default {}", d::DROP_RADIUS_UM)),
     ];
     for (flag, want) in cases {
         let l = line(flag);

@@ -8,7 +8,7 @@ use super::options::RenderOptions;
 use crate::integrate::ground::Ground;
 use crate::integrate::march::REFERENCE_STEP;
 use crate::integrate::phase::PhaseKind;
-use crate::integrate::phase::water_drop::{DEFAULT_RADIUS_UM, RADIUS_RANGE_UM};
+use crate::integrate::phase::water_drop::RADIUS_RANGE_UM;
 use crate::integrate::{MarchSettings, Medium};
 use crate::output::{Background, ExrCompression, ExrOptions, PreviewOptions};
 use crate::shadow::ShadowQuadrature;
@@ -75,6 +75,8 @@ pub mod defaults {
     pub const SPP: u32 = 1;
     pub const SEED: u64 = 0;
     pub const EXPOSURE: f32 = 0.0;
+    /// Water-drop radius for `--phase water-drop`, micrometres.
+    pub const DROP_RADIUS_UM: f64 = crate::integrate::phase::water_drop::DEFAULT_RADIUS_UM;
 }
 
 /// The camera as far as it can be known before the grid's bounds are.
@@ -494,9 +496,9 @@ impl RenderPlan {
     }
 }
 
-/// `--drop-radius` in µm (default [`DEFAULT_RADIUS_UM`]), within [`RADIUS_RANGE_UM`].
+/// `--drop-radius` in µm (default [`defaults::DROP_RADIUS_UM`]), within [`RADIUS_RANGE_UM`].
 fn drop_radius(r: Option<f64>) -> Result<f64, String> {
-    let r = r.unwrap_or(DEFAULT_RADIUS_UM);
+    let r = r.unwrap_or(defaults::DROP_RADIUS_UM);
     if r >= RADIUS_RANGE_UM.0 && r <= RADIUS_RANGE_UM.1 {
         Ok(r)
     } else {

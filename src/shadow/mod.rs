@@ -9,6 +9,7 @@ pub mod bake;
 pub mod cache;
 pub mod chart;
 pub mod columns;
+mod lattice;
 pub mod map;
 pub mod march;
 pub mod verify;
