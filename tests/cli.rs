@@ -685,3 +685,50 @@ fn help_states_every_default() {
         assert!(l.contains(&want), "{flag}: expected \"{want}\" in: {l}");
     }
 }
+
+/// A shadow map the sample budget stopped short of its tolerance is never silent: one
+/// warning line on stderr, even with `--quiet`, and the same text in the stats. At the
+/// default tolerance the demo cloud's map meets it and nothing is said.
+#[test]
+fn shadow_budget_shortfall_is_a_warning_even_when_quiet() {
+    let dir = scratch("budget-warning");
+    let run = |tol: &str| {
+        let out = murk(
+            &dir,
+            &[
+                "render",
+                &fixture("cloud.vdb"),
+                "--dsm-tolerance",
+                tol,
+                "-o",
+                "out.exr",
+                "--stats",
+                "stats.json",
+                "--quiet",
+            ]
+            .map(str::to_owned),
+        );
+        assert!(out.status.success(), "{out:?}");
+        let stats: Value =
+            serde_json::from_str(&fs::read_to_string(dir.join("stats.json")).unwrap()).unwrap();
+        (String::from_utf8_lossy(&out.stderr).into_owned(), stats)
+    };
+    let (stderr, stats) = run("1e-4");
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(lines.len(), 1, "{stderr}");
+    let map = &stats["shadow_maps"][0];
+    let stopped = map["bricks_stopped_by_budget"].as_u64().unwrap();
+    assert!(stopped > 0, "{map}");
+    assert!(
+        lines[0].starts_with("murk: warning: shadow map of light sun0: ")
+            && lines[0].contains(&format!("({stopped} stopped by the sample or work budget)")),
+        "{stderr}"
+    );
+    assert_eq!(
+        stats["warnings"][0].as_str().unwrap(),
+        lines[0].trim_start_matches("murk: warning: ")
+    );
+    let (stderr, stats) = run("1e-3");
+    assert_eq!(stderr, "");
+    assert_eq!(stats["warnings"].as_array().unwrap().len(), 0);
+}

@@ -66,6 +66,7 @@ pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
     let scene = scene_of(input, &plan.input);
     let stats = render(&plan, &super::progress::Bars::new(quiet))
         .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
+    print_warnings(&stats.scene.warnings);
     if !quiet {
         eprintln!(
             "murk: wrote {} ({}x{}, {} channels) in {:.2} s",
@@ -87,6 +88,7 @@ pub fn bake(input: &Path, options: RenderOptions) -> Result<()> {
     let scene = scene_of(input, &plan.input);
     let stats = bake_shadow_file(&plan, &super::progress::Bars::new(quiet))
         .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
+    print_warnings(&stats.scene.warnings);
     if !quiet {
         for m in &stats.scene.shadow_maps {
             eprintln!(
@@ -105,4 +107,11 @@ pub fn bake(input: &Path, options: RenderOptions) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Warnings are printed even with `--quiet`: they say what lost accuracy unasked.
+fn print_warnings(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("murk: warning: {}", super::guard::message_text(w));
+    }
 }

@@ -196,6 +196,11 @@ impl Scene {
             let report = &mut self.report;
             report.shadow_map_memory_bytes = map_stats.iter().map(|s| s.bake.memory_bytes).sum();
             report.density_memory_bytes = density.memory_bytes();
+            report.warnings.extend(
+                map_stats
+                    .iter()
+                    .filter_map(|m| m.shortfall(plan.shadows.dsm_tolerance)),
+            );
             report.shadow_maps = map_stats;
             report
                 .stages

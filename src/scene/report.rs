@@ -60,4 +60,7 @@ pub struct SceneReport {
     pub shadow_map_memory_bytes: usize,
     pub density_memory_bytes: usize,
     pub notes: Vec<String>,
+    /// What cost accuracy without being asked to (a budget that stopped a shadow map's
+    /// refinement): printed on stderr as well, even with `--quiet`.
+    pub warnings: Vec<String>,
 }

@@ -138,6 +138,15 @@ pub struct BakeReport {
     /// check at the level before by more than refining gains (see `SUB_VOXEL_GAIN`), or
     /// stopped early when the sample budget ran out.
     pub bricks_over_tolerance: usize,
+    /// Of those, bricks whose refinement the sample or work budget stopped.
+    pub bricks_stopped_by_budget: usize,
+    /// What to expect on the bricks over the tolerance: the largest transmittance error
+    /// measured one level coarser than the level kept (for those kept at the finest level,
+    /// divided by the gain refining is known to give). 0 when none.
+    pub over_tolerance_error: f64,
+    /// Times the lattice was made twice coarser than the density's voxel because the
+    /// bricks or columns of the finer one did not fit the budget (0: voxel lattice).
+    pub lattice_coarsenings: usize,
     /// Light columns marched.
     pub columns: u64,
     pub memory_bytes: usize,
@@ -165,15 +174,16 @@ pub fn bake(
         1.0
     };
     let voxel_unit = unit;
-    for _ in 0..MAX_COARSENINGS {
-        if let Some(done) = bake_at(
+    for coarsenings in 0..MAX_COARSENINGS {
+        if let Some((map, mut report)) = bake_at(
             density,
             light,
             settings,
             unit,
             block_edge(unit / voxel_unit),
         ) {
-            return done;
+            report.lattice_coarsenings = coarsenings;
+            return (map, report);
         }
         // Too many bricks for this lattice: a coarser one, over coarser density blocks
         // (the same blocks again would fail the same way).
@@ -185,6 +195,7 @@ pub fn bake(
         lattice_step: unit,
         points_per_level: vec![0; LEVELS],
         bricks_over_tolerance: 1,
+        lattice_coarsenings: MAX_COARSENINGS,
         ..Default::default()
     };
     (
@@ -496,16 +507,17 @@ fn refine(
                 };
                 if error > gain * allowed {
                     report.bricks_over_tolerance += 1;
+                    report.over_tolerance_error = report.over_tolerance_error.max(error / gain);
                 }
                 held += fine.len();
                 done.push((key, fine_level, fine));
             } else {
-                next.push((key, unresolved, fine));
+                next.push((key, unresolved, fine, error));
             }
         }
         trial += 1;
         let needed = next.len() * side(trial + 1).pow(3);
-        let keys: Vec<IVec3> = next.iter().map(|(k, _, _)| *k).collect();
+        let keys: Vec<IVec3> = next.iter().map(|(k, _, _, _)| *k).collect();
         let marched = column_cells(
             &keys,
             &stack_start,
@@ -514,9 +526,12 @@ fn refine(
             cells_per_column(density),
         );
         if held + needed > settings.max_values || *cells + marched > settings.max_cells {
-            // Out of budget (samples or work): keep what there is.
+            // Out of budget (samples or work): keep what there is, and say what it costs.
             report.bricks_over_tolerance += next.len();
-            done.extend(next.into_iter().map(|(k, _, v)| (k, trial, v)));
+            report.bricks_stopped_by_budget += next.len();
+            let worst = next.iter().map(|(_, _, _, e)| *e).fold(0.0, f64::max);
+            report.over_tolerance_error = report.over_tolerance_error.max(worst);
+            done.extend(next.into_iter().map(|(k, _, v, _)| (k, trial, v)));
             break;
         }
         *cells += marched;
@@ -524,7 +539,7 @@ fn refine(
         pending = next
             .into_iter()
             .zip(vals)
-            .map(|((k, b, _), v)| (k, b, v))
+            .map(|((k, b, _, _), v)| (k, b, v))
             .collect();
     }
     done

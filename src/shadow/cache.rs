@@ -126,6 +126,18 @@ pub fn write(
                         "murk:bricks_over_tolerance".into(),
                         st.bake.bricks_over_tolerance.to_string(),
                     ),
+                    (
+                        "murk:bricks_stopped_by_budget".into(),
+                        st.bake.bricks_stopped_by_budget.to_string(),
+                    ),
+                    (
+                        "murk:over_tolerance_error".into(),
+                        format!("{:?}", st.bake.over_tolerance_error),
+                    ),
+                    (
+                        "murk:lattice_coarsenings".into(),
+                        st.bake.lattice_coarsenings.to_string(),
+                    ),
                 ];
                 if let Some(l) = level {
                     m.push(("murk:level".into(), l.to_string()));
@@ -257,10 +269,19 @@ pub fn read(
             let chart =
                 chart_from(meta).ok_or_else(|| bad(format!("grid {name}: bad chart metadata")))?;
             report.lattice_step = chart.unit;
-            report.bricks_over_tolerance += meta
-                .get("murk:bricks_over_tolerance")
-                .and_then(|v| v.parse::<usize>().ok())
-                .unwrap_or(0);
+            // Every chart's grids carry the whole map's counts: read them once.
+            if ci == 0 {
+                let count = |key: &str| meta.get(key).and_then(|v| v.parse::<usize>().ok());
+                report.bricks_over_tolerance = count("murk:bricks_over_tolerance").unwrap_or(0);
+                report.bricks_stopped_by_budget =
+                    count("murk:bricks_stopped_by_budget").unwrap_or(0);
+                report.lattice_coarsenings = count("murk:lattice_coarsenings").unwrap_or(0);
+                report.over_tolerance_error = meta
+                    .get("murk:over_tolerance_error")
+                    .and_then(|v| v.parse::<f64>().ok())
+                    .filter(|e| e.is_finite() && *e >= 0.0)
+                    .unwrap_or(0.0);
+            }
             let bricks_grid = VoxelGrid::load(&file, &name)?;
             // Per level: its stored grids, in STORED order.
             let mut levels: Vec<Option<[VoxelGrid; 4]>> = vec![None; LEVELS];

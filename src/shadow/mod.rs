@@ -39,3 +39,40 @@ pub struct ShadowMapStats {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub verify: Option<VerifyReport>,
 }
+
+impl ShadowMapStats {
+    /// One line when a budget or cap stopped refinement short of `tolerance`: how many
+    /// bricks and what transmittance error to expect there. `None` when the map met it.
+    pub fn shortfall(&self, tolerance: f64) -> Option<String> {
+        let b = &self.bake;
+        let mut parts = Vec::new();
+        if b.lattice_coarsenings > 0 {
+            parts.push(format!(
+                "its lattice is {}× the voxel because a finer one did not fit the budget, so detail below that is blurred",
+                1u64 << b.lattice_coarsenings.min(62) as u32
+            ));
+        }
+        // Bricks kept at the finest level whose expected error is still within the
+        // tolerance are not a shortfall; a budget stop always is.
+        if b.bricks_stopped_by_budget > 0
+            || (b.bricks_over_tolerance > 0 && b.over_tolerance_error > tolerance)
+        {
+            let budget = if b.bricks_stopped_by_budget > 0 {
+                format!(
+                    " ({} stopped by the sample or work budget)",
+                    b.bricks_stopped_by_budget
+                )
+            } else {
+                String::new()
+            };
+            parts.push(format!(
+                "{} of {} bricks are likely over the tolerance {tolerance:e}{budget}, with transmittance errors up to about {:.1e} there",
+                b.bricks_over_tolerance,
+                b.bricks,
+                b.over_tolerance_error.max(tolerance)
+            ));
+        }
+        (!parts.is_empty())
+            .then(|| format!("shadow map of light {}: {}", self.light, parts.join("; ")))
+    }
+}
