@@ -235,6 +235,18 @@ int_as_float = lambda i: struct.unpack("<f", struct.pack("<i", i))[0]
 float_as_int = lambda x: struct.unpack("<i", struct.pack("<f", x))[0]
 
 
+def write_sequence(out):
+    """A tiny Blender-style cache, seq/fluid_0001.vdb .. fluid_0004.vdb: a blob that
+    stays put for frames 1 and 2 (the same grid, so a sequence reuses its shadow map)
+    and then rises one voxel and grows a voxel per frame."""
+    os.makedirs(out, exist_ok=True)
+    xf = vdb.createLinearTransform(0.1)
+    for frame in range(1, 5):
+        move = max(frame - 2, 0)
+        lo, hi = (-6, -5 + move, -6), (5, 4 + 2 * move, 5)
+        vdb.write(os.path.join(out, "fluid_%04d.vdb" % frame), [blob("density", lo, hi, xf)])
+
+
 def vdb_tool(*args):
     subprocess.run(["vdb_tool", "-quiet", *args], check=True, stdout=subprocess.DEVNULL)
 
@@ -269,6 +281,7 @@ def generate(out):
         w("sphere.vdb", [make_homogeneous("density", lambda i, j, k: i * i + j * j + k * k <= 400)])
         w("slab.vdb", [make_homogeneous("density", lambda i, j, k: (k >= 0) & (k <= 19))])
         write_bad_types(os.path.join(out, "bad_types.vdb"), tmp)
+        write_sequence(os.path.join(out, "seq"))
         mesh_fixtures.generate(out)
     finally:
         shutil.rmtree(tmp)

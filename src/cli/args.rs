@@ -210,6 +210,24 @@ pub struct RenderArgs {
     pub quality: QualityArgs,
     #[command(flatten)]
     pub image: ImageArgs,
+    #[command(flatten)]
+    pub sequence: SequenceArgs,
+}
+
+/// Frame sequences and pieces of frames (for a farm).
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct SequenceArgs {
+    /// Frames to render, e.g. 1-10,20,30-40x2 (default: every frame the input pattern
+    /// finds). INPUT, -o, --preview, --stats and --shadow-cache may hold a frame pattern:
+    /// #### (one # per digit), %04d, $F4 or $F.
+    #[arg(long, value_name = "LIST")]
+    pub frames: Option<String>,
+    /// Leave frames whose output is already a complete EXR (resume a killed run).
+    #[arg(long = "skip-existing")]
+    pub skip_existing: bool,
+    /// Render only the I-th of N bands of rows into a partial EXR, for `murk stitch`.
+    #[arg(long, value_name = "I/N")]
+    pub tile: Option<String>,
 }
 
 /// `murk bake-shadows` flags: only what decides a shadow map, so that camera and image
@@ -289,6 +307,7 @@ impl RenderArgs {
             preview: a.image.preview,
             exposure: a.image.exposure,
             background: a.image.background,
+            frames: a.sequence.frames,
             ..RenderOptions::default()
         };
         a.map.set(&mut o);

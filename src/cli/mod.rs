@@ -127,7 +127,14 @@ pub fn run() -> i32 {
         }
         Command::Info { file, stats, json } => info::run(&file, stats, json),
         Command::Phase { which } => phase::run(which),
-        Command::Render { input, options } => render::run(&input, options.options()),
+        Command::Render { input, options } => {
+            let sequence = options.sequence.clone();
+            match render::run_sequence_or_frame(&input, options.options(), &sequence) {
+                Ok(true) => Ok(()),
+                Ok(false) => return 2,
+                Err(e) => Err(e),
+            }
+        }
         Command::BakeShadows { input, options } => render::bake(&input, options.options()),
     };
     match result {

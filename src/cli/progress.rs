@@ -28,6 +28,18 @@ impl Bars {
     }
 }
 
+impl Bars {
+    /// Prints a line on stderr above the bar.
+    pub fn println(&self, line: &str) {
+        let bar = self.bar();
+        if bar.is_hidden() {
+            eprintln!("{line}");
+        } else {
+            bar.suspend(|| eprintln!("{line}"));
+        }
+    }
+}
+
 impl Progress for Bars {
     fn start(&self, what: &str, total: u64, unit: &str) {
         if !self.shown {

@@ -1,7 +1,14 @@
 //! `murk render`.
 
 use anyhow::{Result, anyhow};
-use murk::render::{RenderOptions, RenderPlan, bake_shadow_file, run as render};
+use murk::render::piece::Piece;
+use murk::render::sequence::{
+    FrameOutcome, FramePaths, SequenceOptions, choose_frames, is_complete_exr, render_sequence,
+};
+use murk::render::{
+    FrameJob, RenderOptions, RenderPlan, bake_shadow_file, run as render, run_frame,
+};
+use murk::scene::reuse::FrameReuse;
 use std::path::{Path, PathBuf};
 
 pub const EXAMPLES: &str = "Examples:
@@ -59,6 +66,126 @@ fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> 
 /// The scene file, if `input` is one (the .vdb it names is then another path).
 fn scene_of<'a>(input: &'a Path, vdb: &Path) -> Option<&'a Path> {
     (vdb != input).then_some(input)
+}
+
+/// `murk render`: one image, or a sequence when a path holds a frame pattern or frames
+/// are given, or a piece with --tile. `Ok(false)`: some frame failed (each was reported).
+pub fn run_sequence_or_frame(
+    input: &Path,
+    options: RenderOptions,
+    sequence: &super::args::SequenceArgs,
+) -> Result<bool> {
+    let piece = sequence
+        .tile
+        .as_deref()
+        .map(Piece::parse)
+        .transpose()
+        .map_err(|e| anyhow!(e))?;
+    let (merged, vdb) = options_for(input, options.clone())?;
+    let spec = merged.frames.clone();
+    let probe = RenderPlan::new(&merged, vdb.clone());
+    let is_sequence = spec.is_some()
+        || probe
+            .as_ref()
+            .is_ok_and(|p| FramePaths::of(p).any_pattern());
+    if !is_sequence {
+        if piece.is_none() && !sequence.skip_existing {
+            return run(input, options).map(|_| true);
+        }
+        let (plan, quiet) = plan_for(input, options)?;
+        if sequence.skip_existing && is_complete_exr(&plan.outputs.path) {
+            if !quiet {
+                eprintln!("murk: {} exists: skipped", plan.outputs.path.display());
+            }
+            return Ok(true);
+        }
+        let scene = scene_of(input, &plan.input);
+        let job = FrameJob { frame: None, piece };
+        let stats = run_frame(
+            &plan,
+            &super::progress::Bars::new(quiet),
+            &mut FrameReuse::default(),
+            job,
+        )
+        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
+        if !quiet {
+            eprintln!(
+                "murk: wrote {} ({}x{}{}) in {:.2} s",
+                plan.outputs.path.display(),
+                stats.width,
+                stats.height,
+                piece.map(|p| format!(", piece {p}")).unwrap_or_default(),
+                stats.total_seconds
+            );
+        }
+        return Ok(true);
+    }
+    let (plan, quiet) = plan_for(input, options)?;
+    let scene = scene_of(input, &plan.input).map(Path::to_path_buf);
+    let paths = FramePaths::of(&plan);
+    let frames = choose_frames(&paths, &plan, spec.as_deref())?;
+    let bars = super::progress::Bars::new(quiet);
+    let check = |p: &RenderPlan| super::guard::check_plan(p, scene.as_deref());
+    let mut report = |frame: i64, p: &RenderPlan, outcome: &FrameOutcome| {
+        let line = match outcome {
+            FrameOutcome::Failed(e) => Some(format!(
+                "murk: error: frame {frame}: {}",
+                super::one_line(&super::error_chain(e))
+            )),
+            _ if quiet => None,
+            FrameOutcome::Skipped => Some(format!(
+                "murk: frame {frame}: {} exists: skipped",
+                p.outputs.path.display()
+            )),
+            FrameOutcome::Written(st) if p.outputs.stats.is_some() => Some(format!(
+                "murk: frame {frame}: wrote {} in {:.2} s (shadows: {})",
+                p.outputs.path.display(),
+                st.total_seconds,
+                st.scene
+                    .shadow_maps
+                    .first()
+                    .map_or("none".into(), |m| m.source.clone())
+            )),
+            FrameOutcome::Written(_) => None,
+        };
+        if let Some(l) = line {
+            bars.println(&l);
+        }
+    };
+    let summary = render_sequence(
+        &plan,
+        &paths,
+        &frames,
+        SequenceOptions {
+            skip_existing: sequence.skip_existing,
+            piece,
+        },
+        &bars,
+        &check,
+        &mut report,
+    );
+    if !quiet {
+        eprintln!(
+            "murk: {} frames: {} written, {} skipped, {} failed, in {:.2} s (shadow maps reused in {} frames)",
+            frames.len(),
+            summary.written,
+            summary.skipped,
+            summary.failed.len(),
+            summary.seconds,
+            summary.shadow_maps_reused
+        );
+    }
+    if !summary.failed.is_empty() {
+        let list: Vec<String> = summary.failed.iter().map(i64::to_string).collect();
+        eprintln!(
+            "murk: error: {} of {} frames failed: {}",
+            summary.failed.len(),
+            frames.len(),
+            list.join(",")
+        );
+        return Ok(false);
+    }
+    Ok(true)
 }
 
 pub fn run(input: &Path, options: RenderOptions) -> Result<()> {

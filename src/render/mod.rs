@@ -3,7 +3,9 @@
 //! write, timing every stage.
 
 pub mod channels;
+pub mod piece;
 pub mod pixels;
+pub mod sequence;
 pub mod stats;
 
 pub use crate::scene::progress::{Progress, Silent};
@@ -15,8 +17,10 @@ use crate::output::{Frame, write_atomically, write_exr, write_preview};
 use crate::scene::Scene;
 use crate::scene::lights::bake_maps;
 use crate::scene::plan::GridChoice;
+use crate::scene::reuse::FrameReuse;
 use crate::scene::roles::load_fields;
 use anyhow::{Context, Result, anyhow};
+use piece::Piece;
 use stats::{RenderStats, Stage};
 use std::path::Path;
 use std::time::Instant;
@@ -29,15 +33,37 @@ pub struct RenderedImage {
     pub stats: RenderStats,
 }
 
+/// Which frame of a sequence a render is, and which piece of it (none: a whole image).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrameJob {
+    pub frame: Option<i64>,
+    pub piece: Option<Piece>,
+}
+
 /// Renders a plan and writes its outputs. Returns the stats (also written with --stats).
 pub fn run(plan: &RenderPlan, progress: &dyn Progress) -> Result<RenderStats> {
+    run_frame(
+        plan,
+        progress,
+        &mut FrameReuse::default(),
+        FrameJob::default(),
+    )
+}
+
+/// [`run`] for one frame (or piece of one) of a sequence, reusing what `reuse` kept.
+pub fn run_frame(
+    plan: &RenderPlan,
+    progress: &dyn Progress,
+    reuse: &mut FrameReuse,
+    job: FrameJob,
+) -> Result<RenderStats> {
     let start = Instant::now();
     check_output_dirs(plan)?;
     let RenderedImage {
         frame,
         mut exr,
         stats: mut st,
-    } = render_image_with(plan, progress)?;
+    } = render_image_frame(plan, progress, reuse, job)?;
     let t = Instant::now();
     exr.render_time_seconds = Some(start.elapsed().as_secs_f64());
     st.scene
@@ -77,8 +103,30 @@ pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
 
 /// [`render_image`], reporting progress.
 pub fn render_image_with(plan: &RenderPlan, progress: &dyn Progress) -> Result<RenderedImage> {
+    render_image_frame(
+        plan,
+        progress,
+        &mut FrameReuse::default(),
+        FrameJob::default(),
+    )
+}
+
+/// [`render_image_with`] for one frame or piece of a sequence, reusing what `reuse` kept.
+pub fn render_image_frame(
+    plan: &RenderPlan,
+    progress: &dyn Progress,
+    reuse: &mut FrameReuse,
+    job: FrameJob,
+) -> Result<RenderedImage> {
     let start = Instant::now();
-    let scene = Scene::build(plan, progress)?;
+    let rows = match job.piece {
+        Some(p) => {
+            p.check(plan.camera.height).map_err(|e| anyhow!(e))?;
+            p.rows(plan.camera.height)
+        }
+        None => 0..plan.camera.height,
+    };
+    let scene = Scene::build_reusing(plan, progress, reuse)?;
     let traversal = scene.traversal();
     let volume = scene.volume(&traversal);
     let lights = scene.illumination();
@@ -103,8 +151,26 @@ pub fn render_image_with(plan: &RenderPlan, progress: &dyn Progress) -> Result<R
         spp: plan.sampling.spp,
         ..Default::default()
     };
-    let (frame, render_seconds) = render_frame(&integrator, &scene, plan, progress, &mut st)?;
+    let (frame, render_seconds) =
+        render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?;
     let mut exr = plan.outputs.exr.clone();
+    if let Some(f) = job.frame {
+        exr.extra_strings
+            .push((piece::attr::FRAME.into(), f.to_string()));
+    }
+    if let Some(p) = job.piece {
+        exr.extra_strings.extend([
+            (piece::attr::TILE.into(), p.to_string()),
+            (
+                piece::attr::TILE_ROWS.into(),
+                format!("{}-{}", rows.start, rows.end),
+            ),
+            (
+                piece::attr::STORAGE.into(),
+                if exr.float { "float" } else { "half" }.into(),
+            ),
+        ]);
+    }
     let camera = &scene.camera;
     exr.world_to_camera = Some(camera.world_to_camera().as_mat4().to_cols_array_2d());
     let (near, far) = scene.depth_range();
@@ -136,12 +202,13 @@ fn render_frame<I: Integrator>(
     integrator: &I,
     scene: &Scene,
     plan: &RenderPlan,
+    rows: std::ops::Range<usize>,
     progress: &dyn Progress,
     st: &mut RenderStats,
 ) -> Result<(Frame, f64)> {
     let t = Instant::now();
-    let tiles = (plan.camera.width.div_ceil(pixels::TILE)
-        * plan.camera.height.div_ceil(pixels::TILE)) as u64;
+    let tiles =
+        (plan.camera.width.div_ceil(pixels::TILE) * rows.len().div_ceil(pixels::TILE)) as u64;
     progress.start("rendering", tiles, "tiles");
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(plan.sampling.threads.unwrap_or(0))
@@ -152,6 +219,7 @@ fn render_frame<I: Integrator>(
         camera: &scene.camera,
         spp: plan.sampling.spp,
         seed: plan.sampling.seed,
+        rows,
     };
     let passes = pool.install(|| pixels::render_pixels(&job, progress));
     progress.finish();

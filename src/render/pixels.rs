@@ -37,9 +37,12 @@ pub struct PixelJob<'a, I: Integrator> {
     pub camera: &'a Camera,
     pub spp: u32,
     pub seed: u64,
+    /// The rows rendered (all: `0..height`); other pixels stay empty. A pixel's value
+    /// depends only on its position and the seed, never on which rows are rendered.
+    pub rows: std::ops::Range<usize>,
 }
 
-/// Renders every pixel.
+/// Renders every pixel of the job's rows.
 pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) -> PixelPasses {
     let (w, h) = (job.camera.width, job.camera.height);
     let layout = job.integrator.passes().clone();
@@ -47,7 +50,8 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
     let alpha_at = layout.offset_of_kind(PassKind::Alpha);
     let depth_at = layout.offset_of_kind(PassKind::Depth);
     let tiles_x = w.div_ceil(TILE);
-    let tiles = tiles_x * h.div_ceil(TILE);
+    let (r0, r1) = (job.rows.start.min(h), job.rows.end.min(h));
+    let tiles = tiles_x * r1.saturating_sub(r0).div_ceil(TILE);
     let frame = job.camera.frame();
     let samples = AtomicU64::new(0);
     let results: Vec<(usize, Vec<f32>)> = (0..tiles)
@@ -55,8 +59,8 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         .map_init(
             || (job.integrator.scratch(), vec![0f64; stride]),
             |(scratch, acc), tile| {
-                let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
-                let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+                let (x0, y0) = ((tile % tiles_x) * TILE, r0 + (tile / tiles_x) * TILE);
+                let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(r1));
                 let mut out = vec![0f32; (x1 - x0) * (y1 - y0) * stride];
                 let mut tile_samples = 0;
                 for y in y0..y1 {
@@ -115,8 +119,8 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         })
         .collect();
     for (tile, out) in results {
-        let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
-        let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+        let (x0, y0) = ((tile % tiles_x) * TILE, r0 + (tile / tiles_x) * TILE);
+        let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(r1));
         for y in y0..y1 {
             for x in x0..x1 {
                 let px = &out[((y - y0) * (x1 - x0) + (x - x0)) * stride..][..stride];
@@ -135,7 +139,7 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         height: h,
         layout,
         planes,
-        rays: (n as u64) * job.spp as u64,
+        rays: ((r1.saturating_sub(r0) * w) as u64) * job.spp as u64,
         samples: samples.load(Ordering::Relaxed),
     }
 }

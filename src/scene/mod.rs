@@ -5,6 +5,7 @@
 //! shadow maps — and reports each stage (ran, or skipped and why).
 
 pub mod camera;
+pub mod frames;
 pub mod light;
 pub mod lights;
 pub mod mesh_source;
@@ -12,6 +13,7 @@ pub mod options;
 pub mod plan;
 pub mod progress;
 pub mod report;
+pub mod reuse;
 pub mod roles;
 pub mod source;
 
@@ -76,6 +78,16 @@ impl Scene {
     /// Opens the plan's input, decodes the fields in their roles, frames the camera and
     /// bakes (or reads) the shadow maps the render needs.
     pub fn build(plan: &RenderPlan, progress: &dyn Progress) -> Result<Scene> {
+        Scene::build_reusing(plan, progress, &mut reuse::FrameReuse::default())
+    }
+
+    /// [`Scene::build`] for one frame of a sequence: what `reuse` kept from the previous
+    /// frame is taken when it still holds (shadow maps of an unchanged density).
+    pub fn build_reusing(
+        plan: &RenderPlan,
+        progress: &dyn Progress,
+        reuse: &mut reuse::FrameReuse,
+    ) -> Result<Scene> {
         let mut report = SceneReport::default();
         // Load: descriptors and metadata only.
         let t = Instant::now();
@@ -127,7 +139,7 @@ impl Scene {
                 || (scene.fields.temperature.is_some() && e.blackbody_intensity > 0.0)
         });
         scene.report_emission_and_scatter(plan);
-        scene.prepare_shadows(plan, progress)?;
+        scene.prepare_shadows(plan, progress, reuse)?;
         Ok(scene)
     }
 
@@ -174,7 +186,12 @@ impl Scene {
 
     /// Shadows: a map per light, baked once here (or read from a cache) and looked up by
     /// every sample; or marched per sample.
-    fn prepare_shadows(&mut self, plan: &RenderPlan, progress: &dyn Progress) -> Result<()> {
+    fn prepare_shadows(
+        &mut self,
+        plan: &RenderPlan,
+        progress: &dyn Progress,
+        reuse: &mut reuse::FrameReuse,
+    ) -> Result<()> {
         let sigma_t = self.medium.sigma_t();
         // The ground plane needs the lights' shadows even when the medium does not scatter.
         let lit = !plan.lights.is_empty() && sigma_t.max_element() > 0.0;
@@ -191,7 +208,17 @@ impl Scene {
                     plan.input.display()
                 ));
             }
-            let (m, map_stats) = bake_maps(plan, density, hash.unwrap_or(0), sigma_t, progress)?;
+            let kept = hash.and_then(|h| reuse.shadow_maps(plan, h, sigma_t));
+            let (m, map_stats) = match kept {
+                Some(k) => k,
+                None => {
+                    let (m, s) = bake_maps(plan, density, hash.unwrap_or(0), sigma_t, progress)?;
+                    if let Some(h) = hash {
+                        reuse.keep_shadow_maps(plan, h, sigma_t, &m, &s);
+                    }
+                    (m, s)
+                }
+            };
             maps = m;
             let report = &mut self.report;
             report.shadow_map_memory_bytes = map_stats.iter().map(|s| s.bake.memory_bytes).sum();

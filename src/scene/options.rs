@@ -123,6 +123,9 @@ pub struct RenderOptions {
     /// No progress bar.
     #[serde(default)]
     pub quiet: bool,
+    // --- frame sequences (scene/frames.rs) ---
+    /// The frames of a sequence: `1-10,20,30-40x2` (the paths hold `####`, `%04d` or `$F4`).
+    pub frames: Option<String>,
 }
 
 /// A light in a scene file, with the name its scatter layer gets.
@@ -213,7 +216,8 @@ impl RenderOptions {
             stats,
             preview,
             exposure,
-            background
+            background,
+            frames
         )
     }
 }

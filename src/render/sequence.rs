@@ -1,0 +1,193 @@
+//! Rendering a frame sequence: the frame patterns of every per-frame path (input, `-o`,
+//! `--preview`, `--stats`, `--shadow-cache`), which frames, and the frames rendered in
+//! order — each with the whole thread pool, what does not change carried from one to
+//! the next ([`FrameReuse`]), a failing frame reported and the others still written,
+//! frames already written left alone with `--skip-existing`.
+
+use super::piece::Piece;
+use super::stats::RenderStats;
+use super::{FrameJob, run_frame};
+use crate::scene::RenderPlan;
+use crate::scene::frames::{FramePattern, parse_frames};
+use crate::scene::progress::{Progress, Silent};
+use crate::scene::reuse::FrameReuse;
+use anyhow::{Result, anyhow};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The per-frame paths of a plan, as patterns.
+#[derive(Clone, Debug)]
+pub struct FramePaths {
+    pub input: FramePattern,
+    pub output: FramePattern,
+    preview: Option<FramePattern>,
+    stats: Option<FramePattern>,
+    shadow_cache: Option<FramePattern>,
+}
+
+impl FramePaths {
+    pub fn of(plan: &RenderPlan) -> FramePaths {
+        FramePaths {
+            input: FramePattern::new(&plan.input),
+            output: FramePattern::new(&plan.outputs.path),
+            preview: plan
+                .outputs
+                .preview
+                .as_ref()
+                .map(|p| FramePattern::new(&p.0)),
+            stats: plan.outputs.stats.as_deref().map(FramePattern::new),
+            shadow_cache: plan.shadows.cache.as_deref().map(FramePattern::new),
+        }
+    }
+
+    /// Whether any path holds a frame pattern.
+    pub fn any_pattern(&self) -> bool {
+        self.input.is_pattern() || self.outputs().iter().any(|(p, _)| p.is_pattern())
+    }
+
+    /// The output paths with the flag that names them.
+    fn outputs(&self) -> Vec<(&FramePattern, &'static str)> {
+        let mut v = vec![(&self.output, "-o")];
+        v.extend(self.preview.iter().map(|p| (p, "--preview")));
+        v.extend(self.stats.iter().map(|p| (p, "--stats")));
+        v
+    }
+
+    /// The plan of frame `frame`: every pattern replaced by it.
+    pub fn plan(&self, plan: &RenderPlan, frame: i64) -> RenderPlan {
+        let mut p = plan.clone();
+        p.input = self.input.path(frame);
+        p.outputs.path = self.output.path(frame);
+        p.outputs.exr.input_file = Some(p.input.display().to_string());
+        if let (Some((path, _)), Some(pat)) = (&mut p.outputs.preview, &self.preview) {
+            *path = pat.path(frame);
+        }
+        if let Some(pat) = &self.stats {
+            p.outputs.stats = Some(pat.path(frame));
+        }
+        if let Some(pat) = &self.shadow_cache {
+            p.shadows.cache = Some(pat.path(frame));
+        }
+        p
+    }
+}
+
+/// The frames to render: `spec` (`--frames` or the scene's `frames`), else the frames
+/// whose input files exist when the input is a pattern. Several frames need a frame
+/// pattern in every output path (else they would overwrite one another).
+pub fn choose_frames(
+    paths: &FramePaths,
+    plan: &RenderPlan,
+    spec: Option<&str>,
+) -> Result<Vec<i64>> {
+    let frames = match spec {
+        Some(s) => parse_frames(s).map_err(|e| anyhow!(e))?,
+        None if paths.input.is_pattern() => paths
+            .input
+            .existing_frames(&plan.input)
+            .map_err(|e| anyhow!(e))?,
+        None => {
+            return Err(anyhow!(
+                "{}: a frame pattern in the outputs needs --frames (or a pattern in the input)",
+                plan.outputs.path.display()
+            ));
+        }
+    };
+    if frames.len() > 1 {
+        for (p, flag) in paths.outputs() {
+            if !p.is_pattern() {
+                return Err(anyhow!(
+                    "{flag} {}: {} frames would all be written to this one file; put a frame pattern (####) in it",
+                    p.path(0).display(),
+                    frames.len()
+                ));
+            }
+        }
+    }
+    Ok(frames)
+}
+
+/// How a sequence is rendered.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SequenceOptions {
+    /// Leave frames whose output is already a complete EXR.
+    pub skip_existing: bool,
+    /// Render only this piece of every frame.
+    pub piece: Option<Piece>,
+}
+
+/// What became of one frame.
+pub enum FrameOutcome {
+    Written(Box<RenderStats>),
+    /// Its output already existed, complete.
+    Skipped,
+    Failed(anyhow::Error),
+}
+
+/// The whole sequence.
+#[derive(Debug, Default)]
+pub struct SequenceSummary {
+    pub written: usize,
+    pub skipped: usize,
+    pub failed: Vec<i64>,
+    /// Frames whose shadow maps were reused from the frame before.
+    pub shadow_maps_reused: usize,
+    pub seconds: f64,
+}
+
+/// Whether `path` is a complete EXR: it exists and every pixel of it decodes (a file cut
+/// short by a killed writer does not). murk itself never leaves a partial file at the
+/// final path (outputs are renamed into place), but another tool might.
+pub fn is_complete_exr(path: &Path) -> bool {
+    path.is_file() && exr::prelude::read_all_flat_layers_from_file(path).is_ok()
+}
+
+/// Renders `frames` of `plan` in order, one progress bar over all of them (`progress`);
+/// `check` vets each frame's plan (outputs that would clobber an input); `on_frame`
+/// hears what became of each frame as it ends.
+pub fn render_sequence(
+    plan: &RenderPlan,
+    paths: &FramePaths,
+    frames: &[i64],
+    options: SequenceOptions,
+    progress: &dyn Progress,
+    check: &dyn Fn(&RenderPlan) -> Result<()>,
+    on_frame: &mut dyn FnMut(i64, &RenderPlan, &FrameOutcome),
+) -> SequenceSummary {
+    let start = Instant::now();
+    let mut reuse = FrameReuse::across_frames();
+    let mut summary = SequenceSummary::default();
+    progress.start("frames", frames.len() as u64, "frames");
+    for &frame in frames {
+        let fp = paths.plan(plan, frame);
+        progress.note(&format!("frame {frame}"));
+        let outcome = if options.skip_existing && is_complete_exr(&fp.outputs.path) {
+            FrameOutcome::Skipped
+        } else {
+            let job = FrameJob {
+                frame: Some(frame),
+                piece: options.piece,
+            };
+            match check(&fp).and_then(|_| run_frame(&fp, &Silent, &mut reuse, job)) {
+                Ok(st) => FrameOutcome::Written(Box::new(st)),
+                Err(e) => FrameOutcome::Failed(e),
+            }
+        };
+        match &outcome {
+            FrameOutcome::Written(_) => summary.written += 1,
+            FrameOutcome::Skipped => summary.skipped += 1,
+            FrameOutcome::Failed(_) => summary.failed.push(frame),
+        }
+        on_frame(frame, &fp, &outcome);
+        progress.advance(1);
+    }
+    progress.finish();
+    summary.shadow_maps_reused = reuse.shadow_maps_reused;
+    summary.seconds = start.elapsed().as_secs_f64();
+    summary
+}
+
+/// The path of frame `frame` of `pattern` (for tools that build command lines).
+pub fn frame_path(pattern: &Path, frame: i64) -> PathBuf {
+    FramePattern::new(pattern).path(frame)
+}
