@@ -1,6 +1,7 @@
 //! Command-line parsing and dispatch. Errors are printed as one line; exit code 2.
 
 mod args;
+mod farm;
 mod guard;
 mod info;
 mod info_mesh;
@@ -74,6 +75,30 @@ enum Command {
         #[command(flatten)]
         options: Box<args::RenderArgs>,
     },
+    /// Write a render farm's job for a sequence: `murk farm openjd` (Open Job Description,
+    /// for AWS Deadline Cloud).
+    Farm {
+        #[command(subcommand)]
+        which: farm::FarmCommand,
+    },
+    /// Put the pieces of a frame rendered with `murk render --tile I/N` back together.
+    #[command(
+        after_help = "Examples:\n  murk stitch out.piece1of2.exr out.piece2of2.exr -o out.exr\n  murk stitch --frame 12 'out_####.p1.exr' 'out_####.p2.exr' -o 'out_####.exr'"
+    )]
+    Stitch {
+        /// Every piece of the frame, in any order.
+        #[arg(required = true)]
+        pieces: Vec<PathBuf>,
+        /// The whole frame's EXR.
+        #[arg(short = 'o', long = "output", value_name = "FULL.exr")]
+        output: PathBuf,
+        /// Put this frame number into the frame patterns (####, %04d, $F4) of the paths.
+        #[arg(long, value_name = "N")]
+        frame: Option<i64>,
+        /// No report.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Tabulate and plot a phase function (CSV, PNG), to see what a render will get.
     Phase {
         #[command(subcommand)]
@@ -127,6 +152,21 @@ pub fn run() -> i32 {
         }
         Command::Info { file, stats, json } => info::run(&file, stats, json),
         Command::Phase { which } => phase::run(which),
+        Command::Farm {
+            which:
+                farm::FarmCommand::Openjd {
+                    input,
+                    options,
+                    tiles,
+                    job,
+                },
+        } => farm::openjd(&input, *options, tiles, &job),
+        Command::Stitch {
+            pieces,
+            output,
+            frame,
+            quiet,
+        } => stitch(&pieces, &output, frame, quiet),
         Command::Render { input, options } => {
             let sequence = options.sequence.clone();
             match render::run_sequence_or_frame(&input, options.options(), &sequence) {
@@ -144,6 +184,26 @@ pub fn run() -> i32 {
             2
         }
     }
+}
+
+/// `murk stitch`.
+fn stitch(
+    pieces: &[PathBuf],
+    output: &std::path::Path,
+    frame: Option<i64>,
+    quiet: bool,
+) -> anyhow::Result<()> {
+    let at = |p: &std::path::Path| match frame {
+        Some(f) => murk::render::sequence::frame_path(p, f),
+        None => p.to_path_buf(),
+    };
+    let pieces: Vec<PathBuf> = pieces.iter().map(|p| at(p)).collect();
+    let output = at(output);
+    let (w, h, n) = murk::output::stitch::stitch(&pieces, &output)?;
+    if !quiet {
+        eprintln!("murk: wrote {} ({w}x{h}, {n} pieces)", output.display());
+    }
+    Ok(())
 }
 
 /// The error and its causes, each cause added only if the text so far does not already

@@ -57,7 +57,7 @@ impl ExrCompression {
         }
     }
 
-    fn to_exr(self) -> exr::compression::Compression {
+    pub(crate) fn to_exr(self) -> exr::compression::Compression {
         use exr::compression::Compression as C;
         match self {
             Self::None => C::Uncompressed,

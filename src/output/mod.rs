@@ -8,6 +8,7 @@ mod error;
 mod exr;
 mod frame;
 mod preview;
+pub mod stitch;
 
 pub use atomic::write_atomically;
 pub use error::OutputError;

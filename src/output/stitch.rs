@@ -1,0 +1,276 @@
+//! `murk stitch`: the pieces of a frame rendered with `--tile I/N` put back together into
+//! the EXR the one-piece render writes (the same pixels, channels, storage and data
+//! window). Pieces of different frames or sizes, a piece twice or missing: refused.
+
+use super::exr::{ExrCompression, ExrOptions, write_exr};
+use super::frame::{Frame, is_depth_channel};
+use crate::render::piece::attr;
+use anyhow::{Result, anyhow};
+use exr::meta::attribute::AttributeValue;
+use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// One piece as read.
+struct Piece {
+    path: PathBuf,
+    index: usize,
+    count: usize,
+    rows: (usize, usize),
+    size: (usize, usize),
+    /// The data window's origin and size.
+    window: (usize, usize, usize, usize),
+    channels: Vec<(String, Vec<f32>, bool)>,
+    strings: HashMap<String, String>,
+    render_time: f32,
+    compression: exr::compression::Compression,
+    world_to_camera: Option<[f32; 16]>,
+    world_to_ndc: Option<[f32; 16]>,
+    software: String,
+}
+
+fn read_piece(path: &Path) -> Result<Piece> {
+    let name = path.display();
+    let image = read_all_flat_layers_from_file(path).map_err(|e| anyhow!("{name}: {e}"))?;
+    let [layer] = &image.layer_data[..] else {
+        return Err(anyhow!(
+            "{name}: not a murk piece (it has {} parts)",
+            image.layer_data.len()
+        ));
+    };
+    let mut strings = HashMap::new();
+    let mut render_time = 0.0;
+    for (k, v) in image.attributes.other.iter().chain(&layer.attributes.other) {
+        match v {
+            AttributeValue::Text(t) => {
+                strings.insert(k.to_string(), t.to_string());
+            }
+            AttributeValue::F32(f) if k.eq("renderTime") => render_time = *f,
+            _ => {}
+        }
+    }
+    let get = |key: &str| {
+        strings.get(key).ok_or_else(|| {
+            anyhow!("{name}: not a piece of a `murk render --tile` (no {key} in its header)")
+        })
+    };
+    let (index, count) = get(attr::TILE)?
+        .split_once('/')
+        .and_then(|(i, n)| Some((i.parse().ok()?, n.parse().ok()?)))
+        .ok_or_else(|| anyhow!("{name}: a malformed {} attribute", attr::TILE))?;
+    let rows = get(attr::TILE_ROWS)?
+        .split_once('-')
+        .and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)))
+        .ok_or_else(|| anyhow!("{name}: a malformed {} attribute", attr::TILE_ROWS))?;
+    let display = image.attributes.display_window;
+    let size = (display.size.0, display.size.1);
+    let pos = layer.attributes.layer_position;
+    let window = (
+        usize::try_from(pos.0 - display.position.0).unwrap_or(usize::MAX),
+        usize::try_from(pos.1 - display.position.1).unwrap_or(usize::MAX),
+        layer.size.0,
+        layer.size.1,
+    );
+    let (rows_ok, window_ok) = (
+        rows.0 < rows.1 && rows.1 <= size.1,
+        window.0.saturating_add(window.2) <= size.0 && window.1.saturating_add(window.3) <= size.1,
+    );
+    if !(1..=count).contains(&index) || !rows_ok || !window_ok {
+        return Err(anyhow!("{name}: its piece attributes do not fit its image"));
+    }
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| {
+            let (data, float) = match &c.sample_data {
+                FlatSamples::F16(v) => (v.iter().map(|h| h.to_f32()).collect(), false),
+                FlatSamples::F32(v) => (v.clone(), true),
+                FlatSamples::U32(v) => (v.iter().map(|&u| u as f32).collect(), true),
+            };
+            (c.name.to_string(), data, float)
+        })
+        .collect();
+    Ok(Piece {
+        path: path.to_path_buf(),
+        index,
+        count,
+        rows,
+        size,
+        window,
+        channels,
+        strings,
+        render_time,
+        compression: layer.encoding.compression,
+        world_to_camera: layer.attributes.world_to_camera,
+        world_to_ndc: layer.attributes.world_to_normalized_device,
+        software: layer
+            .attributes
+            .software_name
+            .as_ref()
+            .map(|t| t.to_string())
+            .unwrap_or_default(),
+    })
+}
+
+/// What must be the same in every piece, with the words that say so when it is not.
+fn same(pieces: &[Piece]) -> Result<()> {
+    let first = &pieces[0];
+    let frame_of = |p: &Piece| {
+        let input = p.strings.get("inputFile").map_or("?", String::as_str);
+        match p.strings.get(attr::FRAME) {
+            Some(f) => format!("frame {f}, {input}"),
+            None => input.to_string(),
+        }
+    };
+    let names = |p: &Piece| p.channels.iter().map(|c| c.0.clone()).collect::<Vec<_>>();
+    for p in &pieces[1..] {
+        let (a, b) = (first.path.display(), p.path.display());
+        if frame_of(p) != frame_of(first) {
+            return Err(anyhow!(
+                "{b}: a piece of another frame ({}) than {a} ({})",
+                frame_of(p),
+                frame_of(first)
+            ));
+        }
+        if p.size != first.size {
+            return Err(anyhow!(
+                "{b}: {}x{}, but {a} is {}x{}: pieces of different sizes",
+                p.size.0,
+                p.size.1,
+                first.size.0,
+                first.size.1
+            ));
+        }
+        if p.count != first.count {
+            return Err(anyhow!(
+                "{b}: a piece of {} but {a} is a piece of {}",
+                p.count,
+                first.count
+            ));
+        }
+        if names(p) != names(first)
+            || p.strings.get(attr::STORAGE) != first.strings.get(attr::STORAGE)
+        {
+            return Err(anyhow!("{b}: its channels are not those of {a}"));
+        }
+    }
+    Ok(())
+}
+
+/// Reads the pieces, checks they are every piece of one frame, and writes the whole frame
+/// to `out`. Returns the frame's size and the number of pieces.
+pub fn stitch(pieces: &[PathBuf], out: &Path) -> Result<(usize, usize, usize)> {
+    if pieces.is_empty() {
+        return Err(anyhow!("no pieces to stitch"));
+    }
+    let mut read: Vec<Piece> = pieces
+        .iter()
+        .map(|p| read_piece(p))
+        .collect::<Result<_>>()?;
+    same(&read)?;
+    read.sort_by_key(|p| p.index);
+    let count = read[0].count;
+    for w in read.windows(2) {
+        if w[0].index == w[1].index {
+            return Err(anyhow!(
+                "{} and {}: both are piece {}/{count}",
+                w[0].path.display(),
+                w[1].path.display(),
+                w[0].index
+            ));
+        }
+    }
+    let have: Vec<usize> = read.iter().map(|p| p.index).collect();
+    let missing: Vec<String> = (1..=count)
+        .filter(|i| !have.contains(i))
+        .map(|i| format!("{i}/{count}"))
+        .collect();
+    if !missing.is_empty() {
+        return Err(anyhow!(
+            "{}: missing piece{} {} of the frame",
+            read[0].path.display(),
+            if missing.len() > 1 { "s" } else { "" },
+            missing.join(", ")
+        ));
+    }
+    let mut next_row = 0;
+    for p in &read {
+        if p.rows.0 != next_row {
+            return Err(anyhow!(
+                "{}: its rows {}-{} do not follow the previous piece's (row {next_row})",
+                p.path.display(),
+                p.rows.0,
+                p.rows.1
+            ));
+        }
+        next_row = p.rows.1;
+    }
+    let (w, h) = read[0].size;
+    if next_row != h {
+        return Err(anyhow!("the pieces cover rows 0-{next_row} of {h}"));
+    }
+    let mut frame = Frame::new(w, h);
+    for (c, (name, _, _)) in read[0].channels.iter().enumerate() {
+        let fill = if is_depth_channel(name) {
+            f32::INFINITY
+        } else {
+            0.0
+        };
+        let mut data = vec![fill; w * h];
+        let mut float = false;
+        for p in &read {
+            let (x0, y0, pw, ph) = p.window;
+            let (_, src, f) = &p.channels[c];
+            float |= *f;
+            for y in y0.max(p.rows.0)..(y0 + ph).min(p.rows.1) {
+                let row = &src[(y - y0) * pw..][..pw];
+                data[y * w + x0..][..pw].copy_from_slice(row);
+            }
+        }
+        frame.add_channel(name.clone(), data)?;
+        // Stored as float in a piece: asked for (a float pass) or widened because the
+        // layer overflows half there, and then in the whole frame too.
+        if float {
+            frame.store_as_float(name);
+        }
+    }
+    let first = &read[0];
+    let unflatten = |m: [f32; 16]| {
+        let mut out = [[0f32; 4]; 4];
+        for (i, v) in m.into_iter().enumerate() {
+            out[i / 4][i % 4] = v;
+        }
+        out
+    };
+    let mut extra: Vec<(String, String)> = first
+        .strings
+        .iter()
+        .filter(|(k, _)| {
+            k.starts_with("murk/")
+                && ![attr::TILE, attr::TILE_ROWS, attr::STORAGE].contains(&k.as_str())
+        })
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
+    extra.sort();
+    let opts = ExrOptions {
+        compression: ExrCompression::ALL
+            .into_iter()
+            .find(|c| {
+                std::mem::discriminant(&c.to_exr()) == std::mem::discriminant(&first.compression)
+            })
+            .unwrap_or_default(),
+        float: first
+            .strings
+            .get(attr::STORAGE)
+            .is_some_and(|s| s == "float"),
+        world_to_camera: first.world_to_camera.map(unflatten),
+        world_to_ndc: first.world_to_ndc.map(unflatten),
+        software: first.software.clone(),
+        render_time_seconds: Some(read.iter().map(|p| p.render_time as f64).sum()),
+        input_file: first.strings.get("inputFile").cloned(),
+        extra_strings: extra,
+    };
+    write_exr(out, &frame, &opts)?;
+    Ok((w, h, count))
+}
