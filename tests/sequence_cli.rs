@@ -454,10 +454,16 @@ fn bad_pieces_and_sequences_are_one_line_and_exit_2() {
     stitch(vec![s(&dir.join("nothing.exr"))], "nothing.exr");
     let input = seq("fluid_####.vdb");
     let i = input.to_str().unwrap();
-    let cases: [(&[&str], &str); 9] = [
+    let none = seq("none_####.vdb");
+    let one = seq("fluid_0001.vdb");
+    let cases: [(&[&str], &str); 10] = [
+        (
+            &["render", none.to_str().unwrap(), "-o", "o_####.exr"],
+            "matches no file",
+        ),
         (
             &["render", "cache/none_####.vdb", "-o", "o_####.exr"],
-            "matches no file",
+            "cannot list cache",
         ),
         (
             &["render", i, "--frames", "4-1", "-o", "o_####.exr"],
@@ -486,7 +492,14 @@ fn bad_pieces_and_sequences_are_one_line_and_exit_2() {
         ),
         (
             &[
-                "render", i, "--tile", "40/40", "--res", "48x36", "-o", "o.exr",
+                "render",
+                one.to_str().unwrap(),
+                "--tile",
+                "40/40",
+                "--res",
+                "48x36",
+                "-o",
+                "o.exr",
             ],
             "more pieces than",
         ),
