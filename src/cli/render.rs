@@ -108,6 +108,7 @@ pub fn run_sequence_or_frame(
             job,
         )
         .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
+        print_warnings(&stats.scene.warnings);
         if !quiet {
             eprintln!(
                 "murk: wrote {} ({}x{}{}) in {:.2} s",
@@ -127,28 +128,39 @@ pub fn run_sequence_or_frame(
     let bars = super::progress::Bars::new(quiet);
     let check = |p: &RenderPlan| super::guard::check_plan(p, scene.as_deref());
     let mut report = |frame: i64, p: &RenderPlan, outcome: &FrameOutcome| {
-        let line = match outcome {
-            FrameOutcome::Failed(e) => Some(format!(
+        let mut lines = Vec::new();
+        match outcome {
+            FrameOutcome::Failed(e) => lines.push(format!(
                 "murk: error: frame {frame}: {}",
                 super::one_line(&super::error_chain(e))
             )),
-            _ if quiet => None,
-            FrameOutcome::Skipped => Some(format!(
+            FrameOutcome::Skipped if !quiet => lines.push(format!(
                 "murk: frame {frame}: {} exists: skipped",
                 p.outputs.path.display()
             )),
-            FrameOutcome::Written(st) if p.outputs.stats.is_some() => Some(format!(
-                "murk: frame {frame}: wrote {} in {:.2} s (shadows: {})",
-                p.outputs.path.display(),
-                st.total_seconds,
-                st.scene
-                    .shadow_maps
-                    .first()
-                    .map_or("none".into(), |m| m.source.clone())
-            )),
-            FrameOutcome::Written(_) => None,
-        };
-        if let Some(l) = line {
+            FrameOutcome::Skipped => {}
+            FrameOutcome::Written(st) => {
+                // Warnings even with --quiet, as for one image.
+                lines.extend(st.scene.warnings.iter().map(|w| {
+                    format!(
+                        "murk: warning: frame {frame}: {}",
+                        super::guard::message_text(w)
+                    )
+                }));
+                if !quiet && p.outputs.stats.is_some() {
+                    lines.push(format!(
+                        "murk: frame {frame}: wrote {} in {:.2} s (shadows: {})",
+                        p.outputs.path.display(),
+                        st.total_seconds,
+                        st.scene
+                            .shadow_maps
+                            .first()
+                            .map_or("none".into(), |m| m.source.clone())
+                    ));
+                }
+            }
+        }
+        for l in lines {
             bars.println(&l);
         }
     };

@@ -2,6 +2,7 @@
 //! oiiotool) run as a reader would, failing the test when a tool is missing.
 #![allow(dead_code)]
 
+pub mod frames;
 pub mod march;
 
 use std::path::Path;
