@@ -379,6 +379,12 @@ fn bad_pieces_and_sequences_are_one_line_and_exit_2() {
         refused(&dir, args, needle);
     }
     assert!(!dir.join("o_0001.exr").exists());
+    let one = one.to_str().unwrap();
+    refused(
+        &dir,
+        &["converge", one, "--frames", "1-2"],
+        "times one image",
+    );
 }
 
 #[test]

@@ -136,6 +136,11 @@ pub fn run() -> i32 {
         }
     };
     let result = match cli.command {
+        Command::Converge { options, .. } if options.sequence != args::SequenceArgs::default() => {
+            Err(anyhow::anyhow!(
+                "murk converge times one image: --frames, --skip-existing and --tile are for murk render"
+            ))
+        }
         Command::Converge {
             input,
             out,
