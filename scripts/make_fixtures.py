@@ -44,6 +44,7 @@ import pyopenvdb as vdb
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mesh_fixtures  # noqa: E402
 import mie_reference  # noqa: E402
+import production_fixtures  # noqa: E402
 
 FOG = vdb.GridClass.FOG_VOLUME
 
@@ -283,6 +284,7 @@ def generate(out):
         write_bad_types(os.path.join(out, "bad_types.vdb"), tmp)
         write_sequence(os.path.join(out, "seq"))
         mesh_fixtures.generate(out)
+        production_fixtures.generate(out)
     finally:
         shutil.rmtree(tmp)
     ref = compute_reference(out)
@@ -295,7 +297,7 @@ def generate(out):
 
 FILES = ["cloud.vdb", "levelset_fog.vdb", "pyro.vdb", "zip.vdb", "rotated.vdb",
          "nonuniform.vdb", "tiles.vdb", "far.vdb", "empty.vdb", "sphere.vdb",
-         "slab.vdb", "bad_types.vdb"]
+         "slab.vdb", "bad_types.vdb"] + production_fixtures.FILES
 
 
 def file_version(path):
