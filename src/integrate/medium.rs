@@ -161,7 +161,7 @@ impl<'a> Emission<'a> {
             let v = c.value(p, w) as f64;
             let k = v * self.temperature_scale + self.temperature_offset;
             if k > 0.0 && k.is_finite() {
-                let rgb = DVec3::from_array(self.table.rgb_normalized(k));
+                let rgb = DVec3::from_array(self.table.rgb_normalized_clamped(k));
                 let brightness = (k / 1000.0).powi(4) * self.blackbody_intensity;
                 e += rgb * brightness;
             }
