@@ -190,6 +190,23 @@ pub struct ImageArgs {
     pub background: Option<String>,
 }
 
+/// Production caches: the conventions murk assumes and how the EXR is placed.
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct ProductionArgs {
+    /// World up axis: y, z or auto (z for Blender's caches, told by metadata or grid
+    /// names; else y). The default camera and sun follow it. Default auto.
+    #[arg(long = "up-axis", value_name = "y|z|auto")]
+    pub up_axis: Option<String>,
+    /// Z where nothing is: a number or inf (default 1e10, as Cycles writes: +inf turns
+    /// into NaN under filtered resizes).
+    #[arg(long = "z-empty", value_name = "DEPTH|inf")]
+    pub z_empty: Option<String>,
+    /// Crop the EXR's dataWindow to the non-empty pixels (a smaller file; Blender's
+    /// compositor misplaces a cropped dataWindow). Default: dataWindow = displayWindow.
+    #[arg(long = "crop-data-window")]
+    pub crop_data_window: bool,
+}
+
 /// `murk render` flags.
 #[derive(Args, Clone, Debug, Default, PartialEq)]
 pub struct RenderArgs {
@@ -212,6 +229,8 @@ pub struct RenderArgs {
     pub image: ImageArgs,
     #[command(flatten)]
     pub sequence: SequenceArgs,
+    #[command(flatten)]
+    pub production: ProductionArgs,
 }
 
 /// Frame sequences and pieces of frames (for a farm).
@@ -308,6 +327,9 @@ impl RenderArgs {
             exposure: a.image.exposure,
             background: a.image.background,
             frames: a.sequence.frames,
+            up_axis: a.production.up_axis,
+            z_empty: a.production.z_empty,
+            crop_data_window: a.production.crop_data_window,
             ..RenderOptions::default()
         };
         a.map.set(&mut o);

@@ -15,6 +15,7 @@ pub mod grid;
 pub mod grid_build;
 mod grid_integrals;
 pub mod mesh;
+pub mod nonzero;
 pub mod procedural;
 pub mod random;
 pub mod shapes;

@@ -118,6 +118,14 @@ pub struct ExrOptions {
     /// not be standard attribute names, nor `renderTime`, `inputFile` or
     /// `murk/nanCount`, nor repeat.
     pub extra_strings: Vec<(String, String)>,
+    /// What depth channels hold where there is no depth (the frame's `+inf`): 1e10 by
+    /// default, as Cycles writes (OpenImageIO's filtered resize turns `+inf` into NaN);
+    /// `f32::INFINITY` keeps `+inf`.
+    pub z_empty: f32,
+    /// `true`: the dataWindow is cropped to the non-empty pixels ([`Frame::data_window`]);
+    /// `false` (default): dataWindow = displayWindow, which every compositor places
+    /// right (Blender 3.4's centres a cropped one).
+    pub crop_data_window: bool,
 }
 
 impl Default for ExrOptions {
@@ -131,6 +139,8 @@ impl Default for ExrOptions {
             render_time_seconds: None,
             input_file: None,
             extra_strings: Vec::new(),
+            z_empty: 1e10,
+            crop_data_window: false,
         }
     }
 }
@@ -244,13 +254,22 @@ pub fn write_exr(
         )));
     }
 
-    let window = frame.data_window();
+    let window = if opts.crop_data_window {
+        frame.data_window()
+    } else {
+        PixelRect {
+            x: 0,
+            y: 0,
+            width: w,
+            height: h,
+        }
+    };
     let wide = overflowing_layers(frame, opts);
     let mut nan_count = 0;
     let mut channels = Vec::with_capacity(frame.channels().len());
     for channel in frame.channels() {
         let depth = is_depth_channel(channel.name());
-        let fill = if depth { f32::INFINITY } else { 0.0 };
+        let fill = if depth { opts.z_empty } else { 0.0 };
         nan_count += channel.data().iter().filter(|v| v.is_nan()).count();
         let cropped = channel
             .data()
@@ -262,7 +281,7 @@ pub fn write_exr(
             // Colour is never infinite in the file (depth's +inf means "no depth").
             .map(|v| {
                 if depth {
-                    v
+                    if v == f32::INFINITY { opts.z_empty } else { v }
                 } else {
                     v.clamp(f32::MIN, f32::MAX)
                 }

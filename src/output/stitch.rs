@@ -270,6 +270,9 @@ pub fn stitch(pieces: &[PathBuf], out: &Path) -> Result<(usize, usize, usize)> {
         render_time_seconds: Some(read.iter().map(|p| p.render_time as f64).sum()),
         input_file: first.strings.get("inputFile").cloned(),
         extra_strings: extra,
+        // The pieces' empty depth is already what they were written with (1e10 by
+        // default); the stitched frame takes murk's default window (the full frame).
+        ..ExrOptions::default()
     };
     write_exr(out, &frame, &opts)?;
     Ok((w, h, count))

@@ -177,7 +177,14 @@ pub fn render_image_frame(
     exr.world_to_ndc = Some(camera.world_to_ndc(near, far).as_mat4().to_cols_array_2d());
     exr.extra_strings.push((
         "murk/depthRule".into(),
-        "Z is the camera-space distance along the view axis where accumulated alpha first reaches 0.5; +inf where it never does".into(),
+        format!(
+            "Z is the camera-space distance along the view axis where accumulated alpha first reaches 0.5; {} where it never does",
+            if exr.z_empty.is_finite() {
+                format!("{:e}", exr.z_empty)
+            } else {
+                "+inf".into()
+            }
+        ),
     ));
     st.channels = frame
         .channel_names()

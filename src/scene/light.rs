@@ -33,6 +33,14 @@ pub(super) fn parse_triple(s: &str, what: &str) -> Result<DVec3, String> {
 }
 
 impl Light {
+    /// The same light with its direction or position turned by `turn` (a rotation).
+    pub fn rotate(&mut self, turn: impl Fn(DVec3) -> DVec3) {
+        match &mut self.kind {
+            LightKind::Sun { toward } => *toward = turn(*toward),
+            LightKind::Point { position } => *position = turn(*position),
+        }
+    }
+
     /// Parses `sun:DX,DY,DZ[:R,G,B[:INTENSITY]]` or `point:X,Y,Z[:R,G,B[:INTENSITY]]`.
     pub fn parse(spec: &str, name: String) -> Result<Light, super::PlanError> {
         Self::parsed(spec, name).map_err(super::PlanError::Invalid)

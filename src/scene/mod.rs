@@ -5,6 +5,7 @@
 //! shadow maps — and reports each stage (ran, or skipped and why).
 
 pub mod camera;
+pub mod conventions;
 pub mod frames;
 pub mod light;
 pub mod lights;
@@ -103,9 +104,24 @@ impl Scene {
         report
             .stages
             .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
-        let camera = resolve_camera(plan, fields.density.as_ref())?;
+        let (up_axis, up_why) = conventions::resolve_up_axis(plan.production.up_axis, &fields.tool);
+        report.up_axis = up_why;
+        let camera = resolve_camera(plan, fields.density.as_ref(), up_axis)?;
+        let mut emission_plan = plan.emission;
+        if let Some(m) = &fields.temperature_mapping {
+            emission_plan.temperature_scale = m.scale;
+            emission_plan.temperature_offset = m.offset;
+        }
         let emission = (fields.emission.is_some() || fields.temperature.is_some())
-            .then(|| (plan.emission, BlackbodyTable::new(200.0, 40000.0, 2048)));
+            .then(|| (emission_plan, BlackbodyTable::new(200.0, 40000.0, 2048)));
+        // The default sun follows the up axis: it shines from the same side of the
+        // default camera in a Z-up world as in a Y-up one.
+        let mut lights = plan.lights.clone();
+        if plan.production.default_light && up_axis != conventions::UpAxis::Y {
+            for l in &mut lights {
+                l.rotate(|v| up_axis.from_y_up(v));
+            }
+        }
         // The phase function: water-drop tables are built (or read from the disk
         // cache) here, once per process and radius.
         let t = Instant::now();
@@ -119,7 +135,7 @@ impl Scene {
             medium,
             phase,
             emission,
-            lights: plan.lights.clone(),
+            lights,
             shadows: Vec::new(),
             plan_shadows: (
                 plan.shadow_quadrature(),
@@ -155,17 +171,28 @@ impl Scene {
         }
         let turned_off =
             plan.grids.emission == GridChoice::Off && plan.grids.temperature == GridChoice::Off;
+        let added_nothing = (!self.report.skipped_grids.is_empty()).then(|| {
+            let why: Vec<String> = self
+                .report
+                .skipped_grids
+                .iter()
+                .map(|(g, r)| format!("grid {g} adds nothing ({r})"))
+                .collect();
+            why.join("; ")
+        });
         let emission_skip_reason = if turned_off {
-            "emission and temperature grids turned off"
+            "emission and temperature grids turned off".to_string()
+        } else if let Some(why) = added_nothing {
+            why
         } else if self.fields.emission_found {
-            "emission and blackbody intensities are 0"
+            "emission and blackbody intensities are 0".to_string()
         } else {
-            "no emission or temperature grid in the scene"
+            "no emission or temperature grid in the scene".to_string()
         };
         let emission = if self.emits {
             Stage::ran(0.0)
         } else {
-            Stage::skipped(emission_skip_reason)
+            Stage::skipped(&emission_skip_reason)
         };
         let scatter = if self.scatters {
             Stage::ran(0.0)
@@ -336,24 +363,39 @@ impl Scene {
     }
 }
 
-/// The camera the plan asks for, framing the density's bounds where it does not say.
-fn resolve_camera(plan: &RenderPlan, density: &dyn Field) -> Result<Camera> {
-    let (lo, hi) = density.world_bounds();
-    let (lo, hi) = if density.active_bounds().is_empty() {
+/// The camera the plan asks for, framing the bounds of the density's non-zero values
+/// where it does not say, from the front with `up` up.
+fn resolve_camera(
+    plan: &RenderPlan,
+    density: &dyn Field,
+    up: conventions::UpAxis,
+) -> Result<Camera> {
+    let nonzero = crate::field::nonzero::nonzero_bounds(density);
+    let (lo, hi) = if nonzero.is_empty() {
         (DVec3::splat(-1.0), DVec3::splat(1.0))
     } else {
-        (lo, hi)
+        density.transform().index_box_to_world(&nonzero)
     };
     let req = &plan.camera.request;
-    let framed = Camera::framing(
-        lo,
-        hi,
+    // Framed in murk's Y-up frame, then turned into the world's: the box's corners
+    // map to a box (the turn permutes axes).
+    let (a, b) = (up.to_y_up(lo), up.to_y_up(hi));
+    let mut framed = Camera::framing(
+        a.min(b),
+        a.max(b),
         plan.camera.width,
         plan.camera.height,
         req.projection,
     );
+    framed.eye = up.from_y_up(framed.eye);
+    framed.look_at = up.from_y_up(framed.look_at);
+    framed.up = up.from_y_up(framed.up);
     let mut cam = framed;
-    cam.up = req.up;
+    cam.up = if plan.production.up_explicit {
+        req.up
+    } else {
+        up.vector()
+    };
     if let Some(look) = req.look_at {
         cam.look_at = look;
     }

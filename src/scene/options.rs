@@ -126,6 +126,17 @@ pub struct RenderOptions {
     // --- frame sequences (scene/frames.rs) ---
     /// The frames of a sequence: `1-10,20,30-40x2` (the paths hold `####`, `%04d` or `$F4`).
     pub frames: Option<String>,
+
+    // Production caches: conventions and how the EXR is placed.
+    /// World up axis: y, z or auto (z for Blender's caches, else y). The default camera
+    /// and sun follow it.
+    pub up_axis: Option<String>,
+    /// Z where nothing is: a number (default 1e10, as Cycles writes) or inf.
+    pub z_empty: Option<String>,
+    /// Crop the EXR's dataWindow to the non-empty pixels (smaller file; Blender's
+    /// compositor misplaces it).
+    #[serde(default)]
+    pub crop_data_window: bool,
 }
 
 /// A light in a scene file, with the name its scatter layer gets.
@@ -176,6 +187,7 @@ impl RenderOptions {
                 ground_visible: self.ground_visible || base.ground_visible,
                 reference: self.reference || base.reference,
                 quiet: self.quiet || base.quiet,
+                crop_data_window: self.crop_data_window || base.crop_data_window,
             } };
         }
         pick!(
@@ -217,7 +229,9 @@ impl RenderOptions {
             preview,
             exposure,
             background,
-            frames
+            frames,
+            up_axis,
+            z_empty
         )
     }
 }

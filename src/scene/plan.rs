@@ -75,6 +75,8 @@ pub mod defaults {
     pub const SPP: u32 = 1;
     pub const SEED: u64 = 0;
     pub const EXPOSURE: f32 = 0.0;
+    /// Z written where nothing is (`--z-empty`), as Cycles does.
+    pub const Z_EMPTY: f32 = 1e10;
     /// Water-drop radius for `--phase water-drop`, micrometres.
     pub const DROP_RADIUS_UM: f64 = crate::integrate::phase::water_drop::DEFAULT_RADIUS_UM;
 }
@@ -158,6 +160,47 @@ pub struct OutputPlan {
     pub quiet: bool,
 }
 
+/// Production caches: which conventions are assumed, and what the user fixed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProductionPlan {
+    /// `--up-axis`.
+    pub up_axis: super::conventions::UpAxisChoice,
+    /// `--up` was given: the camera's up is not the world's.
+    pub up_explicit: bool,
+    /// `--temperature-scale` or `--temperature-offset` was given: no convention is
+    /// detected.
+    pub temperature_explicit: bool,
+    /// The scene names no light: the default sun, which follows the up axis.
+    pub default_light: bool,
+}
+
+fn up_axis_choice(v: &Option<String>) -> Result<super::conventions::UpAxisChoice, String> {
+    use super::conventions::{UpAxis, UpAxisChoice};
+    match v.as_deref() {
+        None | Some("auto") => Ok(UpAxisChoice::Auto),
+        Some("y") | Some("Y") => Ok(UpAxisChoice::Fixed(UpAxis::Y)),
+        Some("z") | Some("Z") => Ok(UpAxisChoice::Fixed(UpAxis::Z)),
+        Some(o) => Err(format!("--up-axis \"{o}\": expected y, z or auto")),
+    }
+}
+
+/// `--z-empty`: a finite non-negative depth or `inf` (default 1e10).
+fn z_empty(v: &Option<String>) -> Result<f32, String> {
+    let Some(s) = v else {
+        return Ok(defaults::Z_EMPTY);
+    };
+    let t = s.trim();
+    if t.eq_ignore_ascii_case("inf") || t.eq_ignore_ascii_case("+inf") {
+        return Ok(f32::INFINITY);
+    }
+    match t.parse::<f32>() {
+        Ok(z) if z.is_finite() && z >= 0.0 => Ok(z),
+        _ => Err(format!(
+            "--z-empty \"{s}\": expected a non-negative number or inf"
+        )),
+    }
+}
+
 /// A validated render: every number checked, every default filled in.
 #[derive(Clone, Debug)]
 pub struct RenderPlan {
@@ -178,6 +221,7 @@ pub struct RenderPlan {
     pub march: MarchPlan,
     pub sampling: SamplingPlan,
     pub outputs: OutputPlan,
+    pub production: ProductionPlan,
 }
 
 fn positive(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
@@ -465,11 +509,20 @@ impl RenderPlan {
                     compression,
                     float: o.float,
                     input_file: Some(input.display().to_string()),
+                    z_empty: z_empty(&o.z_empty)?,
+                    crop_data_window: o.crop_data_window,
                     ..ExrOptions::default()
                 },
                 preview,
                 stats: o.stats.clone(),
                 quiet: o.quiet,
+            },
+            production: ProductionPlan {
+                up_axis: up_axis_choice(&o.up_axis)?,
+                up_explicit: o.up.is_some(),
+                temperature_explicit: o.temperature_scale.is_some()
+                    || o.temperature_offset.is_some(),
+                default_light: !o.no_lights && o.lights.is_empty() && o.light.is_empty(),
             },
         })
     }

@@ -63,4 +63,25 @@ pub struct SceneReport {
     /// What cost accuracy without being asked to (a budget that stopped a shadow map's
     /// refinement): printed on stderr as well, even with `--quiet`.
     pub warnings: Vec<String>,
+    /// Production caches: the tool the file is taken to come from and how that was told
+    /// (`null` when nothing tells), the up axis assumed and why, the temperature
+    /// convention assumed, and grids in a role left out because they add nothing
+    /// (grid → reason).
+    pub source_tool: Option<String>,
+    pub up_axis: String,
+    pub temperature_convention: Option<TemperatureConvention>,
+    pub skipped_grids: BTreeMap<String, String>,
+}
+
+/// How temperature became Kelvin: Kelvin = value × scale + offset.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct TemperatureConvention {
+    /// `kelvin`, `blender-normalised`, `houdini-normalised`, `normalised` or `explicit`.
+    pub convention: String,
+    pub scale: f64,
+    pub offset: f64,
+    pub reason: String,
+    /// The grid's largest value, and that in Kelvin.
+    pub max_value: f64,
+    pub max_kelvin: f64,
 }

@@ -2,11 +2,58 @@
 //! colour (named, or detected from the names Houdini, Blender and EmberGen use), decoded
 //! only when the render needs them.
 
+use super::conventions::{TemperatureMapping, Tool, detect_tool, temperature_mapping};
 use super::plan::{GridChoice, RenderPlan};
 use super::report::SceneReport;
+use super::report::TemperatureConvention;
 use super::source::{FieldKind, FieldSource, Loaded};
 use crate::field::{ColorField, Field};
+use crate::integrate::blackbody::BlackbodyTable;
 use anyhow::{Result, anyhow};
+
+/// Half floats round values below this to 0: half the smallest subnormal, 2⁻²⁵.
+pub const HALF_ZERO: f64 = 2.980_232_238_769_531_2e-8;
+
+/// The largest value of a scalar field (a majorant over its active bounds; for a voxel
+/// grid the largest stored value), 0 for an empty field.
+fn field_max(f: &dyn Field) -> f64 {
+    let b = f.active_bounds();
+    if b.is_empty() {
+        return 0.0;
+    }
+    (f.range_over(&b).max as f64).max(0.0)
+}
+
+/// The world length of the field's active bounds' diagonal: no ray crosses more of it.
+fn world_diagonal(f: &dyn Field) -> f64 {
+    let (lo, hi) = f.world_bounds();
+    (hi - lo).length()
+}
+
+/// Why a temperature field adds nothing visible (its hottest blackbody emission over
+/// the longest chord rounds to 0 in a half float), or `None` when it may.
+pub fn temperature_invisible(
+    f: &dyn Field,
+    m: &TemperatureMapping,
+    blackbody_intensity: f64,
+    table: &BlackbodyTable,
+) -> Option<String> {
+    let max = field_max(f);
+    // Values are non-negative after loading and the scale is too: the hottest point is
+    // the largest value's.
+    let k = max * m.scale + m.offset;
+    if !(k > 0.0) {
+        return Some(format!("it is at most {k:.4} K: nothing glows"));
+    }
+    let rgb = table.rgb_normalized_clamped(k);
+    let peak = rgb.iter().fold(0.0f64, |a, &b| a.max(b));
+    let bound = peak * blackbody_intensity * (k / 1000.0).powi(4) * world_diagonal(f);
+    (bound < HALF_ZERO).then(|| {
+        format!(
+            "its hottest point, {k:.4} K, emits at most {bound:.3e} along any ray, below what a half float shows ({HALF_ZERO:.3e})"
+        )
+    })
+}
 
 /// Names grids get from Houdini, Blender and EmberGen, by role, in order of preference.
 pub const DENSITY_NAMES: &[&str] = &["density", "density_grid", "smoke", "soot"];
@@ -55,6 +102,11 @@ fn choose(
 
 /// The decoded fields of a render.
 pub struct SceneFields {
+    /// The tool the file is taken to come from, and how that was told.
+    pub tool: Option<(Tool, String)>,
+    /// Kelvin = temperature × scale + offset, as assumed (explicit flags, or the
+    /// convention detected); `None` without a temperature field.
+    pub temperature_mapping: Option<TemperatureMapping>,
     pub density: Box<dyn Field>,
     pub emission: Option<Box<dyn Field>>,
     pub temperature: Option<Box<dyn Field>>,
@@ -125,15 +177,67 @@ pub fn load_fields(
     let emission_name = emission_name.filter(|_| emission_wanted);
     let temperature_name = temperature_name.filter(|_| temperature_wanted);
 
+    let names: Vec<String> = source.fields().iter().map(|g| g.name.clone()).collect();
+    let tool = detect_tool(&source.metadata(), &names);
+    report.source_tool = tool
+        .as_ref()
+        .map(|(t, how)| format!("{} ({how})", t.name()));
+
     let density = record(report, "density", source.load_scalar(&density_name)?);
-    let emission = match &emission_name {
+    // A grid in a role that adds nothing is decoded (that is how it is known) and then
+    // dropped: not traversed, not sampled.
+    let mut emission = match &emission_name {
         Some(n) => Some(record(report, "emission", source.load_scalar(n)?)),
         None => None,
     };
-    let temperature = match &temperature_name {
+    if let (Some(n), Some(f)) = (&emission_name, &emission)
+        && field_max(f.as_ref()) <= 0.0
+    {
+        report
+            .skipped_grids
+            .insert(n.clone(), "emission: zero everywhere".into());
+        emission = None;
+    }
+    let mut temperature = match &temperature_name {
         Some(n) => Some(record(report, "temperature", source.load_scalar(n)?)),
         None => None,
     };
+    let mut mapping = None;
+    if let (Some(n), Some(f)) = (&temperature_name, &temperature) {
+        let max = field_max(f.as_ref());
+        let m = if plan.production.temperature_explicit {
+            TemperatureMapping {
+                scale: plan.emission.temperature_scale,
+                offset: plan.emission.temperature_offset,
+                convention: "explicit".into(),
+                reason: "--temperature-scale/--temperature-offset given".into(),
+            }
+        } else {
+            temperature_mapping(tool.clone(), max)
+        };
+        report.temperature_convention = Some(TemperatureConvention {
+            convention: m.convention.clone(),
+            scale: m.scale,
+            offset: m.offset,
+            reason: m.reason.clone(),
+            max_value: max,
+            max_kelvin: max * m.scale + m.offset,
+        });
+        let table = BlackbodyTable::new(200.0, 40000.0, 2048);
+        if let Some(why) =
+            temperature_invisible(f.as_ref(), &m, plan.emission.blackbody_intensity, &table)
+        {
+            report.notes.push(format!(
+                "temperature grid \"{n}\" emits nothing visible: {why} (Kelvin = value × {} + {}; set --temperature-scale/--temperature-offset if that is wrong)",
+                m.scale, m.offset
+            ));
+            report
+                .skipped_grids
+                .insert(n.clone(), format!("temperature: {why}"));
+            temperature = None;
+        }
+        mapping = Some(m);
+    }
     // The colour field only tints scattering: not decoded when nothing scatters.
     let color = match color_name.filter(|_| scatters) {
         Some(n) => Some(record(report, "color", source.load_color(&n)?)),
@@ -146,6 +250,8 @@ pub fn load_fields(
         .filter(|n| !report.grids_decoded.contains(n))
         .collect();
     Ok(SceneFields {
+        tool,
+        temperature_mapping: mapping,
         density,
         emission,
         temperature,

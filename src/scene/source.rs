@@ -66,6 +66,11 @@ pub trait FieldSource: Send + Sync {
     /// Decodes a colour field.
     fn load_color(&self, name: &str) -> Result<Loaded<Box<dyn ColorField>>>;
 
+    /// The file's metadata as `(name, value)` text (a VDB's `creator`, …); none by default.
+    fn metadata(&self) -> Vec<(String, String)> {
+        Vec::new()
+    }
+
     /// The unique names of all fields, comma separated (for messages).
     fn field_list(&self) -> String {
         self.fields()
@@ -146,6 +151,9 @@ impl FieldSource for VdbSource {
     }
     fn load_scalar(&self, name: &str) -> Result<Loaded<Box<dyn Field>>> {
         Ok(self.load(name)?.map(|g| Box::new(g) as Box<dyn Field>))
+    }
+    fn metadata(&self) -> Vec<(String, String)> {
+        self.file.metadata.clone()
     }
     fn load_color(&self, name: &str) -> Result<Loaded<Box<dyn ColorField>>> {
         Ok(self.load(name)?.map(|g| Box::new(g) as Box<dyn ColorField>))
