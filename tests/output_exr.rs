@@ -95,8 +95,36 @@ fn test_options() -> ExrOptions {
         render_time_seconds: Some(12.5),
         input_file: Some("fixtures/smoke.vdb".to_owned()),
         extra_strings: vec![("murk/depthRule".to_owned(), DEPTH_RULE.to_owned())],
+        ..cropped()
+    }
+}
+
+/// The writer's cropped window and `+inf` depth (`--crop-data-window --z-empty inf`),
+/// which these tests were written for; the defaults (full window, 1e10) are tested in
+/// `default_options_write_the_full_window_and_1e10_depth`.
+fn cropped() -> ExrOptions {
+    ExrOptions {
+        crop_data_window: true,
+        z_empty: f32::INFINITY,
         ..ExrOptions::default()
     }
+}
+
+#[test]
+fn default_options_write_the_full_window_and_1e10_depth() {
+    let dir = scratch("defaults");
+    let path = dir.join("defaults.exr");
+    let summary = write_exr(&path, &test_frame(), &ExrOptions::default()).unwrap();
+    assert_eq!((summary.data_window.x, summary.data_window.y), (0, 0));
+    let h = exrheader(&path);
+    assert!(
+        h.contains("dataWindow (type box2i): (0 0) - (63 47)\n"),
+        "{h}"
+    );
+    let pixels = oiio_pixels(&path);
+    // Z: 1e10 where the frame had +inf, its values elsewhere.
+    assert_eq!(pixels["Z"][&(0, 0)], 1e10);
+    assert!(pixels["Z"].values().all(|z| z.is_finite()));
 }
 
 fn scratch(name: &str) -> PathBuf {
@@ -400,7 +428,7 @@ fn empty_frame_gets_a_one_pixel_window_at_top_left() {
     let mut frame = Frame::new(W, H);
     frame.add_channel("R", vec![0.0; W * H]).unwrap();
     frame.add_channel("Z", vec![f32::INFINITY; W * H]).unwrap();
-    write_exr(&path, &frame, &ExrOptions::default()).unwrap();
+    write_exr(&path, &frame, &cropped()).unwrap();
     let h = exrheader(&path);
     assert!(
         h.contains("dataWindow (type box2i): (0 0) - (0 0)\n"),
@@ -420,7 +448,7 @@ fn nans_are_written_as_zero_and_counted() {
     frame.channel_mut("G").unwrap()[7 * W + 12] = f32::NAN;
     frame.channel_mut("emission.B").unwrap()[40 * W + 50] = f32::NAN; // outside: stays empty
     frame.channel_mut("Z").unwrap()[8 * W + 13] = f32::NAN;
-    let summary = write_exr(&path, &frame, &ExrOptions::default()).unwrap();
+    let summary = write_exr(&path, &frame, &cropped()).unwrap();
     assert_eq!(summary.nan_count, 3);
     let h = exrheader(&path);
     assert!(h.contains("murk/nanCount (type int): 3\n"), "{h}");

@@ -199,7 +199,7 @@ pub struct ProductionArgs {
     pub up_axis: Option<String>,
     /// Z where nothing is: a number or inf (default 1e10, as Cycles writes: +inf turns
     /// into NaN under filtered resizes).
-    #[arg(long = "z-empty", value_name = "DEPTH|inf")]
+    #[arg(long = "z-empty", value_name = "DEPTH|inf", allow_hyphen_values = true)]
     pub z_empty: Option<String>,
     /// Crop the EXR's dataWindow to the non-empty pixels (a smaller file; Blender's
     /// compositor misplaces a cropped dataWindow). Default: dataWindow = displayWindow.

@@ -120,13 +120,23 @@ pub fn run() -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) if e.use_stderr() => {
-            // clap's own text is several lines: keep its first, as one line.
+            // clap's own text is several lines: keep its first, as one line, with the
+            // indented lines that follow it (the missing arguments' names) joined on.
             let text = e.to_string();
-            let first = text
-                .lines()
+            let mut lines = text.lines();
+            let mut first = lines
                 .next()
                 .unwrap_or("invalid arguments")
-                .trim_start_matches("error: ");
+                .trim_start_matches("error: ")
+                .trim_end_matches(':')
+                .to_string();
+            let named: Vec<&str> = lines
+                .take_while(|l| l.starts_with("  "))
+                .map(str::trim)
+                .collect();
+            if !named.is_empty() {
+                first = format!("{first}: {}", named.join(", "));
+            }
             eprintln!("murk: error: {first} (see murk --help)");
             return 2;
         }

@@ -312,9 +312,17 @@ pub fn bake_shadow_file(plan: &RenderPlan, progress: &dyn Progress) -> Result<Re
     Ok(st)
 }
 
-/// Writes the stats as pretty JSON, atomically.
+/// Writes the stats as pretty JSON, atomically; `-` writes them to standard output.
 fn write_stats(path: &Path, st: &RenderStats) -> Result<()> {
     let text = serde_json::to_string_pretty(st)?;
+    if path == Path::new("-") {
+        use std::io::Write;
+        let mut out = std::io::stdout().lock();
+        return out
+            .write_all(text.as_bytes())
+            .and_then(|_| out.write_all(b"\n"))
+            .map_err(|e| anyhow!("standard output: {e}"));
+    }
     write_atomically(path, |tmp| {
         std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display()))
     })
@@ -325,7 +333,7 @@ fn check_output_dirs(plan: &RenderPlan) -> Result<()> {
     let outputs = [
         Some(&plan.outputs.path),
         plan.outputs.preview.as_ref().map(|p| &p.0),
-        plan.outputs.stats.as_ref(),
+        plan.outputs.stats.as_ref().filter(|p| p.as_os_str() != "-"),
     ];
     for path in outputs.into_iter().flatten() {
         let dir = match path.parent() {

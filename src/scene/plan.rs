@@ -260,6 +260,11 @@ fn non_negative(v: Option<f64>, default: f64, what: &str) -> Result<f64, String>
 
 fn colour(v: &Option<String>, default: DVec3, what: &str) -> Result<DVec3, String> {
     let c = match v {
+        // One number is a grey: --sigma-a 0.2 is 0.2,0.2,0.2.
+        Some(s) if !s.contains(',') => match s.trim().parse::<f64>() {
+            Ok(g) if g.is_finite() => DVec3::splat(g),
+            _ => return Err(format!("{what} \"{s}\" is not a number or r,g,b")),
+        },
         Some(s) => parse_triple(s, what)?,
         None => default,
     };
@@ -351,6 +356,7 @@ impl RenderPlan {
                 }
             }
         }
+        safe_light_names(&mut lights)?;
         let default_shadows = if o.reference { "march" } else { "dsm" };
         let shadows = match o.shadows.as_deref().unwrap_or(default_shadows) {
             "dsm" => ShadowMode::Dsm,
@@ -547,6 +553,40 @@ impl RenderPlan {
             ShadowQuadrature::Step(self.shadows.step)
         }
     }
+}
+
+/// A light's name as a layer name compositors read as one layer: ASCII letters, digits
+/// and `_` kept, every other character (`.`, which Blender and Nuke read as a layer
+/// separator, spaces, `-`, anything not ASCII) becomes `_`; an empty name is `light`.
+pub fn safe_layer_name(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() { "light".into() } else { s }
+}
+
+/// Gives every light its safe layer name; two lights that map to one name are refused.
+fn safe_light_names(lights: &mut [Light]) -> Result<(), String> {
+    let mut seen: Vec<(String, String)> = Vec::new();
+    for l in lights.iter_mut() {
+        let safe = safe_layer_name(&l.name);
+        if let Some((first, _)) = seen.iter().find(|(_, s)| *s == safe) {
+            return Err(format!(
+                "lights \"{first}\" and \"{}\" would both be the layer scatter_{safe}: name them apart",
+                l.name
+            ));
+        }
+        seen.push((l.name.clone(), safe.clone()));
+        l.name = safe;
+    }
+    Ok(())
 }
 
 /// `--drop-radius` in µm (default [`defaults::DROP_RADIUS_UM`]), within [`RADIUS_RANGE_UM`].

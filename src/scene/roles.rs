@@ -7,6 +7,7 @@ use super::plan::{GridChoice, RenderPlan};
 use super::report::SceneReport;
 use super::report::TemperatureConvention;
 use super::source::{FieldKind, FieldSource, Loaded};
+use crate::field::color3::ChannelColor;
 use crate::field::{ColorField, Field};
 use crate::integrate::blackbody::BlackbodyTable;
 use anyhow::{Result, anyhow};
@@ -59,7 +60,85 @@ pub fn temperature_invisible(
 pub const DENSITY_NAMES: &[&str] = &["density", "density_grid", "smoke", "soot"];
 pub const EMISSION_NAMES: &[&str] = &["flame", "flames", "fire", "emission", "fuel"];
 pub const TEMPERATURE_NAMES: &[&str] = &["temperature", "heat", "temp"];
-pub const COLOR_NAMES: &[&str] = &["Cd", "color", "colour"];
+pub const COLOR_NAMES: &[&str] = &["Cd", "color", "colour", "albedo"];
+/// Colour as three float grids, one a channel (Blender's smoke colour).
+pub const COLOR_CHANNEL_NAMES: &[[&str; 3]] = &[
+    ["color_r", "color_g", "color_b"],
+    ["Cd.r", "Cd.g", "Cd.b"],
+    ["Cd.x", "Cd.y", "Cd.z"],
+];
+
+/// Where the colour role's values come from.
+#[derive(Clone, Debug, PartialEq)]
+enum ColorSource {
+    /// A vec3 grid.
+    Vector(String),
+    /// Three float grids, red, green, blue.
+    Channels([String; 3]),
+}
+
+/// The colour role: a vec3 grid, or three float grids — named as a list
+/// (`--color-grid r,g,b`), named by one of them (`--color-grid color_r` finds `_g` and
+/// `_b`), or detected from [`COLOR_NAMES`] then [`COLOR_CHANNEL_NAMES`].
+fn choose_color(source: &dyn FieldSource, choice: &GridChoice) -> Result<Option<ColorSource>> {
+    let scalar = |n: &str| -> Result<String> {
+        let g = source.field(n)?;
+        if g.kind != FieldKind::Scalar {
+            return Err(anyhow!(
+                "{}: grid \"{}\" ({}) cannot be a colour channel: it must hold float values",
+                source.path().display(),
+                g.unique_name,
+                g.type_name
+            ));
+        }
+        Ok(g.unique_name.clone())
+    };
+    match choice {
+        GridChoice::Named(list) if list.contains(',') => {
+            let names: Vec<&str> = list.split(',').map(str::trim).collect();
+            let [r, g, b] = names.as_slice() else {
+                return Err(anyhow!(
+                    "--color-grid \"{list}\": a list names three float grids, red,green,blue"
+                ));
+            };
+            Ok(Some(ColorSource::Channels([
+                scalar(r)?,
+                scalar(g)?,
+                scalar(b)?,
+            ])))
+        }
+        GridChoice::Named(n)
+            if source.field(n).is_ok_and(|g| g.kind == FieldKind::Scalar)
+                && (n.ends_with("_r") || n.ends_with(".r")) =>
+        {
+            let stem = &n[..n.len() - 1];
+            Ok(Some(ColorSource::Channels([
+                scalar(n)?,
+                scalar(&format!("{stem}g"))?,
+                scalar(&format!("{stem}b"))?,
+            ])))
+        }
+        GridChoice::Detect => {
+            if let Some(v) = choose(source, choice, COLOR_NAMES, "color", FieldKind::Vector)? {
+                return Ok(Some(ColorSource::Vector(v)));
+            }
+            let found = |n: &str| {
+                source
+                    .fields()
+                    .iter()
+                    .find(|g| g.name == n && g.kind == FieldKind::Scalar)
+                    .map(|g| g.unique_name.clone())
+            };
+            Ok(COLOR_CHANNEL_NAMES.iter().find_map(|[r, g, b]| {
+                Some(ColorSource::Channels([found(r)?, found(g)?, found(b)?]))
+            }))
+        }
+        _ => Ok(
+            choose(source, choice, COLOR_NAMES, "color", FieldKind::Vector)?
+                .map(ColorSource::Vector),
+        ),
+    }
+}
 
 /// Picks the field for a role: the one named, else the first usual name that exists.
 fn choose(
@@ -162,13 +241,7 @@ pub fn load_fields(
         "temperature",
         FieldKind::Scalar,
     )?;
-    let color_name = choose(
-        source,
-        &plan.grids.color,
-        COLOR_NAMES,
-        "color",
-        FieldKind::Vector,
-    )?;
+    let color_name = choose_color(source, &plan.grids.color)?;
     let emission_found = emission_name.is_some() || temperature_name.is_some();
     let emission_wanted = emission_name.is_some()
         && plan.emission.intensity > 0.0
@@ -240,7 +313,13 @@ pub fn load_fields(
     }
     // The colour field only tints scattering: not decoded when nothing scatters.
     let color = match color_name.filter(|_| scatters) {
-        Some(n) => Some(record(report, "color", source.load_color(&n)?)),
+        Some(ColorSource::Vector(n)) => Some(record(report, "color", source.load_color(&n)?)),
+        Some(ColorSource::Channels([r, g, b])) => {
+            let r = record(report, "color_r", source.load_scalar(&r)?);
+            let g = record(report, "color_g", source.load_scalar(&g)?);
+            let b = record(report, "color_b", source.load_scalar(&b)?);
+            Some(Box::new(ChannelColor::new(r, g, b)) as Box<dyn ColorField>)
+        }
         None => None,
     };
     report.grids_not_decoded = source
