@@ -658,10 +658,8 @@ fn help_states_every_default() {
             "--emission-intensity",
             format!("default {}", d::EMISSION_INTENSITY),
         ),
-        (
-            "--temperature-scale",
-            format!("default scale {}", d::TEMPERATURE_SCALE),
-        ),
+        // Detected from the file's convention since production caches (issue 13).
+        ("--temperature-scale", "default: detected".to_string()),
         (
             "--temperature-offset",
             format!("default offset {}", d::TEMPERATURE_OFFSET),
@@ -679,6 +677,9 @@ fn help_states_every_default() {
         ("--seed", format!("default {}", d::SEED)),
         ("--exposure", format!("default {}", d::EXPOSURE)),
         ("--drop-radius", format!("default {}", d::DROP_RADIUS_UM)),
+        ("--z-empty", format!("default {:e}", d::Z_EMPTY)),
+        ("--up-axis", "default auto".to_string()),
+        ("--colorspace", "default lin_rec709".to_string()),
     ];
     for (flag, want) in cases {
         let l = line(flag);

@@ -286,12 +286,14 @@ fn exr_defaults_place_right_and_z_survives_a_filtered_resize() {
         w.2 * w.3 < W * H && w.0 + w.2 <= W && w.1 + w.3 <= H,
         "{w:?}"
     );
-    // OpenImageIO sees the same.
+    // OpenImageIO sees the same: it names a full/display window only where it differs
+    // from the data window.
     let info = common::oiio_info(&exr);
     assert!(
-        !info.contains("data window"),
-        "OIIO reports a cropped window:\n{info}"
+        !info.contains("full/display size"),
+        "OIIO reports a crop:\n{info}"
     );
+    assert!(common::oiio_info(&crop).contains("full/display size: 96 x 54"));
 }
 
 #[test]
@@ -397,4 +399,50 @@ fn light_names_become_safe_layer_names_and_collisions_are_refused() {
         err.contains("scatter_key_rim") && err.trim().lines().count() == 1,
         "{err}"
     );
+}
+
+#[test]
+fn acescg_output_is_the_published_matrix_times_rec709_with_its_chromaticities() {
+    let dir = scratch("aces");
+    let (lin, _) = render(&dir, "pyro.vdb", "lin", &["--float"]);
+    let (aces, _) = render(
+        &dir,
+        "pyro.vdb",
+        "aces",
+        &["--float", "--colorspace", "acescg"],
+    );
+    // Rec.709 → ACEScg (Bradford-adapted D65 → ACES white), as the ACES project
+    // publishes it, to four places.
+    let m = [
+        [0.6131, 0.3395, 0.0474],
+        [0.0702, 0.9164, 0.0134],
+        [0.0206, 0.1096, 0.8698],
+    ];
+    let (a, b) = (read(&lin), read(&aces));
+    let mut checked = 0;
+    for layer in ["", "emission.", "scatter."] {
+        let ch = |img: &Image, c: &str| img.channels[&format!("{layer}{c}")].clone();
+        let (r, g, bl) = (ch(&a, "R"), ch(&a, "G"), ch(&a, "B"));
+        let out = [ch(&b, "R"), ch(&b, "G"), ch(&b, "B")];
+        for i in 0..r.len() {
+            let x = [r[i] as f64, g[i] as f64, bl[i] as f64];
+            for (row, o) in m.iter().zip(&out) {
+                let want: f64 = row.iter().zip(&x).map(|(k, v)| k * v).sum();
+                let scale = x.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+                assert!(
+                    (o[i] as f64 - want).abs() <= 1e-3 * scale + 1e-7,
+                    "{layer} pixel {i}: {} vs {want}",
+                    o[i]
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 0);
+    // Alpha and depth are not colours.
+    assert_eq!(a.channels["A"], b.channels["A"]);
+    assert_eq!(a.channels["Z"], b.channels["Z"]);
+    let h = common::exrheader(&aces);
+    assert!(h.contains("red   (0.713 0.293)"), "{h}");
+    assert!(common::exrheader(&lin).contains("red   (0.64 0.33)"));
 }

@@ -108,10 +108,12 @@ pub struct LookArgs {
     /// Emission intensity per world unit at emission-grid value 1 (default 4).
     #[arg(long = "emission-intensity", value_name = "F")]
     pub emission_intensity: Option<f64>,
-    /// Kelvin = temperature value × scale + offset (default scale 1).
+    /// Kelvin = temperature value × scale + offset (default: detected from the file —
+    /// Blender ×1000, Houdini ×5000, ×1 when the values are Kelvin; see README).
     #[arg(long = "temperature-scale", value_name = "F")]
     pub temperature_scale: Option<f64>,
-    /// Kelvin = temperature value × scale + offset (default offset 0).
+    /// Kelvin = temperature value × scale + offset (default offset 0; giving either
+    /// turns the detection off).
     #[arg(
         long = "temperature-offset",
         value_name = "K",
@@ -194,7 +196,7 @@ pub struct ImageArgs {
 #[derive(Args, Clone, Debug, Default, PartialEq)]
 pub struct ProductionArgs {
     /// World up axis: y, z or auto (z for Blender's caches, told by metadata or grid
-    /// names; else y). The default camera and sun follow it. Default auto.
+    /// names; else y). The default camera and sun follow it (default auto).
     #[arg(long = "up-axis", value_name = "y|z|auto")]
     pub up_axis: Option<String>,
     /// Z where nothing is: a number or inf (default 1e10, as Cycles writes: +inf turns
@@ -205,6 +207,10 @@ pub struct ProductionArgs {
     /// compositor misplaces a cropped dataWindow). Default: dataWindow = displayWindow.
     #[arg(long = "crop-data-window")]
     pub crop_data_window: bool,
+    /// Colour space of the EXR's colour channels: lin_rec709 or acescg (converted, with
+    /// chromaticities to match) (default lin_rec709).
+    #[arg(long, value_name = "lin_rec709|acescg")]
+    pub colorspace: Option<String>,
 }
 
 /// `murk render` flags.
@@ -330,6 +336,7 @@ impl RenderArgs {
             up_axis: a.production.up_axis,
             z_empty: a.production.z_empty,
             crop_data_window: a.production.crop_data_window,
+            colorspace: a.production.colorspace,
             ..RenderOptions::default()
         };
         a.map.set(&mut o);

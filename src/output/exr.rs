@@ -126,6 +126,8 @@ pub struct ExrOptions {
     /// `false` (default): dataWindow = displayWindow, which every compositor places
     /// right (Blender 3.4's centres a cropped one).
     pub crop_data_window: bool,
+    /// The colour space the colour channels are written in (and `chromaticities`).
+    pub colorspace: super::ColorSpace,
 }
 
 impl Default for ExrOptions {
@@ -141,6 +143,7 @@ impl Default for ExrOptions {
             extra_strings: Vec::new(),
             z_empty: 1e10,
             crop_data_window: false,
+            colorspace: super::ColorSpace::default(),
         }
     }
 }
@@ -254,6 +257,13 @@ pub fn write_exr(
         )));
     }
 
+    let converted;
+    let frame = if opts.colorspace == super::ColorSpace::LinRec709 {
+        frame
+    } else {
+        converted = super::colorspace::convert_frame(frame, opts.colorspace);
+        &converted
+    };
     let window = if opts.crop_data_window {
         frame.data_window()
     } else {
@@ -338,7 +348,7 @@ pub fn write_exr(
         encoding,
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
-    let [red, green, blue, white] = REC709_CHROMATICITIES.map(|[x, y]| Vec2(x, y));
+    let [red, green, blue, white] = opts.colorspace.chromaticities().map(|[x, y]| Vec2(x, y));
     let image_attributes = ImageAttributes {
         chromaticities: Some(Chromaticities {
             red,

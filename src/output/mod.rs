@@ -4,6 +4,7 @@
 //! target atomically ([`write_atomically`], also for other writers).
 
 mod atomic;
+pub mod colorspace;
 mod error;
 mod exr;
 mod frame;
@@ -11,6 +12,7 @@ mod preview;
 pub mod stitch;
 
 pub use atomic::write_atomically;
+pub use colorspace::ColorSpace;
 pub use error::OutputError;
 pub use exr::{
     ExrCompression, ExrOptions, ExrWriteSummary, HALF_MAX, REC709_CHROMATICITIES,

@@ -59,9 +59,11 @@ pub struct RenderOptions {
     pub emission_color: Option<String>,
     /// Emission intensity per world unit at emission-grid value 1 (default 4).
     pub emission_intensity: Option<f64>,
-    /// Kelvin = temperature value × scale + offset (default scale 1).
+    /// Kelvin = temperature value × scale + offset (default: detected from the file —
+    /// Blender ×1000, Houdini ×5000, ×1 when the values are Kelvin; see README).
     pub temperature_scale: Option<f64>,
-    /// Kelvin = temperature value × scale + offset (default offset 0).
+    /// Kelvin = temperature value × scale + offset (default offset 0; giving either
+    /// turns the detection off).
     pub temperature_offset: Option<f64>,
     /// Blackbody brightness: emission = colour(K) × intensity × (K/1000)^4 (default 0.05).
     pub blackbody_intensity: Option<f64>,
@@ -137,6 +139,8 @@ pub struct RenderOptions {
     /// compositor misplaces it).
     #[serde(default)]
     pub crop_data_window: bool,
+    /// Colour space written: lin_rec709 (default) or acescg.
+    pub colorspace: Option<String>,
 }
 
 /// A light in a scene file, with the name its scatter layer gets.
@@ -231,7 +235,8 @@ impl RenderOptions {
             background,
             frames,
             up_axis,
-            z_empty
+            z_empty,
+            colorspace
         )
     }
 }

@@ -517,6 +517,10 @@ impl RenderPlan {
                     input_file: Some(input.display().to_string()),
                     z_empty: z_empty(&o.z_empty)?,
                     crop_data_window: o.crop_data_window,
+                    colorspace: match &o.colorspace {
+                        Some(c) => c.parse()?,
+                        None => crate::output::ColorSpace::default(),
+                    },
                     ..ExrOptions::default()
                 },
                 preview,
