@@ -582,6 +582,11 @@ fn safe_light_names(lights: &mut [Light]) -> Result<(), String> {
     for l in lights.iter_mut() {
         let safe = safe_layer_name(&l.name);
         if let Some((first, _)) = seen.iter().find(|(_, s)| *s == safe) {
+            if *first == l.name {
+                return Err(format!(
+                    "two lights named \"{first}\": each light's scatter layer is named after it"
+                ));
+            }
             return Err(format!(
                 "lights \"{first}\" and \"{}\" would both be the layer scatter_{safe}: name them apart",
                 l.name
