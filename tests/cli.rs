@@ -679,6 +679,11 @@ fn help_states_every_default() {
         ("--seed", format!("default {}", d::SEED)),
         ("--exposure", format!("default {}", d::EXPOSURE)),
         ("--drop-radius", format!("default {}", d::DROP_RADIUS_UM)),
+        (
+            "--scattering",
+            format!("{} (once, by the ray march; default)", d::SCATTERING),
+        ),
+        ("--bounces", format!("path: default {}", d::PATH_BOUNCES)),
     ];
     for (flag, want) in cases {
         let l = line(flag);

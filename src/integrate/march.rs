@@ -48,6 +48,11 @@ pub trait Illumination: Sync {
     fn incident(&self, light: usize, x: DVec3) -> (DVec3, DVec3);
     /// `∫ρ ds` from `x` (world) toward the light; extinction is this times σt.
     fn density_to_light(&self, light: usize, x: DVec3) -> f64;
+    /// Distance from `x` to the light (infinite for a sun): how far a shadow ray goes.
+    fn distance_to_light(&self, light: usize, x: DVec3) -> f64 {
+        let _ = (light, x);
+        f64::INFINITY
+    }
 }
 
 /// Largest optical depth (majorant × step) a step of the default length (0.5 voxel) may

@@ -10,8 +10,11 @@ pub mod medium;
 pub mod optics;
 pub mod pass;
 pub mod phase;
+pub mod scatter_passes;
+pub mod scattering;
 pub mod single;
 
 pub use integrator::{CameraSample, Integrator, SampleRng};
 pub use march::{Illumination, MarchSettings, RayResult, Scratch, Volume, WorldRay, march};
 pub use medium::{ColorTint, Companion, Emission, Medium};
+pub use scattering::ScatteringMode;

@@ -12,7 +12,7 @@ pub use crate::scene::progress::{Progress, Silent};
 pub use crate::scene::{RenderOptions, RenderPlan};
 
 use crate::integrate::single::SingleScattering;
-use crate::integrate::{Illumination, Integrator};
+use crate::integrate::{Illumination, Integrator, ScatteringMode};
 use crate::output::{Frame, write_atomically, write_exr, write_preview};
 use crate::scene::Scene;
 use crate::scene::lights::bake_maps;
@@ -130,18 +130,9 @@ pub fn render_image_frame(
     let traversal = scene.traversal();
     let volume = scene.volume(&traversal);
     let lights = scene.illumination();
-    let integrator = SingleScattering::new(
-        &volume,
-        scene.emits,
-        scene.scatters.then(|| {
-            (
-                &lights as &dyn Illumination,
-                scene.lights.iter().map(|l| l.name.clone()).collect(),
-            )
-        }),
-        scene.ground.map(|g| (g, &lights as &dyn Illumination)),
-        plan.march_settings(),
-    );
+    let lights_named = scene
+        .scatters
+        .then(|| (&lights as &dyn Illumination, scene.light_names()));
     let mut st = RenderStats {
         murk_version: env!("CARGO_PKG_VERSION").into(),
         input: plan.input.display().to_string(),
@@ -151,8 +142,25 @@ pub fn render_image_frame(
         spp: plan.sampling.spp,
         ..Default::default()
     };
-    let (frame, render_seconds) =
-        render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?;
+    // The integrator of the plan's scattering mode.
+    let (frame, render_seconds) = match plan.transport.mode {
+        ScatteringMode::Single => {
+            let integrator = SingleScattering::new(
+                &volume,
+                scene.emits,
+                lights_named,
+                scene.ground.map(|g| (g, &lights as &dyn Illumination)),
+                plan.march_settings(),
+            );
+            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+        }
+        mode @ (ScatteringMode::Fast | ScatteringMode::Path) => {
+            return Err(anyhow!(
+                "--scattering {}: not built yet (use single)",
+                mode.name()
+            ));
+        }
+    };
     let mut exr = plan.outputs.exr.clone();
     if let Some(f) = job.frame {
         exr.extra_strings
