@@ -164,3 +164,14 @@ fn fast_is_refused_until_it_is_built() {
         &["fast approximation is not built yet"],
     );
 }
+
+/// The path tracer has no ground plane: asking for one is refused, not ignored.
+#[test]
+fn path_refuses_a_ground_plane() {
+    refused(
+        "path-ground",
+        &fixture("cloud.vdb"),
+        &["--scattering", "path", "--ground", "-1"],
+        &["--ground", "path tracer"],
+    );
+}

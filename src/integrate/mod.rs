@@ -9,6 +9,7 @@ pub mod march;
 pub mod medium;
 pub mod optics;
 pub mod pass;
+pub mod path;
 pub mod phase;
 pub mod scatter_passes;
 pub mod scattering;

@@ -11,12 +11,13 @@ pub mod stats;
 pub use crate::scene::progress::{Progress, Silent};
 pub use crate::scene::{RenderOptions, RenderPlan};
 
+use crate::integrate::path::{LightTransmittance, PathSettings, PathTracer};
 use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, Integrator, ScatteringMode};
 use crate::output::{Frame, write_atomically, write_exr, write_preview};
 use crate::scene::Scene;
 use crate::scene::lights::bake_maps;
-use crate::scene::plan::GridChoice;
+use crate::scene::plan::{GridChoice, ShadowMode};
 use crate::scene::reuse::FrameReuse;
 use crate::scene::roles::load_fields;
 use anyhow::{Context, Result, anyhow};
@@ -154,7 +155,29 @@ pub fn render_image_frame(
             );
             render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
         }
-        mode @ (ScatteringMode::Fast | ScatteringMode::Path) => {
+        ScatteringMode::Path => {
+            let names = scene.lights.iter().map(|l| l.name.clone()).collect();
+            let integrator = PathTracer::new(
+                &volume,
+                scene.emits,
+                scene
+                    .scatters
+                    .then_some((&lights as &dyn Illumination, names)),
+                scene
+                    .environment
+                    .as_ref()
+                    .map(|e| (e.radiance, e.name.clone())),
+                PathSettings {
+                    bounces: plan.transport.path_bounces(),
+                    transmittance: match plan.shadows.mode {
+                        ShadowMode::March => LightTransmittance::RatioTracking,
+                        ShadowMode::Dsm | ShadowMode::None => LightTransmittance::Lookup,
+                    },
+                },
+            );
+            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+        }
+        mode @ ScatteringMode::Fast => {
             return Err(anyhow!(
                 "--scattering {}: not built yet (use single)",
                 mode.name()

@@ -53,11 +53,13 @@ impl TransportPlan {
                         .into(),
                 );
             }
-            ScatteringMode::Path => {
+            ScatteringMode::Path if o.ground.is_some() => {
                 return Err(
-                    "--scattering path: the path tracer is not built yet (use single)".into(),
+                    "--ground: the path tracer has no ground plane yet (use --scattering single)"
+                        .into(),
                 );
             }
+            ScatteringMode::Path => {}
             ScatteringMode::Single => {}
         }
         if let Some(e) = &environment
