@@ -48,7 +48,7 @@ fn run(
             depth_rate: 1.0,
         };
         let mut rng = SampleRng::new(0x5eed, 3, 4, s);
-        pt.sample(&cam, &mut rng, &mut (), &mut acc);
+        pt.sample(&cam, &mut rng, &mut pt.scratch(), &mut acc);
         vals.push(DVec3::new(acc[off], acc[off + 1], acc[off + 2]));
         alphas.push(acc[alpha_at]);
     }

@@ -62,6 +62,12 @@ pub struct PathSettings {
 /// Russian roulette starts after this many events.
 const ROULETTE_AFTER: u32 = 3;
 
+/// The camera ray's direct-light points per cell at most.
+const MAX_POINTS: usize = 1 << 14;
+
+/// The stream of the camera ray's direct-light points.
+const DIRECT_STREAM: u64 = u64::MAX;
+
 /// Ratio tracking plays roulette once the transmittance's largest channel falls below this.
 const RATIO_ROULETTE: f64 = 0.1;
 
@@ -293,63 +299,212 @@ impl<'a> PathTracer<'a> {
         tr
     }
 
-    /// The camera ray's optical depth per unit σt (`∫ρ`, exact per cell) and where the
-    /// mean transmittance first falls to 0.5.
-    fn opacity(&self, origin: DVec3, dir: DVec3, t_min: f64, t_max: f64) -> (f64, Option<f64>) {
+    /// The camera ray: its optical depth per unit σt (`∫ρ`, exact per cell), where the
+    /// mean transmittance first falls to 0.5, and — when `direct` — the light of every
+    /// sun and point light scattered once toward the camera, by a collision estimator:
+    /// points drawn along the ray at rate `r` (the cell's majorant, at least one per two
+    /// voxels) each add `T(t)·σs·ρ·p·E·T_light / r`, with `T(t)` exact from the
+    /// density's integral up to the point. Unbiased (the points are a Poisson process of
+    /// rate r) and, unlike a delta-tracked first collision, every ray through the volume
+    /// contributes: the thin edges are where one collision per ray is noisiest.
+    #[allow(clippy::too_many_arguments)]
+    fn camera_ray(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        t_min: f64,
+        t_max: f64,
+        direct: bool,
+        rng: &SampleRng,
+        scratch: &mut PathScratch,
+        acc: &mut [f64],
+        samples: &mut u64,
+    ) -> (f64, Option<f64>) {
         let density = self.volume.density;
         let ray = IndexRay::new(density, origin, dir);
         let mean_t = |d: f64| (-self.sigma_t * d).exp().element_sum() / 3.0;
+        let min_rate = 0.5 * ray.index_speed();
+        let mut points = rng.stream(DIRECT_STREAM);
         let mut total = 0.0;
         let mut half = None;
+        let mut k = 0u64;
         for span in Spans::new(density, ray, t_min, t_max) {
             let part = density.integral(&ray, span.t0, span.t1);
             if half.is_none() && mean_t(total + part) <= 0.5 {
-                // Bisect inside the cell for where the mean crosses 0.5.
-                let (mut lo, mut hi) = (span.t0, span.t1);
-                for _ in 0..40 {
-                    let mid = 0.5 * (lo + hi);
-                    if mean_t(total + density.integral(&ray, span.t0, mid)) > 0.5 {
-                        lo = mid;
-                    } else {
-                        hi = mid;
+                half = Some(self.half_crossing(&ray, span.t0, span.t1, total, scratch));
+            }
+            if direct && let Some(lights) = self.lights {
+                let rate = (self.sigma_t_max * span.range.max as f64).max(min_rate);
+                scratch.ends.clear();
+                let mut t = span.t0;
+                loop {
+                    t -= (1.0 - points.next_f64()).ln() / rate;
+                    if t >= span.t1 || scratch.ends.len() >= MAX_POINTS {
+                        break;
                     }
+                    scratch.ends.push(t);
                 }
-                half = Some(0.5 * (lo + hi));
+                let n = scratch.ends.len();
+                scratch.integrals.resize(n, 0.0);
+                if n > 0 {
+                    density.piece_integrals(
+                        &ray,
+                        span.t0,
+                        &scratch.ends,
+                        &mut scratch.integrals[..n],
+                    );
+                }
+                let mut before = total;
+                for i in 0..n {
+                    let t = scratch.ends[i];
+                    before += scratch.integrals[i];
+                    let p = ray.at(t);
+                    let rho = (density.value_at_index(p) as f64).max(0.0);
+                    *samples += 1;
+                    if rho <= 0.0 {
+                        continue;
+                    }
+                    let x = origin + dir * t;
+                    let w = (-self.sigma_t * before).exp() * self.sigma_s_at(p, x) * (rho / rate);
+                    k += 1;
+                    self.next_event(lights, x, dir, w, 1, rng, k, acc, samples);
+                }
             }
             total += part;
         }
         (total, half)
     }
+
+    /// Next-event estimation at `x` (the path arrived along `dir` with weight `beta`,
+    /// after `events` events): each sun and point light's light scattered toward `−dir`.
+    /// `point` tells this event's shadow rays' streams apart.
+    #[allow(clippy::too_many_arguments)]
+    fn next_event(
+        &self,
+        lights: &dyn Illumination,
+        x: DVec3,
+        dir: DVec3,
+        beta: DVec3,
+        events: u32,
+        rng: &SampleRng,
+        point: u64,
+        acc: &mut [f64],
+        samples: &mut u64,
+    ) {
+        for l in 0..self.n_lights {
+            let (irradiance, travel) = lights.incident(l, x);
+            if irradiance == DVec3::ZERO {
+                continue;
+            }
+            let phase = self.volume.phase.eval(travel.dot(-dir));
+            let tr = match self.settings.transmittance {
+                LightTransmittance::Lookup => (-self.sigma_t * lights.density_to_light(l, x)).exp(),
+                LightTransmittance::RatioTracking => {
+                    let mut s = rng.stream(shadow_stream(events, l) ^ (point << 24));
+                    let dist = lights.distance_to_light(l, x);
+                    self.ratio_tracking(x, -travel, dist, &mut s, samples)
+                }
+            };
+            let v = beta * phase * irradiance * tr;
+            if v.is_finite() {
+                self.passes.add_scattered(acc, l, events, v);
+            }
+        }
+    }
+}
+
+impl PathTracer<'_> {
+    /// Where in `[t0, t1]` the mean transmittance falls to 0.5, given `before` (∫ρ up to
+    /// t0): the cell cut into pieces of a voxel, their exact integrals in one walk, and
+    /// the crossing piece interpolated as an exponential (as the march finds Z).
+    fn half_crossing(
+        &self,
+        ray: &IndexRay,
+        t0: f64,
+        t1: f64,
+        before: f64,
+        scratch: &mut PathScratch,
+    ) -> f64 {
+        let mean_t = |d: f64| (-self.sigma_t * d).exp().element_sum() / 3.0;
+        let n = (((t1 - t0) * ray.index_speed()).ceil() as usize).clamp(1, 4096);
+        let h = (t1 - t0) / n as f64;
+        scratch.ends.clear();
+        scratch
+            .ends
+            .extend((1..=n).map(|i| if i == n { t1 } else { t0 + h * i as f64 }));
+        scratch.integrals.resize(n, 0.0);
+        self.volume
+            .density
+            .piece_integrals(ray, t0, &scratch.ends, &mut scratch.integrals[..n]);
+        let (mut a, mut d) = (t0, before);
+        for i in 0..n {
+            let b = scratch.ends[i];
+            let (m0, m1) = (mean_t(d), mean_t(d + scratch.integrals[i]));
+            if m1 <= 0.5 {
+                let rate = (m0 / m1).ln() / (b - a);
+                let s = if rate.is_finite() && rate > 0.0 {
+                    (m0 / 0.5).ln() / rate
+                } else {
+                    b - a
+                };
+                return a + s.clamp(0.0, b - a);
+            }
+            d += scratch.integrals[i];
+            a = b;
+        }
+        t1
+    }
+}
+
+/// Per-thread buffers: the pieces of the cell where the camera ray's opacity crosses ½.
+#[derive(Clone, Debug, Default)]
+pub struct PathScratch {
+    ends: Vec<f64>,
+    integrals: Vec<f64>,
 }
 
 impl Integrator for PathTracer<'_> {
-    type Scratch = ();
+    type Scratch = PathScratch;
 
     fn passes(&self) -> &PassLayout {
         self.passes.layout()
     }
 
-    fn scratch(&self) {}
+    fn scratch(&self) -> PathScratch {
+        PathScratch::default()
+    }
 
     fn sample(
         &self,
         camera: &CameraSample,
         rng: &mut SampleRng,
-        _scratch: &mut (),
+        scratch: &mut PathScratch,
         acc: &mut [f64],
     ) -> u64 {
         let p = &self.passes;
         let ray = camera.ray;
         let mut samples = 0u64;
-        let (depth, half_t) = self.opacity(ray.origin, ray.dir, ray.t_min, ray.t_max);
+        let scatters = self.n_lights > 0 || self.environment.is_some();
+        let emits = self.volume.emission.as_ref().is_some_and(|e| e.is_active());
+        // Light scattered once comes from the camera ray's collision estimator.
+        let (depth, half_t) = self.camera_ray(
+            ray.origin,
+            ray.dir,
+            ray.t_min,
+            ray.t_max,
+            self.n_lights > 0,
+            rng,
+            scratch,
+            acc,
+            &mut samples,
+        );
         let alpha = (DVec3::ONE - (-self.sigma_t * depth).exp()).element_sum() / 3.0;
         p.add_alpha(acc, alpha.clamp(0.0, 1.0));
         if let Some(t) = half_t {
             p.add_depth(acc, t * camera.depth_rate);
         }
-        let scatters = self.n_lights > 0 || self.environment.is_some();
-        let emits = self.volume.emission.as_ref().is_some_and(|e| e.is_active());
-        if !scatters && !emits {
+        let more = self.settings.bounces > 1 || self.environment.is_some();
+        if !(emits || scatters && more) {
             return samples;
         }
         let (mut origin, mut dir) = (ray.origin, ray.dir);
@@ -385,32 +540,23 @@ impl Integrator for PathTracer<'_> {
                 break;
             };
             events += 1;
-            if !scatters {
-                // Emission only: nothing to gather at the event, the path goes on.
-            } else if let Some(lights) = self.lights {
-                for l in 0..self.n_lights {
-                    let (irradiance, travel) = lights.incident(l, x);
-                    if irradiance == DVec3::ZERO {
-                        continue;
-                    }
-                    let phase = self.volume.phase.eval(travel.dot(-dir));
-                    let tr = match self.settings.transmittance {
-                        LightTransmittance::Lookup => {
-                            (-self.sigma_t * lights.density_to_light(l, x)).exp()
-                        }
-                        LightTransmittance::RatioTracking => {
-                            let mut s = rng.stream(shadow_stream(events, l));
-                            let dist = lights.distance_to_light(l, x);
-                            self.ratio_tracking(x, -travel, dist, &mut s, &mut samples)
-                        }
-                    };
-                    let v = beta * phase * irradiance * tr;
-                    if v.is_finite() {
-                        p.add_scattered(acc, l, events, v);
-                    }
-                }
+            if let Some(lights) = self.lights
+                && events > 1
+            {
+                self.next_event(lights, x, dir, beta, events, rng, 0, acc, &mut samples);
             }
             if events >= self.settings.bounces {
+                // The last event: the dome's light through it, by ratio tracking along
+                // a phase-sampled direction (no further event may follow).
+                if let Some(env) = self.environment {
+                    let s = self
+                        .volume
+                        .phase
+                        .sample(dir, [stream.next_f64(), stream.next_f64()]);
+                    let mut sh = rng.stream(shadow_stream(events, self.n_lights));
+                    let tr = self.ratio_tracking(x, s.dir, f64::INFINITY, &mut sh, &mut samples);
+                    p.add_scattered(acc, self.n_lights, events, beta * s.weight * tr * env);
+                }
                 break;
             }
             if events >= ROULETTE_AFTER {

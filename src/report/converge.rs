@@ -10,6 +10,9 @@
 //! - `dsm_tolerance`: the deep shadow map's tolerance, at step 1/16 voxel, no termination;
 //! - `termination`: the termination threshold, with exact marched shadows at step 0.5.
 //!
+//! - `path_spp`: the path tracer's samples per pixel, against a path-traced reference
+//!   ([`super::converge_path`]).
+//!
 //! The row `default` is the render with murk's defaults (step 0.5, shadow map at 1e-3,
 //! termination 1e-4).
 
@@ -167,7 +170,11 @@ pub fn run(
 ) -> Result<(Measured, Vec<Measured>)> {
     let runs = settings.runs.max(1);
     let points = sweep_points();
-    progress.start("converge", 1 + (points.len() * runs) as u64, "renders");
+    progress.start(
+        "converge",
+        1 + (points.len() * runs) as u64 + super::converge_path::renders(runs),
+        "renders",
+    );
     progress.note("reference");
     let reference_point = Point {
         sweep: "reference",
@@ -246,6 +253,7 @@ pub fn run(
             bound_violations: bound_violations(&frame, bound),
         });
     }
+    rows.extend(super::converge_path::run(options, input, runs, progress)?);
     Ok((ref_row, rows))
 }
 
