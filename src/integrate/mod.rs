@@ -3,10 +3,12 @@
 //! ([`Integrator`]: what a camera ray sees, into the passes it declares).
 
 pub mod blackbody;
+pub mod fast;
 pub mod ground;
 pub mod integrator;
 pub mod march;
 pub mod medium;
+pub mod ms_lattice;
 pub mod optics;
 pub mod pass;
 pub mod path;
