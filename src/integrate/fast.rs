@@ -17,12 +17,9 @@ use super::ground::Ground;
 use super::integrator::{CameraSample, Integrator, SampleRng};
 use super::march::{Illumination, MarchSettings, Scratch, Volume};
 use super::ms_lattice::{LatticeSettings, MsLattice};
-use super::pass::{Pass, PassLayout};
+use super::pass::PassLayout;
 use super::single::SingleScattering;
 use glam::DVec3;
-
-/// The layer holding light scattered two or more times.
-pub const INDIRECT: &str = "indirect";
 
 /// Scattering orders `fast` models by default (`--bounces`): the first exactly, orders
 /// 2…N on the lattice, the rest as a geometric tail. Measured on the demo cloud and on
@@ -82,6 +79,9 @@ impl Illumination for WithMultiple<'_> {
     fn density_to_light(&self, light: usize, x: DVec3) -> f64 {
         self.direct.density_to_light(light, x)
     }
+    fn distance_to_light(&self, light: usize, x: DVec3) -> f64 {
+        self.direct.distance_to_light(light, x)
+    }
     fn scatters_multiply(&self) -> bool {
         true
     }
@@ -91,13 +91,10 @@ impl Illumination for WithMultiple<'_> {
     }
 }
 
-/// Single scattering plus the lattice's multiple scattering, with the `indirect` layer.
+/// Single scattering plus the lattice's multiple scattering: the march of
+/// [`SingleScattering`] through [`WithMultiple`] lights, which also writes `indirect`.
 pub struct FastScattering<'a> {
     single: SingleScattering<'a>,
-    layout: PassLayout,
-    /// Slots of the single-scattering passes (first in the buffer).
-    single_slots: usize,
-    indirect: Option<usize>,
 }
 
 impl<'a> FastScattering<'a> {
@@ -109,7 +106,6 @@ impl<'a> FastScattering<'a> {
         ground: Option<(Ground, &'a dyn Illumination)>,
         settings: MarchSettings,
     ) -> Self {
-        let has_lights = lights.is_some();
         let single = SingleScattering::new(
             volume,
             emits,
@@ -117,19 +113,7 @@ impl<'a> FastScattering<'a> {
             ground,
             settings,
         );
-        let mut passes = single.passes().passes().to_vec();
-        let single_slots = single.passes().slots();
-        if has_lights {
-            passes.push(Pass::layer(INDIRECT));
-        }
-        let layout = PassLayout::new(passes);
-        let indirect = layout.find(INDIRECT).map(|i| layout.offset(i));
-        FastScattering {
-            single,
-            layout,
-            single_slots,
-            indirect,
-        }
+        FastScattering { single }
     }
 }
 
@@ -137,7 +121,7 @@ impl Integrator for FastScattering<'_> {
     type Scratch = Scratch;
 
     fn passes(&self) -> &PassLayout {
-        &self.layout
+        self.single.passes()
     }
 
     fn scratch(&self) -> Scratch {
@@ -151,13 +135,6 @@ impl Integrator for FastScattering<'_> {
         scratch: &mut Scratch,
         acc: &mut [f64],
     ) -> u64 {
-        scratch.indirect = DVec3::ZERO;
-        let n = self
-            .single
-            .sample(camera, rng, scratch, &mut acc[..self.single_slots]);
-        if let Some(i) = self.indirect {
-            (0..3).for_each(|c| acc[i + c] += scratch.indirect[c]);
-        }
-        n
+        self.single.sample(camera, rng, scratch, acc)
     }
 }

@@ -161,6 +161,12 @@ impl ScatterPasses {
         add(acc, self.at.scatter, v);
     }
 
+    /// The part of what [`ScatterPasses::add_scatter_total`] added that scattered two or
+    /// more times, into `indirect` only.
+    pub fn add_indirect_share(&self, acc: &mut [f64], v: DVec3) {
+        add(acc, self.at.indirect, v);
+    }
+
     /// Light `light`'s share of `scatter`, into its own layer (when there are several).
     #[inline]
     pub fn add_light_share(&self, acc: &mut [f64], light: usize, v: DVec3) {

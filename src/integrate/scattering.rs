@@ -16,9 +16,10 @@
 #[serde(rename_all = "kebab-case")]
 pub enum ScatteringMode {
     /// Light scattered once toward the camera, by the ray march (no `indirect` layer).
-    #[default]
     Single,
-    /// An approximation of every scattering order.
+    /// An approximation of every scattering order (`integrate::fast`): single scattering
+    /// as `single`, the rest from a coarse lattice solved per light. The default.
+    #[default]
     Fast,
     /// Unbiased volumetric path tracing: every order, to the noise of `--spp`.
     Path,

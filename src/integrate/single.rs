@@ -34,7 +34,8 @@ impl<'a> SingleScattering<'a> {
         let passes = ScatterPasses::new(&ScatterPassSpec {
             emits,
             lights: lights.as_ref().map(|(_, n)| n.clone()).unwrap_or_default(),
-            indirect: false,
+            // Lights that carry multiple scattering (`integrate::fast`) fill `indirect`.
+            indirect: lights.as_ref().is_some_and(|(l, _)| l.scatters_multiply()),
             shadow: ground.is_some(),
             ground_visible: ground.is_some_and(|(g, _)| g.visible),
         });
@@ -101,6 +102,7 @@ impl Integrator for SingleScattering<'_> {
         }
         p.add_emission(acc, r.emission);
         p.add_scatter_total(acc, r.scatter);
+        p.add_indirect_share(acc, scratch.indirect);
         if p.has_per_light() {
             for (l, v) in scratch.per_light.iter().enumerate() {
                 p.add_light_share(acc, l, *v);

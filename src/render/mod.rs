@@ -11,6 +11,8 @@ pub mod stats;
 pub use crate::scene::progress::{Progress, Silent};
 pub use crate::scene::{RenderOptions, RenderPlan};
 
+use crate::integrate::fast::{FastScattering, WithMultiple};
+use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::path::{LightTransmittance, PathSettings, PathTracer};
 use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, Integrator, ScatteringMode};
@@ -143,6 +145,8 @@ pub fn render_image_frame(
         spp: plan.sampling.spp,
         ..Default::default()
     };
+    // Seconds the fast mode's lattice took (a stage of its own in the stats).
+    let mut multiple_seconds = None;
     // The integrator of the plan's scattering mode.
     let (frame, render_seconds) = match plan.transport.mode {
         ScatteringMode::Single => {
@@ -177,11 +181,25 @@ pub fn render_image_frame(
             );
             render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
         }
-        mode @ ScatteringMode::Fast => {
-            return Err(anyhow!(
-                "--scattering {}: not built yet (use single)",
-                mode.name()
-            ));
+        ScatteringMode::Fast => {
+            // Multiple scattering: the lattice of every light, solved before the pixels.
+            let t = Instant::now();
+            let lattice = lights_named.map(|(l, _)| {
+                MsLattice::build(&volume, l, &plan.transport.fast_settings().lattice())
+            });
+            multiple_seconds = Some(t.elapsed().as_secs_f64());
+            let with = lattice.as_ref().map(|lattice| WithMultiple {
+                direct: &lights,
+                lattice,
+            });
+            let integrator = FastScattering::new(
+                &volume,
+                scene.emits,
+                with.as_ref().map(|w| (w, scene.light_names())),
+                scene.ground.map(|g| (g, &lights as &dyn Illumination)),
+                plan.march_settings(),
+            );
+            render_frame(&integrator, &scene, plan, progress, &mut st)?
         }
     };
     let mut exr = plan.outputs.exr.clone();
@@ -219,6 +237,11 @@ pub fn render_image_frame(
     st.scene
         .stages
         .insert("render".into(), Stage::ran(render_seconds));
+    if let Some(s) = multiple_seconds {
+        st.scene
+            .stages
+            .insert("multiple_scattering".into(), Stage::ran(s));
+    }
     st.total_seconds = start.elapsed().as_secs_f64();
     Ok(RenderedImage {
         frame,

@@ -5,6 +5,7 @@
 use super::light::EnvLight;
 use super::options::RenderOptions;
 use crate::integrate::ScatteringMode;
+use crate::integrate::fast::FastSettings;
 use crate::integrate::scattering::{MAX_BOUNCES, PATH_BOUNCES};
 
 /// The scattering mode, its bounces and the environment light.
@@ -21,6 +22,16 @@ impl TransportPlan {
     /// The most scattering events a path may have (`--scattering path`).
     pub fn path_bounces(&self) -> u32 {
         self.bounces.unwrap_or(PATH_BOUNCES)
+    }
+
+    /// The scattering orders the fast approximation models (`--scattering fast`).
+    pub fn fast_settings(&self) -> FastSettings {
+        FastSettings {
+            bounces: self
+                .bounces
+                .unwrap_or(crate::integrate::fast::DEFAULT_BOUNCES),
+            ..FastSettings::default()
+        }
     }
 
     /// Validates the mode against the bounces and lights it was given.
@@ -47,12 +58,7 @@ impl TransportPlan {
             }
         }
         match mode {
-            ScatteringMode::Fast => {
-                return Err(
-                    "--scattering fast: the fast approximation is not built yet (use single or path)"
-                        .into(),
-                );
-            }
+            ScatteringMode::Fast => {}
             ScatteringMode::Path if o.ground.is_some() => {
                 return Err(
                     "--ground: the path tracer has no ground plane yet (use --scattering single)"
