@@ -36,7 +36,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 # The camera of every case: the demo cloud seen from the front at 160x90.
 CAMERA = dict(eye=(0.5, 1.0, 9.0), look_at=(0.075, 0.25, 0.0), up=(0, 1, 0), fov=36.0)
-RES = (160, 90)
+RES = [160, 90]
 
 # name → (vdb, sigma_a, sigma_s, density_scale, sun direction toward the light, g)
 CASES = {
@@ -104,7 +104,7 @@ def mitsuba_render(case, spp, max_depth, out, seed=0):
     eye, at, up = CAMERA["eye"], CAMERA["look_at"], CAMERA["up"]
     scene = {
         "type": "scene",
-        "integrator": {"type": "volpath", "max_depth": max_depth, "rr_depth": 100000},
+        "integrator": {"type": "volpath", "max_depth": max_depth, "rr_depth": 5},
         "sensor": {
             "type": "perspective",
             "fov": CAMERA["fov"],
@@ -127,7 +127,7 @@ def mitsuba_render(case, spp, max_depth, out, seed=0):
 
 def reference(name, spp, max_depth, out):
     """Mitsuba's image (and its noise from two halves), cached."""
-    path = os.path.join(out, f"mitsuba_{name}_{spp}_{max_depth}.npz")
+    path = os.path.join(out, f"mitsuba_{name}_{RES[0]}x{RES[1]}_{spp}_{max_depth}.npz")
     if os.path.exists(path):
         z = np.load(path)
         return z["img"], float(z["noise"])
@@ -186,16 +186,31 @@ def main():
     ap.add_argument("--out", default=os.path.join(tempfile.gettempdir(), "murk_calibrate_fast"))
     ap.add_argument("--spp", type=int, default=1024)
     ap.add_argument("--only", default="")
+    ap.add_argument("--res", default=f"{RES[0]}x{RES[1]}", help="WxH (160x90)")
     ap.add_argument("--fast-flags", default="--scattering fast")
     ap.add_argument("--single-flags", default="--scattering single")
     ap.add_argument("--check-single", action="store_true")
     ap.add_argument("--json", default="")
+    ap.add_argument(
+        "--export-demo",
+        default="",
+        help="write the demo case's Mitsuba image, 2×2-averaged, as little-endian f32 "
+        "[row][column][RGB] (tests/fast_scattering.rs reads fixtures/mitsuba_demo_ms.f32)",
+    )
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
+    RES[:] = [int(v) for v in a.res.split("x")]
     import mitsuba as mi
 
     variant = "llvm_ad_rgb" if os.environ.get("DRJIT_LIBLLVM_PATH") else "scalar_rgb"
     mi.set_variant(variant)
+    if a.export_demo:
+        ref, noise = reference("demo", a.spp, -1, a.out)
+        h, w = ref.shape[0] // 2 * 2, ref.shape[1] // 2 * 2
+        r = ref[:h, :w].reshape(h // 2, 2, w // 2, 2, 3).mean(axis=(1, 3))
+        r.astype("<f4").tofile(a.export_demo)
+        print(f"{a.export_demo}: {r.shape[1]}x{r.shape[0]}, Mitsuba noise {noise:.4f} at full size")
+        return
     names = [n for n in CASES if not a.only or n in a.only.split(",")]
     rows = []
     print("| case | single rel. RMSE | fast rel. RMSE | fast mean ratio | Mitsuba noise | single CPU s | fast CPU s |")

@@ -26,8 +26,9 @@
 //! anisotropic phase is handled by similarity: after the first scattering, transport
 //! uses `σs* = σs(1−ḡ)`, `σt* = σa + σs*` with `ḡ` the phase function's mean cosine.
 //! Orders past the last one solved are added as a geometric tail, `J_N·r/(1−r)`, with
-//! `r` the ratio of the density-weighted sums of the last two orders (the source
-//! iteration's convergence rate; clamped below 1).
+//! `r` half the ratio of the density-weighted sums of the last two orders (the source
+//! iteration's convergence rate; clamped below 1) and half the node's own ratio
+//! (see [`TAIL_OWN_WEIGHT`]).
 
 use super::march::{Illumination, Volume};
 use glam::DVec3;
@@ -53,6 +54,14 @@ const DIRECTION_GROUP: usize = 4;
 /// An order whose density-weighted sum falls below this fraction of the total so far
 /// ends the iteration early (its tail is then negligible too).
 const CONVERGED: f64 = 1e-4;
+/// Weight of a node's own ratio in its tail (against the global ratio). Near a lit
+/// surface of a very thick white medium later orders fade faster there than in total
+/// (they diffuse inward) but not geometrically: on the white slab of optical depth 60
+/// (tests/fast_scattering.rs, Chandrasekhar's H) the global ratio alone reflects 23 %
+/// too much and the node's own ratio alone 15 % too little at 24 orders; half of each
+/// is within a few %. On clouds both ratios agree (the orders reach the cloud's
+/// fundamental mode) and the weight changes little (scripts/calibrate_fast.py).
+const TAIL_OWN_WEIGHT: f64 = 0.5;
 /// Largest ratio between orders the tail is extrapolated with (the series' sum is at
 /// most 1/(1−r) times its first term).
 const MAX_TAIL_RATIO: f64 = 0.995;
@@ -348,6 +357,7 @@ fn solve(
     let weight = |v: &[f32]| -> f64 { v.iter().zip(rho).map(|(a, r)| *a as f64 * *r as f64).sum() };
     let (mut prev, mut total, mut ratio) = (0.0, 0.0, 0.0);
     let mut last = vec![0f32; grid.len];
+    let mut before = vec![0f32; grid.len];
     let mut swept = 0;
     for order in 0..s.orders {
         let dirs = dirs_for(order);
@@ -386,6 +396,7 @@ fn solve(
             .collect();
         // Mean over directions (in a fixed order of groups).
         let inv = 1.0 / dirs.len() as f32;
+        std::mem::swap(&mut before, &mut last);
         last.iter_mut().for_each(|v| *v = 0.0);
         for g in &groups {
             last.iter_mut().zip(g).for_each(|(l, v)| *l += *v);
@@ -410,8 +421,18 @@ fn solve(
             .for_each(|(o, (j, r))| *o = j * r);
     }
     if ratio > 0.0 {
-        let f = (ratio / (1.0 - ratio)) as f32;
-        sum.iter_mut().zip(&last).for_each(|(s, v)| *s += *v * f);
+        // Each node's tail blends two geometric extrapolations of its last order: with
+        // the global ratio, and with the node's own ratio (never above the global one).
+        for ((s, v), b) in sum.iter_mut().zip(&last).zip(&before) {
+            let own = if *b > 0.0 {
+                (*v as f64 / *b as f64).clamp(0.0, ratio)
+            } else {
+                ratio
+            };
+            let tail = (1.0 - TAIL_OWN_WEIGHT) * ratio / (1.0 - ratio)
+                + TAIL_OWN_WEIGHT * own / (1.0 - own);
+            *s += *v * tail as f32;
+        }
     }
     (sum, swept, ratio)
 }
