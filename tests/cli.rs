@@ -681,9 +681,10 @@ fn help_states_every_default() {
         ("--drop-radius", format!("default {}", d::DROP_RADIUS_UM)),
         (
             "--scattering",
-            format!("{} (once, by the ray march; default)", d::SCATTERING),
+            format!("{} (every order approximated; default", d::SCATTERING),
         ),
         ("--bounces", format!("path: default {}", d::PATH_BOUNCES)),
+        ("--bounces", format!("fast: default {}", d::FAST_BOUNCES)),
     ];
     for (flag, want) in cases {
         let l = line(flag);

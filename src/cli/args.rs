@@ -174,11 +174,13 @@ pub struct QualityArgs {
 /// How light is transported: the scattering orders and the integrator that finds them.
 #[derive(Args, Clone, Debug, Default, PartialEq)]
 pub struct TransportArgs {
-    /// How many times light scatters: single (once, by the ray march; default), fast (an
-    /// approximation of every order) or path (unbiased path tracing of every order).
+    /// How many times light scatters: fast (every order approximated; default: single
+    /// scattering plus a coarse lattice for the rest), single (once, by the ray march)
+    /// or path (unbiased path tracing of every order).
     #[arg(long, value_name = "single|fast|path", hide_possible_values = true)]
     pub scattering: Option<murk::integrate::ScatteringMode>,
-    /// Most scattering events a path may have (path: default 10000).
+    /// Most scattering events a path may have (path: default 10000), or the orders the
+    /// approximation models, later ones as a geometric tail (fast: default 24).
     #[arg(long, value_name = "N")]
     pub bounces: Option<u32>,
 }

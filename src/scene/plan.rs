@@ -77,8 +77,10 @@ pub mod defaults {
     pub const SEED: u64 = 0;
     pub const EXPOSURE: f32 = 0.0;
     /// `--scattering`, and the most scattering events of a path (`--scattering path`).
-    pub const SCATTERING: &str = "single";
+    pub const SCATTERING: &str = "fast";
     pub const PATH_BOUNCES: u32 = crate::integrate::scattering::PATH_BOUNCES;
+    /// The scattering orders `--scattering fast` models.
+    pub const FAST_BOUNCES: u32 = crate::integrate::fast::DEFAULT_BOUNCES;
     /// Water-drop radius for `--phase water-drop`, micrometres.
     pub const DROP_RADIUS_UM: f64 = crate::integrate::phase::water_drop::DEFAULT_RADIUS_UM;
 }
