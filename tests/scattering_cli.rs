@@ -67,7 +67,7 @@ fn single_scattering_refuses_an_environment_light() {
     refused(
         "env-single",
         &fixture("cloud.vdb"),
-        &["--light", "env:1,1,1:1"],
+        &["--scattering", "single", "--light", "env:1,1,1:1"],
         &["env", "--scattering path"],
     );
 }
@@ -154,14 +154,15 @@ fn scene_file_keys_are_read() {
     );
 }
 
-/// Until the fast approximation lands, asking for it is one line, not a silent fallback.
+/// The fast approximation's lattice has no environment light: one line, not a silent
+/// render without it (the default mode, so no flag needed).
 #[test]
-fn fast_is_refused_until_it_is_built() {
+fn fast_refuses_an_environment_light() {
     refused(
-        "fast",
+        "fast-env",
         &fixture("cloud.vdb"),
-        &["--scattering", "fast"],
-        &["fast approximation is not built yet"],
+        &["--light", "env:1,1,1:1"],
+        &["env", "fast", "--scattering path"],
     );
 }
 

@@ -199,7 +199,7 @@ pub fn render_image_frame(
                 scene.ground.map(|g| (g, &lights as &dyn Illumination)),
                 plan.march_settings(),
             );
-            render_frame(&integrator, &scene, plan, progress, &mut st)?
+            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
         }
     };
     let mut exr = plan.outputs.exr.clone();

@@ -11,7 +11,9 @@
 //! - `termination`: the termination threshold, with exact marched shadows at step 0.5.
 //!
 //! - `path_spp`: the path tracer's samples per pixel, against a path-traced reference
-//!   ([`super::converge_path`]).
+//!   ([`super::converge_path`]);
+//! - `fast_bounces`: the fast approximation's `--bounces`, against the same reference
+//!   ([`super::converge_fast`]).
 //!
 //! The row `default` is the render with murk's defaults (step 0.5, shadow map at 1e-3,
 //! termination 1e-4).

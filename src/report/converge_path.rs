@@ -22,7 +22,7 @@ pub const SWEEP: &str = "path_spp";
 
 /// Renders the sweep takes with `runs` runs per point.
 pub fn renders(runs: usize) -> u64 {
-    1 + (PATH_SPPS.len() * runs) as u64
+    1 + (PATH_SPPS.len() * runs) as u64 + super::converge_fast::renders(runs)
 }
 
 fn plan(options: &RenderOptions, input: &Path, spp: u32, seed: u64) -> Result<RenderPlan> {
@@ -108,5 +108,13 @@ pub fn run(
             ..row(SWEEP, spp as f64, &p, median(bakes), median(renders))
         });
     }
+    // The fast approximation against the same path-traced reference.
+    rows.extend(super::converge_fast::run(
+        options,
+        input,
+        runs,
+        &reference.frame,
+        progress,
+    )?);
     Ok(rows)
 }
