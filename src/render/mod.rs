@@ -99,6 +99,12 @@ pub fn run_frame(
     Ok(st)
 }
 
+/// Lattice nodes the fast approximation may spend per image pixel (16: the default
+/// 64,000 from 80×45 up; the calibration images of scripts/calibrate_fast.py, 80×45 and
+/// 160×90, are at or near the default), and the fewest it uses.
+const FAST_NODES_PER_PIXEL: usize = 16;
+const FAST_MIN_NODES: usize = 4_096;
+
 /// Renders a plan into memory: build the scene → render. Nothing is written.
 pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
     render_image_with(plan, &Silent)
@@ -184,9 +190,13 @@ pub fn render_image_frame(
         ScatteringMode::Fast => {
             // Multiple scattering: the lattice of every light, solved before the pixels.
             let t = Instant::now();
-            let lattice = lights_named.map(|(l, _)| {
-                MsLattice::build(&volume, l, &plan.transport.fast_settings().lattice())
-            });
+            let mut fast = plan.transport.fast_settings();
+            // No more nodes than the image can show: a small image needs no fine lattice.
+            fast.lattice_nodes = fast
+                .lattice_nodes
+                .min(FAST_NODES_PER_PIXEL * plan.camera.width * plan.camera.height)
+                .max(FAST_MIN_NODES);
+            let lattice = lights_named.map(|(l, _)| MsLattice::build(&volume, l, &fast.lattice()));
             multiple_seconds = Some(t.elapsed().as_secs_f64());
             let with = lattice.as_ref().map(|lattice| WithMultiple {
                 direct: &lights,
