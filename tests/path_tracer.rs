@@ -480,7 +480,9 @@ fn deterministic_layers_add_up_and_the_direct_part_is_single_scattering() {
     }
     // The sun's direct light against single scattering (the march): mean over the image.
     let mut single = plan(&[("light", "sun:0.6,1,0.5:1,1,1:6"), ("spp", "16")]);
+    // Single scattering explicitly (the default mode is fast).
     single.transport = Default::default();
+    single.transport.mode = murk::integrate::ScatteringMode::Single;
     let s = render_image(&single).unwrap().frame;
     let p = render_image(&plan(&[("light", "sun:0.6,1,0.5:1,1,1:6"), ("spp", "64")]))
         .unwrap()
