@@ -153,6 +153,11 @@ pub(super) fn plan_of(options: &RenderOptions, input: &Path, p: &Point) -> Resul
     o.reference = p.exact_shadows;
     // The reference refuses a termination; a sweep point sets it on the plan.
     o.termination = None;
+    // The march's sweeps measure the march: single scattering unless asked otherwise
+    // (its bound is single scattering's; fast and path have sweeps of their own).
+    o.scattering = o
+        .scattering
+        .or(Some(crate::integrate::ScatteringMode::Single));
     // Exact shadows come with the reference's settings; every other point (`default`
     // included) uses the deep shadow map, murk's default.
     o.shadows = (!p.exact_shadows).then(|| "dsm".to_string());
