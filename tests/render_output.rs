@@ -547,7 +547,7 @@ fn float_flag_stores_colour_as_float() {
     let info = oiio_info(&exr);
     // OIIO names a channel's type only when the channels' types differ.
     assert!(
-        info.contains("8 channel, float openexr") && !info.contains("(half)"),
+        info.contains("11 channel, float openexr") && !info.contains("(half)"),
         "{info}"
     );
     let e = Exr::read(&exr);
