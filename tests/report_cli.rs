@@ -127,8 +127,13 @@ fn converge_writes_csv_markdown_and_png() {
     );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     // The reference, three sweeps, the default; then the path tracer's reference and
-    // its spp sweep.
-    assert_eq!(rows.len(), 1 + 7 + 5 + 6 + 1 + 1 + 6, "{csv}");
+    // its spp sweep, and the fast approximation's bounces sweep against it.
+    assert_eq!(rows.len(), 1 + 7 + 5 + 6 + 1 + 1 + 6 + 6, "{csv}");
+    assert_eq!(
+        rows.iter().filter(|r| r[0] == "fast_bounces").count(),
+        6,
+        "{csv}"
+    );
     assert_eq!(rows[0][0], "reference");
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let num = |r: &[&str], name: &str| -> f64 { r[col(name)].parse().unwrap() };
