@@ -680,6 +680,12 @@ fn help_states_every_default() {
         ("--z-empty", format!("default {:e}", d::Z_EMPTY)),
         ("--up-axis", "default auto".to_string()),
         ("--colorspace", "default lin_rec709".to_string()),
+        (
+            "--scattering",
+            format!("{} (every order approximated; default", d::SCATTERING),
+        ),
+        ("--bounces", format!("path: default {}", d::PATH_BOUNCES)),
+        ("--bounces", format!("fast: default {}", d::FAST_BOUNCES)),
     ];
     for (flag, want) in cases {
         let l = line(flag);

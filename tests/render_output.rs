@@ -286,9 +286,9 @@ fn scene_file_renders_and_flags_override_it() {
     assert!(png.is_file(), "--preview wins over the scene's preview");
     assert_eq!(string_list(&stats["lights"]), ["key", "fill"]);
 
-    // Named lights give named layers.
+    // Named lights give named layers; the default mode (fast) adds `indirect`.
     let mut want = set(&["R", "G", "B", "A", "Z"]);
-    for layer in ["scatter", "scatter_key", "scatter_fill"] {
+    for layer in ["scatter", "indirect", "scatter_key", "scatter_fill"] {
         want.extend(rgb(layer));
     }
     assert_eq!(e.names(), want);
@@ -396,6 +396,7 @@ fn light_flag_replaces_the_scenes_lights() {
     assert_eq!(string_list(&stats["lights"]), ["sun0"]);
     let mut want = set(&["R", "G", "B", "A", "Z"]);
     want.extend(rgb("scatter"));
+    want.extend(rgb("indirect")); // the default mode, fast
     assert_eq!(Exr::read(&exr).names(), want);
 }
 
@@ -428,6 +429,7 @@ fn exr_header_per_exrheader() {
     let names: BTreeSet<String> = channels.iter().map(|(n, _)| n.clone()).collect();
     let mut want = set(&["R", "G", "B", "A", "Z"]);
     want.extend(rgb("scatter"));
+    want.extend(rgb("indirect")); // the default mode, fast
     assert_eq!(
         names, want,
         "no emission layer (no emission grid), no per-light layer (one light)"
@@ -531,7 +533,7 @@ fn exr_header_per_oiiotool() {
         .map(|c| (c.to_string(), "half".to_owned()))
         .collect();
     want.insert("Z".into(), "float".into());
-    for c in rgb("scatter") {
+    for c in rgb("scatter").into_iter().chain(rgb("indirect")) {
         want.insert(c, "half".into());
     }
     assert_eq!(channels, want, "{info}");
@@ -542,7 +544,7 @@ fn float_flag_stores_colour_as_float() {
     let dir = scratch("float");
     let exr = render(&dir, "cloud.vdb", "x", &["--float"]);
     let channels = exrheader_channels(&exrheader(&exr));
-    assert_eq!(channels.len(), 8);
+    assert_eq!(channels.len(), 11); // R G B A Z, scatter and indirect (fast, the default)
     assert!(
         channels.iter().all(|(_, t)| t == "32-bit floating-point"),
         "{channels:?}"
@@ -550,7 +552,7 @@ fn float_flag_stores_colour_as_float() {
     let info = oiio_info(&exr);
     // OIIO names a channel's type only when the channels' types differ.
     assert!(
-        info.contains("8 channel, float openexr") && !info.contains("(half)"),
+        info.contains("11 channel, float openexr") && !info.contains("(half)"),
         "{info}"
     );
     let e = Exr::read(&exr);
@@ -616,7 +618,8 @@ fn every_compression_shows_up_in_the_header() {
             "--compression {name}:\n{info}"
         );
         // readable by the exr crate too
-        assert_eq!(Exr::read(&exr).channels.len(), 8, "--compression {name}");
+        // R G B A Z, scatter and indirect (fast, the default).
+        assert_eq!(Exr::read(&exr).channels.len(), 11, "--compression {name}");
     }
 }
 
@@ -637,7 +640,7 @@ fn two_lights_get_their_own_layers() {
     let h = exrheader(&exr);
     let names: BTreeSet<String> = exrheader_channels(&h).into_iter().map(|(n, _)| n).collect();
     let mut want = set(&["R", "G", "B", "A", "Z"]);
-    for layer in ["scatter", "scatter_sun0", "scatter_sun1"] {
+    for layer in ["scatter", "indirect", "scatter_sun0", "scatter_sun1"] {
         want.extend(rgb(layer));
     }
     assert_eq!(names, want);
@@ -653,7 +656,7 @@ fn two_lights_get_their_own_layers() {
         .map(|(n, _)| n)
         .collect();
     let mut want = set(&["R", "G", "B", "A", "Z"]);
-    for layer in ["scatter", "scatter_sun0", "scatter_point0"] {
+    for layer in ["scatter", "indirect", "scatter_sun0", "scatter_point0"] {
         want.extend(rgb(layer));
     }
     assert_eq!(names, want);

@@ -126,7 +126,14 @@ fn converge_writes_csv_markdown_and_png() {
         ]
     );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 1 + 7 + 5 + 6 + 1, "{csv}");
+    // The reference, three sweeps, the default; then the path tracer's reference and
+    // its spp sweep, and the fast approximation's bounces sweep against it.
+    assert_eq!(rows.len(), 1 + 7 + 5 + 6 + 1 + 1 + 6 + 6, "{csv}");
+    assert_eq!(
+        rows.iter().filter(|r| r[0] == "fast_bounces").count(),
+        6,
+        "{csv}"
+    );
     assert_eq!(rows[0][0], "reference");
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let num = |r: &[&str], name: &str| -> f64 { r[col(name)].parse().unwrap() };
@@ -146,6 +153,19 @@ fn converge_writes_csv_markdown_and_png() {
         .map(|r| num(r, "rel_rmse"))
         .collect();
     assert!(step.windows(2).all(|w| w[1] < w[0]), "{step:?}");
+    // The path tracer's error falls as 1/√spp: the fitted slope of log error against
+    // log spp is near −½ (six points, 1 → 32 spp, against a 256-spp reference).
+    let path: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r[0] == "path_spp")
+        .map(|r| (num(r, "value").ln(), num(r, "rel_rmse").ln()))
+        .collect();
+    assert_eq!(path.len(), 6, "{csv}");
+    let slope = murk::report::fit_slope(&path);
+    assert!(
+        (-0.65..=-0.35).contains(&slope),
+        "path_spp slope {slope}: {path:?}"
+    );
     // The termination sweep: α error stays below the threshold (a ray dropped at T < t
     // loses at most t of opacity).
     for r in rows.iter().filter(|r| r[0] == "termination") {

@@ -22,7 +22,8 @@ pub struct MapArgs {
     #[arg(long = "density-scale", value_name = "F")]
     pub density_scale: Option<f64>,
     /// A light: sun:DX,DY,DZ[:R,G,B[:INTENSITY]] (direction toward the sun; intensity is its
-    /// irradiance) or point:X,Y,Z[:R,G,B[:INTENSITY]]. Repeatable. Default: sun:0.6,1,0.5:1,1,1:6.
+    /// irradiance), point:X,Y,Z[:R,G,B[:INTENSITY]] or env:R,G,B[:INTENSITY] (a uniform
+    /// dome of that radiance; --scattering path). Repeatable. Default: sun:0.6,1,0.5:1,1,1:6.
     #[arg(long = "light", value_name = "SPEC", allow_hyphen_values = true)]
     pub light: Vec<String>,
     /// Largest transmittance error the deep shadow map may make, absolute (default 1e-3).
@@ -172,6 +173,20 @@ pub struct QualityArgs {
     pub seed: Option<u64>,
 }
 
+/// How light is transported: the scattering orders and the integrator that finds them.
+#[derive(Args, Clone, Debug, Default, PartialEq)]
+pub struct TransportArgs {
+    /// How many times light scatters: fast (every order approximated; default: single
+    /// scattering plus a coarse lattice for the rest), single (once, by the ray march)
+    /// or path (unbiased path tracing of every order).
+    #[arg(long, value_name = "single|fast|path", hide_possible_values = true)]
+    pub scattering: Option<murk::integrate::ScatteringMode>,
+    /// Most scattering events a path may have (path: default 10000), or the orders the
+    /// approximation models, later ones as a geometric tail (fast: default 24).
+    #[arg(long, value_name = "N")]
+    pub bounces: Option<u32>,
+}
+
 /// The files written besides the EXR.
 #[derive(Args, Clone, Debug, Default, PartialEq)]
 pub struct ImageArgs {
@@ -237,6 +252,8 @@ pub struct RenderArgs {
     pub sequence: SequenceArgs,
     #[command(flatten)]
     pub production: ProductionArgs,
+    #[command(flatten)]
+    pub transport: TransportArgs,
 }
 
 /// Frame sequences and pieces of frames (for a farm).
@@ -337,6 +354,8 @@ impl RenderArgs {
             z_empty: a.production.z_empty,
             crop_data_window: a.production.crop_data_window,
             colorspace: a.production.colorspace,
+            scattering: a.transport.scattering,
+            bounces: a.transport.bounces,
             ..RenderOptions::default()
         };
         a.map.set(&mut o);

@@ -96,7 +96,13 @@ pub fn converge(input: &Path, options: RenderOptions, out: &Path, runs: usize) -
             "\nNo font was found, so the plot has no text: lines are {}.\n",
             COLOURS
                 .iter()
-                .zip(["step", "dsm_tolerance", "termination", "default"])
+                .zip([
+                    "step",
+                    "dsm_tolerance",
+                    "termination",
+                    "path_spp",
+                    "default",
+                ])
                 .map(|((c, _), s)| format!("{s} {c}"))
                 .collect::<Vec<_>>()
                 .join(", ")

@@ -4,7 +4,7 @@
 
 use super::march::WorldRay;
 use super::pass::PassLayout;
-use crate::field::random::{mix64, unit_f64};
+use crate::field::random::{SplitMix64, mix64, unit_f64};
 
 /// A deterministic hash of a pixel sample's `k`-th random dimension to [0, 1)
 /// (SplitMix64's mixer): the same for any thread count, tile order or tiling.
@@ -44,6 +44,19 @@ impl SampleRng {
         let k = self.k;
         self.k = if k == 0 { 3 } else { k.wrapping_add(1) };
         unit_random(self.seed, self.x, self.y, self.s, k)
+    }
+
+    /// An endless stream of random numbers of its own for this pixel sample, told apart
+    /// by `id`: for integrators whose number of draws has no bound (a path's flights and
+    /// shadow rays), each part drawing from its own stream so that how many numbers one
+    /// part takes does not shift the others'.
+    pub fn stream(&self, id: u64) -> SplitMix64 {
+        let z = self
+            .seed
+            .wrapping_add((self.x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+            .wrapping_add((self.y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F))
+            .wrapping_add((self.s as u64).wrapping_mul(0x1656_67B1_9E37_79F9));
+        SplitMix64(mix64(mix64(z) ^ id.wrapping_mul(0xD6E8_FEB8_6659_FD93)))
     }
 }
 

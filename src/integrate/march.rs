@@ -48,6 +48,21 @@ pub trait Illumination: Sync {
     fn incident(&self, light: usize, x: DVec3) -> (DVec3, DVec3);
     /// `∫ρ ds` from `x` (world) toward the light; extinction is this times σt.
     fn density_to_light(&self, light: usize, x: DVec3) -> f64;
+    /// Distance from `x` to the light (infinite for a sun): how far a shadow ray goes.
+    fn distance_to_light(&self, light: usize, x: DVec3) -> f64 {
+        let _ = (light, x);
+        f64::INFINITY
+    }
+    /// Whether [`Illumination::multiple_scattered`] is more than zero anywhere.
+    fn scatters_multiply(&self) -> bool {
+        false
+    }
+    /// The light's in-radiance at `x` from light that has scattered one or more times
+    /// already (taken as isotropic: the in-scattered radiance is `σs·ρ` times this).
+    /// Zero unless an integrator models multiple scattering (`integrate::fast`).
+    fn multiple_scattered(&self, _light: usize, _x: DVec3) -> DVec3 {
+        DVec3::ZERO
+    }
 }
 
 /// Largest optical depth (majorant × step) a step of the default length (0.5 voxel) may
@@ -156,8 +171,11 @@ impl<'a> Volume<'a> {
 pub struct Scratch {
     /// Per light: optical depth toward it at the current segment start (RGB), if known.
     light_tau: Vec<Option<DVec3>>,
-    /// Per light: scattered radiance gathered.
+    /// Per light: scattered radiance gathered (all orders).
     pub per_light: Vec<DVec3>,
+    /// Radiance of light scattered two or more times, over all lights (the part of
+    /// `RayResult::scatter` from [`Illumination::multiple_scattered`]).
+    pub indirect: DVec3,
     /// The ends of the segments of the current batch, and the density integral over each.
     ends: Vec<f64>,
     integrals: Vec<f64>,
@@ -168,6 +186,7 @@ impl Scratch {
         Scratch {
             light_tau: vec![None; lights],
             per_light: vec![DVec3::ZERO; lights],
+            indirect: DVec3::ZERO,
             ends: Vec::with_capacity(SEGMENT_BATCH),
             integrals: vec![0.0; SEGMENT_BATCH],
         }
@@ -272,6 +291,8 @@ pub fn march(
     let scatter_lights = lights.filter(|l| l.light_count() > 0 && vol.medium.scatters());
     let n_lights = scatter_lights.map_or(0, |l| l.light_count());
     scratch.per_light.iter_mut().for_each(|v| *v = DVec3::ZERO);
+    scratch.indirect = DVec3::ZERO;
+    let multiple = scatter_lights.is_some_and(|l| l.scatters_multiply());
     scratch.light_tau.iter_mut().for_each(|v| *v = None);
     let emission = vol.emission.as_ref().filter(|e| e.is_active());
     let mut tau = DVec3::ZERO;
@@ -359,6 +380,13 @@ pub fn march(
                             per_channel(grey, |c| exp_source_weight(st[c], tau0[c], tau1[c], ds));
                         scratch.per_light[l] +=
                             t_now * sigma_s_here * rho * phase * irradiance * weight;
+                        if multiple {
+                            // Multiply scattered light: isotropic and taken as constant
+                            // over the segment, so its weight is the segment's own.
+                            let ms = t_now * sigma_s_here * rho * ls.multiple_scattered(l, xw) * w;
+                            scratch.per_light[l] += ms;
+                            scratch.indirect += ms;
+                        }
                     }
                     last_end = b;
                 }

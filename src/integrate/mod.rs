@@ -3,15 +3,21 @@
 //! ([`Integrator`]: what a camera ray sees, into the passes it declares).
 
 pub mod blackbody;
+pub mod fast;
 pub mod ground;
 pub mod integrator;
 pub mod march;
 pub mod medium;
+pub mod ms_lattice;
 pub mod optics;
 pub mod pass;
+pub mod path;
 pub mod phase;
+pub mod scatter_passes;
+pub mod scattering;
 pub mod single;
 
 pub use integrator::{CameraSample, Integrator, SampleRng};
 pub use march::{Illumination, MarchSettings, RayResult, Scratch, Volume, WorldRay, march};
 pub use medium::{ColorTint, Companion, Emission, Medium};
+pub use scattering::ScatteringMode;

@@ -4,20 +4,11 @@
 use super::ground::{ALBEDO, Ground};
 use super::integrator::{CameraSample, Integrator, SampleRng};
 use super::march::{Illumination, MarchSettings, Scratch, Volume, march};
-use super::pass::{Pass, PassLayout};
+use super::pass::PassLayout;
+use super::scatter_passes::{ScatterPassSpec, ScatterPasses};
+use glam::DVec3;
 
-/// Names of the passes single scattering writes (the EXR layers).
-pub mod pass_names {
-    pub const EMISSION: &str = "emission";
-    pub const SCATTER: &str = "scatter";
-    pub const SHADOW: &str = "shadow";
-    /// A visible floor's radiance: summed into the beauty, not written as a layer.
-    pub const GROUND: &str = "ground";
-    /// The layer of one light's share of `scatter`.
-    pub fn scatter_of(light: &str) -> String {
-        format!("scatter_{light}")
-    }
-}
+pub use super::scatter_passes::pass_names;
 
 /// What single scattering integrates: the volume, the lights it scatters (if anything
 /// scatters), and a ground plane lit through the volume.
@@ -26,21 +17,7 @@ pub struct SingleScattering<'a> {
     lights: Option<&'a dyn Illumination>,
     ground: Option<(Ground, &'a dyn Illumination)>,
     settings: MarchSettings,
-    layout: PassLayout,
-    /// Offsets of the passes in the pixel buffer.
-    at: Offsets,
-}
-
-#[derive(Clone, Copy, Debug, Default)]
-struct Offsets {
-    alpha: usize,
-    depth: usize,
-    emission: Option<usize>,
-    scatter: Option<usize>,
-    /// First light's layer; the others follow, 3 slots each.
-    per_light: Option<usize>,
-    shadow: Option<usize>,
-    ground: Option<usize>,
+    passes: ScatterPasses,
 }
 
 impl<'a> SingleScattering<'a> {
@@ -54,50 +31,20 @@ impl<'a> SingleScattering<'a> {
         ground: Option<(Ground, &'a dyn Illumination)>,
         settings: MarchSettings,
     ) -> Self {
-        let mut passes = vec![Pass::alpha(), Pass::depth()];
-        if emits {
-            passes.push(Pass::beauty(pass_names::EMISSION));
-        }
-        let mut names = Vec::new();
-        if let Some((_, n)) = &lights {
-            passes.push(Pass::beauty(pass_names::SCATTER));
-            names.clone_from(n);
-            if names.len() > 1 {
-                for n in &names {
-                    passes.push(Pass::layer(&pass_names::scatter_of(n)));
-                }
-            }
-        }
-        if ground.is_some() {
-            passes.push(Pass::layer(pass_names::SHADOW));
-        }
-        if ground.is_some_and(|(g, _)| g.visible) {
-            passes.push(Pass {
-                layer: false,
-                ..Pass::beauty(pass_names::GROUND)
-            });
-        }
-        let layout = PassLayout::new(passes);
-        let off = |name: &str| layout.find(name).map(|i| layout.offset(i));
-        let at = Offsets {
-            alpha: 0,
-            depth: 1,
-            emission: off(pass_names::EMISSION),
-            scatter: off(pass_names::SCATTER),
-            per_light: names
-                .first()
-                .filter(|_| names.len() > 1)
-                .and_then(|n| off(&pass_names::scatter_of(n))),
-            shadow: off(pass_names::SHADOW),
-            ground: off(pass_names::GROUND),
-        };
+        let passes = ScatterPasses::new(&ScatterPassSpec {
+            emits,
+            lights: lights.as_ref().map(|(_, n)| n.clone()).unwrap_or_default(),
+            // Lights that carry multiple scattering (`integrate::fast`) fill `indirect`.
+            indirect: lights.as_ref().is_some_and(|(l, _)| l.scatters_multiply()),
+            shadow: ground.is_some(),
+            ground_visible: ground.is_some_and(|(g, _)| g.visible),
+        });
         SingleScattering {
             volume,
             lights: lights.map(|(l, _)| l),
             ground,
             settings,
-            layout,
-            at,
+            passes,
         }
     }
 }
@@ -106,7 +53,7 @@ impl Integrator for SingleScattering<'_> {
     type Scratch = Scratch;
 
     fn passes(&self) -> &PassLayout {
-        &self.layout
+        self.passes.layout()
     }
 
     fn scratch(&self) -> Scratch {
@@ -136,39 +83,33 @@ impl Integrator for SingleScattering<'_> {
             ray.t_max = t;
         }
         let r = march(self.volume, self.lights, &ray, &self.settings, u, scratch);
-        let at = &self.at;
-        if let Some(s) = at.shadow {
+        let p = &self.passes;
+        if p.has_shadow() {
             match hit {
-                Some((_, _, light)) => (0..3).for_each(|c| acc[s + c] += light.fraction[c]),
-                None => (0..3).for_each(|c| acc[s + c] += 1.0),
+                Some((_, _, light)) => p.add_shadow(acc, light.fraction),
+                None => p.add_shadow(acc, DVec3::ONE),
             }
         }
         let mut half_t = r.half_opacity_t;
         if let Some((_, t, light)) = visible {
             // An opaque grey floor behind the volume.
             let radiance = light.irradiance * (ALBEDO / std::f64::consts::PI);
-            if let Some(gr) = at.ground {
-                (0..3).for_each(|c| acc[gr + c] += r.transmittance[c] * radiance[c]);
-            }
-            acc[at.alpha] += 1.0;
+            p.add_ground(acc, r.transmittance * radiance);
+            p.add_alpha(acc, 1.0);
             half_t = half_t.or(Some(t));
         } else {
-            acc[at.alpha] += r.alpha();
+            p.add_alpha(acc, r.alpha());
         }
-        if let Some(e) = at.emission {
-            (0..3).for_each(|c| acc[e + c] += r.emission[c]);
-        }
-        if let Some(s) = at.scatter {
-            (0..3).for_each(|c| acc[s + c] += r.scatter[c]);
-        }
-        if let Some(pl) = at.per_light {
+        p.add_emission(acc, r.emission);
+        p.add_scatter_total(acc, r.scatter);
+        p.add_indirect_share(acc, scratch.indirect);
+        if p.has_per_light() {
             for (l, v) in scratch.per_light.iter().enumerate() {
-                (0..3).for_each(|c| acc[pl + 3 * l + c] += v[c]);
+                p.add_light_share(acc, l, *v);
             }
         }
         if let Some(t) = half_t {
-            acc[at.depth] += t * camera.depth_rate;
-            acc[at.depth + 1] += 1.0;
+            p.add_depth(acc, t * camera.depth_rate);
         }
         r.samples
     }

@@ -11,12 +11,15 @@ pub mod stats;
 pub use crate::scene::progress::{Progress, Silent};
 pub use crate::scene::{RenderOptions, RenderPlan};
 
+use crate::integrate::fast::{FastScattering, WithMultiple};
+use crate::integrate::ms_lattice::MsLattice;
+use crate::integrate::path::{LightTransmittance, PathSettings, PathTracer};
 use crate::integrate::single::SingleScattering;
-use crate::integrate::{Illumination, Integrator};
+use crate::integrate::{Illumination, Integrator, ScatteringMode};
 use crate::output::{Frame, write_atomically, write_exr, write_preview};
 use crate::scene::Scene;
 use crate::scene::lights::bake_maps;
-use crate::scene::plan::GridChoice;
+use crate::scene::plan::{GridChoice, ShadowMode};
 use crate::scene::reuse::FrameReuse;
 use crate::scene::roles::load_fields;
 use anyhow::{Context, Result, anyhow};
@@ -96,6 +99,12 @@ pub fn run_frame(
     Ok(st)
 }
 
+/// Lattice nodes the fast approximation may spend per image pixel (16: the default
+/// 64,000 from 80×45 up; the calibration images of scripts/calibrate_fast.py, 80×45 and
+/// 160×90, are at or near the default), and the fewest it uses.
+const FAST_NODES_PER_PIXEL: usize = 16;
+const FAST_MIN_NODES: usize = 4_096;
+
 /// Renders a plan into memory: build the scene → render. Nothing is written.
 pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
     render_image_with(plan, &Silent)
@@ -130,18 +139,9 @@ pub fn render_image_frame(
     let traversal = scene.traversal();
     let volume = scene.volume(&traversal);
     let lights = scene.illumination();
-    let integrator = SingleScattering::new(
-        &volume,
-        scene.emits,
-        scene.scatters.then(|| {
-            (
-                &lights as &dyn Illumination,
-                scene.lights.iter().map(|l| l.name.clone()).collect(),
-            )
-        }),
-        scene.ground.map(|g| (g, &lights as &dyn Illumination)),
-        plan.march_settings(),
-    );
+    let lights_named = scene
+        .scatters
+        .then(|| (&lights as &dyn Illumination, scene.light_names()));
     let mut st = RenderStats {
         murk_version: env!("CARGO_PKG_VERSION").into(),
         input: plan.input.display().to_string(),
@@ -151,8 +151,67 @@ pub fn render_image_frame(
         spp: plan.sampling.spp,
         ..Default::default()
     };
-    let (frame, render_seconds) =
-        render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?;
+    // Seconds the fast mode's lattice took (a stage of its own in the stats).
+    let mut multiple_seconds = None;
+    // The integrator of the plan's scattering mode.
+    let (frame, render_seconds) = match plan.transport.mode {
+        ScatteringMode::Single => {
+            let integrator = SingleScattering::new(
+                &volume,
+                scene.emits,
+                lights_named,
+                scene.ground.map(|g| (g, &lights as &dyn Illumination)),
+                plan.march_settings(),
+            );
+            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+        }
+        ScatteringMode::Path => {
+            let names = scene.lights.iter().map(|l| l.name.clone()).collect();
+            let integrator = PathTracer::new(
+                &volume,
+                scene.emits,
+                scene
+                    .scatters
+                    .then_some((&lights as &dyn Illumination, names)),
+                scene
+                    .environment
+                    .as_ref()
+                    .map(|e| (e.radiance, e.name.clone())),
+                PathSettings {
+                    bounces: plan.transport.path_bounces(),
+                    transmittance: match plan.shadows.mode {
+                        ShadowMode::March => LightTransmittance::RatioTracking,
+                        ShadowMode::Dsm | ShadowMode::None => LightTransmittance::Lookup,
+                    },
+                },
+            );
+            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+        }
+        ScatteringMode::Fast => {
+            // Multiple scattering: the lattice of every light, solved before the pixels.
+            let t = Instant::now();
+            let mut fast = plan.transport.fast_settings();
+            // No more nodes than the image can show: a small image needs no fine lattice.
+            fast.lattice_nodes = fast
+                .lattice_nodes
+                .min(FAST_NODES_PER_PIXEL * plan.camera.width * plan.camera.height)
+                .max(FAST_MIN_NODES);
+            let lattice = lights_named.map(|(l, _)| MsLattice::build(&volume, l, &fast.lattice()));
+            multiple_seconds = Some(t.elapsed().as_secs_f64());
+            let with = lattice.as_ref().map(|lattice| WithMultiple {
+                direct: &lights,
+                lattice,
+            });
+            let integrator = FastScattering::new(
+                &volume,
+                scene.emits,
+                with.as_ref().map(|w| (w, scene.light_names())),
+                scene.ground.map(|g| (g, &lights as &dyn Illumination)),
+                plan.march_settings(),
+            );
+            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+        }
+    };
     let mut exr = plan.outputs.exr.clone();
     if let Some(f) = job.frame {
         exr.extra_strings
@@ -195,6 +254,11 @@ pub fn render_image_frame(
     st.scene
         .stages
         .insert("render".into(), Stage::ran(render_seconds));
+    if let Some(s) = multiple_seconds {
+        st.scene
+            .stages
+            .insert("multiple_scattering".into(), Stage::ran(s));
+    }
     st.total_seconds = start.elapsed().as_secs_f64();
     Ok(RenderedImage {
         frame,

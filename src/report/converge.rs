@@ -10,6 +10,11 @@
 //! - `dsm_tolerance`: the deep shadow map's tolerance, at step 1/16 voxel, no termination;
 //! - `termination`: the termination threshold, with exact marched shadows at step 0.5.
 //!
+//! - `path_spp`: the path tracer's samples per pixel, against a path-traced reference
+//!   ([`super::converge_path`]);
+//! - `fast_bounces`: the fast approximation's `--bounces`, against the same reference
+//!   ([`super::converge_fast`]).
+//!
 //! The row `default` is the render with murk's defaults (step 0.5, shadow map at 1e-3,
 //! termination 1e-4).
 
@@ -148,6 +153,11 @@ pub(super) fn plan_of(options: &RenderOptions, input: &Path, p: &Point) -> Resul
     o.reference = p.exact_shadows;
     // The reference refuses a termination; a sweep point sets it on the plan.
     o.termination = None;
+    // The march's sweeps measure the march: single scattering unless asked otherwise
+    // (its bound is single scattering's; fast and path have sweeps of their own).
+    o.scattering = o
+        .scattering
+        .or(Some(crate::integrate::ScatteringMode::Single));
     // Exact shadows come with the reference's settings; every other point (`default`
     // included) uses the deep shadow map, murk's default.
     o.shadows = (!p.exact_shadows).then(|| "dsm".to_string());
@@ -167,7 +177,11 @@ pub fn run(
 ) -> Result<(Measured, Vec<Measured>)> {
     let runs = settings.runs.max(1);
     let points = sweep_points();
-    progress.start("converge", 1 + (points.len() * runs) as u64, "renders");
+    progress.start(
+        "converge",
+        1 + (points.len() * runs) as u64 + super::converge_path::renders(runs),
+        "renders",
+    );
     progress.note("reference");
     let reference_point = Point {
         sweep: "reference",
@@ -246,6 +260,7 @@ pub fn run(
             bound_violations: bound_violations(&frame, bound),
         });
     }
+    rows.extend(super::converge_path::run(options, input, runs, progress)?);
     Ok((ref_row, rows))
 }
 

@@ -6,7 +6,13 @@ use super::converge::{DSM_SWEEP_STEP, Measured, TERMINATION_SWEEP_STEP, fmt_valu
 use super::fit_slope;
 
 /// The sweeps, in table order.
-pub const SWEEPS: [&str; 3] = ["step", "dsm_tolerance", "termination"];
+pub const SWEEPS: [&str; 5] = [
+    "step",
+    "dsm_tolerance",
+    "termination",
+    "path_spp",
+    "fast_bounces",
+];
 
 /// The error the tables call "reached".
 pub const TARGET_ERROR: f64 = 1e-3;

@@ -3,6 +3,8 @@
 
 pub mod check;
 pub mod converge;
+pub mod converge_fast;
+pub mod converge_path;
 pub mod converge_table;
 pub mod phase_plot;
 pub mod plot;

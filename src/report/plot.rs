@@ -14,10 +14,12 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 /// Line colours, in [`SWEEPS`] order, then the `default` point.
-pub const COLOURS: [(&str, RGBColor); 4] = [
+pub const COLOURS: [(&str, RGBColor); 6] = [
     ("blue", RGBColor(31, 119, 180)),
     ("orange", RGBColor(255, 127, 14)),
     ("green", RGBColor(44, 160, 44)),
+    ("purple", RGBColor(148, 103, 189)),
+    ("brown", RGBColor(140, 86, 75)),
     ("red", RGBColor(214, 39, 40)),
 ];
 

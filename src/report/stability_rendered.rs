@@ -61,13 +61,15 @@ fn blob_voxels() -> Vec<(IVec3, f32)> {
     v
 }
 
-/// Renders `vdb` at 24×24 (quiet, in memory) with `adjust` applied to the options.
+/// Renders `vdb` at 24×24 (quiet, in memory) with `adjust` applied to the options, by
+/// single scattering: the cases' bounds and closed forms are single scattering's.
 fn render(vdb: &Path, adjust: impl FnOnce(&mut RenderOptions)) -> Result<(Frame, RenderPlan)> {
     let mut o = RenderOptions {
         output: Some(vdb.with_extension("exr")),
         res: Some("24x24".into()),
         light: vec!["sun:0.6,1,0.5:1,1,1:6".into()],
         quiet: true,
+        scattering: Some(crate::integrate::ScatteringMode::Single),
         ..Default::default()
     };
     adjust(&mut o);

@@ -1,4 +1,5 @@
-//! Lights: suns (directional, given by the direction toward them) and point lights.
+//! Lights: suns (directional, given by the direction toward them), point lights, and a
+//! uniform environment (dome) light.
 
 use crate::shadow::LightGeometry;
 use glam::DVec3;
@@ -66,7 +67,7 @@ impl Light {
             "point" => LightKind::Point { position: v },
             other => {
                 return Err(format!(
-                    "--light \"{spec}\": unknown light type \"{other}\" (sun or point)"
+                    "--light \"{spec}\": unknown light type \"{other}\" (sun, point or env)"
                 ));
             }
         };
@@ -120,6 +121,51 @@ impl Light {
     }
 }
 
+/// A uniform environment (dome) light: radiance `color × intensity` arriving from every
+/// direction, unshadowed only where nothing lies between (the path tracer finds what does).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvLight {
+    pub name: String,
+    /// Radiance per steradian, RGB.
+    pub radiance: DVec3,
+}
+
+impl EnvLight {
+    /// True for a light spec of the environment kind (`env:…`).
+    pub fn is_env_spec(spec: &str) -> bool {
+        spec.split(':').next().map(str::trim) == Some("env")
+    }
+
+    /// Parses `env:R,G,B[:INTENSITY]`.
+    pub fn parse(spec: &str, name: String) -> Result<EnvLight, super::PlanError> {
+        let bad = |why: &str| {
+            super::PlanError::Invalid(format!(
+                "--light \"{spec}\": {why} (expected env:R,G,B[:INTENSITY])"
+            ))
+        };
+        let parts: Vec<&str> = spec.split(':').collect();
+        if parts.len() < 2 || parts.len() > 3 || parts[0].trim() != "env" {
+            return Err(bad("not an environment light"));
+        }
+        let color = parse_triple(parts[1], "environment colour")
+            .map_err(|e| super::PlanError::Invalid(format!("--light \"{spec}\": {e}")))?;
+        let intensity = match parts.get(2) {
+            Some(i) => i
+                .trim()
+                .parse::<f64>()
+                .map_err(|_| bad(&format!("intensity \"{i}\" is not a number")))?,
+            None => 1.0,
+        };
+        if color.min_element() < 0.0 || !(intensity >= 0.0) || !intensity.is_finite() {
+            return Err(bad("colour and intensity must be non-negative"));
+        }
+        Ok(EnvLight {
+            name,
+            radiance: color * intensity,
+        })
+    }
+}
+
 impl crate::shadow::CachedLight for Light {
     fn name(&self) -> &str {
         &self.name
@@ -154,6 +200,27 @@ mod tests {
             "sun:nan,1,1",
         ] {
             assert!(Light::parse(bad, "x".into()).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn parses_environment_lights() {
+        let e = EnvLight::parse("env:1,0.5,0.25:2", "env0".into()).unwrap();
+        assert_eq!(e.radiance, DVec3::new(2.0, 1.0, 0.5));
+        assert_eq!(
+            EnvLight::parse("env:1,1,1", "e".into()).unwrap().radiance,
+            DVec3::ONE
+        );
+        assert!(EnvLight::is_env_spec("env:1,1,1") && !EnvLight::is_env_spec("sun:0,1,0"));
+        for bad in [
+            "env",
+            "env:1,1",
+            "env:1,1,1:-1",
+            "env:1,1,1:x",
+            "env:-1,1,1",
+            "env:1,1,1:1:1",
+        ] {
+            assert!(EnvLight::parse(bad, "x".into()).is_err(), "{bad}");
         }
     }
 }

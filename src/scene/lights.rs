@@ -52,6 +52,9 @@ impl Illumination for SceneLights<'_> {
             LightShadow::Unshadowed => 0.0,
         }
     }
+    fn distance_to_light(&self, light: usize, x: DVec3) -> f64 {
+        self.lights[light].toward(x).1
+    }
 }
 
 /// Points `--dsm-verify` measures at.

@@ -17,6 +17,7 @@ pub mod report;
 pub mod reuse;
 pub mod roles;
 pub mod source;
+pub mod transport;
 
 pub use options::RenderOptions;
 pub use plan::RenderPlan;
@@ -64,6 +65,8 @@ pub struct Scene {
     /// without an emission or temperature field.
     emission: Option<(EmissionPlan, BlackbodyTable)>,
     pub lights: Vec<light::Light>,
+    /// A uniform dome light (`--light env:…`), lighting by path tracing only.
+    pub environment: Option<light::EnvLight>,
     /// Per light, its transmittance source.
     shadows: Vec<lights::LightShadow>,
     plan_shadows: (crate::shadow::ShadowQuadrature, f64),
@@ -97,7 +100,8 @@ impl Scene {
             .stages
             .insert("load".into(), Stage::ran(t.elapsed().as_secs_f64()));
         let medium = plan.medium;
-        let scatters = !plan.lights.is_empty() && medium.scatters();
+        let lit = !plan.lights.is_empty() || plan.transport.environment.is_some();
+        let scatters = lit && medium.scatters();
         // Build: decode only the fields in a role.
         let t = Instant::now();
         let fields = load_fields(source.as_ref(), plan, scatters, &mut report)?;
@@ -136,6 +140,7 @@ impl Scene {
             phase,
             emission,
             lights,
+            environment: plan.transport.environment.clone(),
             shadows: Vec::new(),
             plan_shadows: (
                 plan.shadow_quadrature(),
@@ -204,7 +209,7 @@ impl Scene {
     }
 
     fn scatter_skip_reason(&self) -> &'static str {
-        if self.lights.is_empty() {
+        if self.lights.is_empty() && self.environment.is_none() {
             "no lights"
         } else {
             "sigma_s is 0"
@@ -284,7 +289,7 @@ impl Scene {
             (true, ShadowMode::March) => "march".into(),
             (true, ShadowMode::Dsm) => "dsm".into(),
         };
-        report.lights = plan.lights.iter().map(|l| l.name.clone()).collect();
+        self.report.lights = self.light_names();
         self.shadows = light_shadows(plan.shadows.mode, maps, plan.lights.len());
         Ok(())
     }
@@ -333,6 +338,13 @@ impl Scene {
                 .map(|c| ColorTint::new(c.as_ref() as &dyn ColorField, density)),
             traversal,
         }
+    }
+
+    /// The names of the lights, the environment's last: the per-light layers' order.
+    pub fn light_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = self.lights.iter().map(|l| l.name.clone()).collect();
+        names.extend(self.environment.iter().map(|e| e.name.clone()));
+        names
     }
 
     /// The lights as the integrators see them, with their shadows.

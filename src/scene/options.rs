@@ -68,7 +68,8 @@ pub struct RenderOptions {
     /// Blackbody brightness: emission = colour(K) × intensity × (K/1000)^4 (default 0.05).
     pub blackbody_intensity: Option<f64>,
     /// A light: sun:DX,DY,DZ[:R,G,B[:INTENSITY]] (direction toward the sun; intensity is its
-    /// irradiance) or point:X,Y,Z[:R,G,B[:INTENSITY]]. Repeatable. Default: sun:0.6,1,0.5:1,1,1:6.
+    /// irradiance), point:X,Y,Z[:R,G,B[:INTENSITY]] or env:R,G,B[:INTENSITY] (a uniform
+    /// dome of that radiance; --scattering path). Repeatable. Default: sun:0.6,1,0.5:1,1,1:6.
     #[serde(default)]
     pub light: Vec<String>,
     /// Render without any light (emission only).
@@ -141,6 +142,12 @@ pub struct RenderOptions {
     pub crop_data_window: bool,
     /// Colour space written: lin_rec709 (default) or acescg.
     pub colorspace: Option<String>,
+    // --- scattering (scene/transport.rs) ---
+    /// How many times light scatters: single (once, by the ray march; default), fast (an
+    /// approximation of every order) or path (unbiased path tracing of every order).
+    pub scattering: Option<crate::integrate::ScatteringMode>,
+    /// Most scattering events a path may have (path: default 10000).
+    pub bounces: Option<u32>,
 }
 
 /// A light in a scene file, with the name its scatter layer gets.
@@ -236,7 +243,9 @@ impl RenderOptions {
             frames,
             up_axis,
             z_empty,
-            colorspace
+            colorspace,
+            scattering,
+            bounces
         )
     }
 }

@@ -3,8 +3,9 @@
 
 use super::PlanError;
 use super::camera::Projection;
-use super::light::{Light, parse_triple};
+use super::light::{EnvLight, Light, parse_triple};
 use super::options::RenderOptions;
+use super::transport::TransportPlan;
 use crate::integrate::ground::Ground;
 use crate::integrate::march::REFERENCE_STEP;
 use crate::integrate::phase::PhaseKind;
@@ -77,6 +78,11 @@ pub mod defaults {
     pub const EXPOSURE: f32 = 0.0;
     /// Z written where nothing is (`--z-empty`), as Cycles does.
     pub const Z_EMPTY: f32 = 1e10;
+    /// `--scattering`, and the most scattering events of a path (`--scattering path`).
+    pub const SCATTERING: &str = "fast";
+    pub const PATH_BOUNCES: u32 = crate::integrate::scattering::PATH_BOUNCES;
+    /// The scattering orders `--scattering fast` models.
+    pub const FAST_BOUNCES: u32 = crate::integrate::fast::DEFAULT_BOUNCES;
     /// Water-drop radius for `--phase water-drop`, micrometres.
     pub const DROP_RADIUS_UM: f64 = crate::integrate::phase::water_drop::DEFAULT_RADIUS_UM;
 }
@@ -222,6 +228,8 @@ pub struct RenderPlan {
     pub sampling: SamplingPlan,
     pub outputs: OutputPlan,
     pub production: ProductionPlan,
+    /// The scattering mode, its bounces and the environment light.
+    pub transport: TransportPlan,
 }
 
 fn positive(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
@@ -332,9 +340,16 @@ impl RenderPlan {
             return Err(format!("--g {g} must lie in (-1, 1)"));
         }
         let mut lights = Vec::new();
+        let mut environment = Vec::new();
         if !o.no_lights {
             if !o.lights.is_empty() {
                 for l in &o.lights {
+                    if EnvLight::is_env_spec(&l.spec) {
+                        environment.push(
+                            EnvLight::parse(&l.spec, l.name.clone()).map_err(|e| e.to_string())?,
+                        );
+                        continue;
+                    }
                     lights.push(Light::parse(&l.spec, l.name.clone()).map_err(|e| e.to_string())?);
                 }
             } else {
@@ -345,6 +360,11 @@ impl RenderPlan {
                 };
                 let (mut suns, mut points) = (0, 0);
                 for s in &specs {
+                    if EnvLight::is_env_spec(s) {
+                        let name = format!("env{}", environment.len());
+                        environment.push(EnvLight::parse(s, name).map_err(|e| e.to_string())?);
+                        continue;
+                    }
                     let name = if s.starts_with("point") {
                         points += 1;
                         format!("point{}", points - 1)
@@ -357,6 +377,7 @@ impl RenderPlan {
             }
         }
         safe_light_names(&mut lights)?;
+        let transport = TransportPlan::new(o, environment)?;
         let default_shadows = if o.reference { "march" } else { "dsm" };
         let shadows = match o.shadows.as_deref().unwrap_or(default_shadows) {
             "dsm" => ShadowMode::Dsm,
@@ -534,6 +555,7 @@ impl RenderPlan {
                     || o.temperature_offset.is_some(),
                 default_light: !o.no_lights && o.lights.is_empty() && o.light.is_empty(),
             },
+            transport,
         })
     }
 }

@@ -1,0 +1,235 @@
+//! The passes every scattering integrator writes (`single`, `fast`, `path`), declared in
+//! one place so their EXRs have the same layers in the same order: `A`, `Z`, `emission`,
+//! `scatter` (all scattered light), `indirect` (the part scattered two or more times; not
+//! for single scattering), one `scatter_<light>` per light when there are several (each
+//! holding that light's direct and indirect light), `shadow` and a visible `ground`.
+
+use super::pass::{Pass, PassLayout};
+use glam::DVec3;
+
+/// Names of the passes (the EXR layers).
+pub mod pass_names {
+    pub const EMISSION: &str = "emission";
+    /// All scattered light, every order.
+    pub const SCATTER: &str = "scatter";
+    /// Light scattered two or more times: `scatter − indirect` is the direct part.
+    pub const INDIRECT: &str = "indirect";
+    pub const SHADOW: &str = "shadow";
+    /// A visible floor's radiance: summed into the beauty, not written as a layer.
+    pub const GROUND: &str = "ground";
+    /// The layer of one light's share of `scatter`.
+    pub fn scatter_of(light: &str) -> String {
+        format!("scatter_{light}")
+    }
+}
+
+/// Which of the passes an integrator writes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ScatterPassSpec {
+    /// The emission layer is written.
+    pub emits: bool,
+    /// The names of the lights that scatter (empty: nothing scatters, no scatter layer);
+    /// a layer each when there are several.
+    pub lights: Vec<String>,
+    /// The `indirect` layer is written (multiple scattering).
+    pub indirect: bool,
+    /// A ground plane's `shadow` layer is written.
+    pub shadow: bool,
+    /// A visible ground plane is summed into the beauty.
+    pub ground_visible: bool,
+}
+
+/// The pass layout of a scattering integrator and where each pass sits in a pixel's
+/// buffer, with the writes into it.
+#[derive(Clone, Debug)]
+pub struct ScatterPasses {
+    layout: PassLayout,
+    at: Offsets,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Offsets {
+    alpha: usize,
+    depth: usize,
+    emission: Option<usize>,
+    scatter: Option<usize>,
+    indirect: Option<usize>,
+    /// First light's layer; the others follow, 3 slots each.
+    per_light: Option<usize>,
+    shadow: Option<usize>,
+    ground: Option<usize>,
+}
+
+#[inline]
+fn add(acc: &mut [f64], at: Option<usize>, v: DVec3) {
+    if let Some(s) = at {
+        (0..3).for_each(|c| acc[s + c] += v[c]);
+    }
+}
+
+impl ScatterPasses {
+    pub fn new(spec: &ScatterPassSpec) -> Self {
+        let mut passes = vec![Pass::alpha(), Pass::depth()];
+        if spec.emits {
+            passes.push(Pass::beauty(pass_names::EMISSION));
+        }
+        let names = &spec.lights;
+        if !names.is_empty() {
+            passes.push(Pass::beauty(pass_names::SCATTER));
+            if spec.indirect {
+                passes.push(Pass::layer(pass_names::INDIRECT));
+            }
+            if names.len() > 1 {
+                for n in names {
+                    passes.push(Pass::layer(&pass_names::scatter_of(n)));
+                }
+            }
+        }
+        if spec.shadow {
+            passes.push(Pass::layer(pass_names::SHADOW));
+        }
+        if spec.ground_visible {
+            passes.push(Pass {
+                layer: false,
+                ..Pass::beauty(pass_names::GROUND)
+            });
+        }
+        let layout = PassLayout::new(passes);
+        let off = |name: &str| layout.find(name).map(|i| layout.offset(i));
+        let at = Offsets {
+            alpha: 0,
+            depth: 1,
+            emission: off(pass_names::EMISSION),
+            scatter: off(pass_names::SCATTER),
+            indirect: off(pass_names::INDIRECT),
+            per_light: names
+                .first()
+                .filter(|_| names.len() > 1)
+                .and_then(|n| off(&pass_names::scatter_of(n))),
+            shadow: off(pass_names::SHADOW),
+            ground: off(pass_names::GROUND),
+        };
+        ScatterPasses { layout, at }
+    }
+
+    pub fn layout(&self) -> &PassLayout {
+        &self.layout
+    }
+
+    /// True when light `l`'s share is written as its own layer (several lights).
+    pub fn has_per_light(&self) -> bool {
+        self.at.per_light.is_some()
+    }
+
+    pub fn add_alpha(&self, acc: &mut [f64], alpha: f64) {
+        acc[self.at.alpha] += alpha;
+    }
+
+    /// One sample's camera-space depth where its opacity crosses 0.5.
+    pub fn add_depth(&self, acc: &mut [f64], depth: f64) {
+        acc[self.at.depth] += depth;
+        acc[self.at.depth + 1] += 1.0;
+    }
+
+    pub fn add_emission(&self, acc: &mut [f64], v: DVec3) {
+        add(acc, self.at.emission, v);
+    }
+
+    /// Light `light` scattered toward the camera after `events` scattering events (1:
+    /// direct): into `scatter`, the light's own layer and, from two events on, `indirect`.
+    #[inline]
+    pub fn add_scattered(&self, acc: &mut [f64], light: usize, events: u32, v: DVec3) {
+        add(acc, self.at.scatter, v);
+        if events >= 2 {
+            add(acc, self.at.indirect, v);
+        }
+        self.add_light_share(acc, light, v);
+    }
+
+    /// The volume's own emission reaching the camera after `events` ≥ 1 scattering
+    /// events: scattered light that no light's layer holds.
+    pub fn add_scattered_emission(&self, acc: &mut [f64], events: u32, v: DVec3) {
+        add(acc, self.at.scatter, v);
+        if events >= 2 {
+            add(acc, self.at.indirect, v);
+        }
+    }
+
+    /// Scattered light summed over the lights, into `scatter` only (with
+    /// [`ScatterPasses::add_light_share`] for the per-light layers).
+    pub fn add_scatter_total(&self, acc: &mut [f64], v: DVec3) {
+        add(acc, self.at.scatter, v);
+    }
+
+    /// The part of what [`ScatterPasses::add_scatter_total`] added that scattered two or
+    /// more times, into `indirect` only.
+    pub fn add_indirect_share(&self, acc: &mut [f64], v: DVec3) {
+        add(acc, self.at.indirect, v);
+    }
+
+    /// Light `light`'s share of `scatter`, into its own layer (when there are several).
+    #[inline]
+    pub fn add_light_share(&self, acc: &mut [f64], light: usize, v: DVec3) {
+        add(acc, self.at.per_light.map(|p| p + 3 * light), v);
+    }
+
+    /// The fraction of the lights reaching the ground (1 where there is no ground hit).
+    pub fn add_shadow(&self, acc: &mut [f64], v: DVec3) {
+        add(acc, self.at.shadow, v);
+    }
+
+    /// A visible ground plane's radiance reaching the camera.
+    pub fn add_ground(&self, acc: &mut [f64], v: DVec3) {
+        add(acc, self.at.ground, v);
+    }
+
+    pub fn has_shadow(&self) -> bool {
+        self.at.shadow.is_some()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn indirect_follows_scatter_and_counts_only_later_events() {
+        let p = ScatterPasses::new(&ScatterPassSpec {
+            emits: true,
+            lights: vec!["sun0".into(), "env0".into()],
+            indirect: true,
+            ..Default::default()
+        });
+        let names: Vec<&str> = p
+            .layout()
+            .passes()
+            .iter()
+            .map(|p| p.name.as_str())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "A",
+                "Z",
+                "emission",
+                "scatter",
+                "indirect",
+                "scatter_sun0",
+                "scatter_env0"
+            ]
+        );
+        let mut acc = vec![0.0; p.layout().slots()];
+        p.add_scattered(&mut acc, 0, 1, DVec3::splat(1.0));
+        p.add_scattered(&mut acc, 1, 3, DVec3::splat(2.0));
+        // scatter = 3, indirect = 2, sun0 = 1, env0 = 2.
+        assert_eq!(&acc[6..9], &[3.0; 3]);
+        assert_eq!(&acc[9..12], &[2.0; 3]);
+        assert_eq!(&acc[12..15], &[1.0; 3]);
+        assert_eq!(&acc[15..18], &[2.0; 3]);
+        let single = ScatterPasses::new(&ScatterPassSpec {
+            lights: vec!["sun0".into()],
+            ..Default::default()
+        });
+        assert!(single.layout().find(pass_names::INDIRECT).is_none());
+    }
+}
