@@ -93,7 +93,15 @@ impl MsLattice {
     pub fn build(vol: &Volume, lights: &dyn Illumination, s: &LatticeSettings) -> MsLattice {
         let start = std::time::Instant::now();
         let n_lights = lights.light_count();
-        let (lo, hi) = vol.density.world_bounds();
+        // Over where the density is non-zero, not its active bounds: a dense exported
+        // domain holding a small plume would otherwise spend its nodes on empty space and
+        // blur the plume's optical depth over cells several mean free paths deep.
+        let nonzero = crate::field::nonzero::nonzero_bounds(vol.density);
+        let (lo, hi) = if nonzero.is_empty() {
+            vol.density.world_bounds()
+        } else {
+            vol.density.transform().index_box_to_world(&nonzero)
+        };
         let ext = hi - lo;
         let empty = MsLattice {
             origin: DVec3::ZERO,
@@ -122,7 +130,16 @@ impl MsLattice {
         let g_mean = mean_cosine(vol);
         let sigma_s_red = sigma_s * (1.0 - g_mean);
         let sigma_t_red = sigma_t - sigma_s + sigma_s_red;
-        let grey = sigma_t.x == sigma_t.y
+        // A colour grid tints every scattering event (σs·Cd, as the march and the path
+        // tracer apply it), so light scattered k times carries k tints: per channel then.
+        let tint_at = |p: DVec3| -> DVec3 {
+            match &vol.color {
+                Some(c) => c.at(vol.density.transform().world_to_index(p), p),
+                None => DVec3::ONE,
+            }
+        };
+        let grey = vol.color.is_none()
+            && sigma_t.x == sigma_t.y
             && sigma_t.y == sigma_t.z
             && sigma_s.x == sigma_s.y
             && sigma_s.y == sigma_s.z;
@@ -131,6 +148,27 @@ impl MsLattice {
             origin + DVec3::new(i as f64, j as f64, k as f64) * h
         };
         let offsets: Vec<DVec3> = sub_offsets(h);
+        // Per node, the density-weighted mean tint of its cell (what scattering there sees).
+        let tint: Option<Vec<[f32; 3]>> = vol.color.is_some().then(|| {
+            (0..grid.len)
+                .into_par_iter()
+                .map(|n| {
+                    let x = node_pos(n);
+                    let (mut acc, mut w) = (DVec3::ZERO, 0.0);
+                    for o in &offsets {
+                        let p = x + *o;
+                        let r = vol.density.value_at_world(p).max(0.0) as f64;
+                        if r > 0.0 {
+                            acc += r * tint_at(p);
+                            w += r;
+                        }
+                    }
+                    if w > 0.0 { acc / w } else { DVec3::ONE }
+                        .as_vec3()
+                        .to_array()
+                })
+                .collect()
+        });
         // Mean density per node.
         let rho: Vec<f32> = (0..grid.len)
             .into_par_iter()
@@ -176,7 +214,7 @@ impl MsLattice {
                                     irr
                                 };
                                 let tau = lights.density_to_light(l, p);
-                                acc += r * e * (-sigma_t * tau).exp();
+                                acc += r * tint_at(p) * e * (-sigma_t * tau).exp();
                             }
                         }
                         acc /= offsets.len() as f64;
@@ -198,7 +236,19 @@ impl MsLattice {
                 };
                 let source0: Vec<f32> = first.iter().map(|(a, _)| a[c]).collect();
                 let travel: Vec<DVec3> = first.iter().map(|(_, t)| *t).collect();
-                let (sum, k, r) = solve(&grid, &rho, &source0, &travel, vol, &coeffs, s, dirs_for);
+                let tint_c: Option<Vec<f32>> =
+                    tint.as_ref().map(|t| t.iter().map(|v| v[c]).collect());
+                let (sum, k, r) = solve(
+                    &grid,
+                    &rho,
+                    &source0,
+                    &travel,
+                    tint_c.as_deref(),
+                    vol,
+                    &coeffs,
+                    s,
+                    dirs_for,
+                );
                 swept = k;
                 ratio = r;
                 for (t, v) in total.iter_mut().zip(&sum) {
@@ -342,6 +392,7 @@ fn solve(
     rho: &[f32],
     source0: &[f32],
     travel: &[DVec3],
+    tint: Option<&[f32]>,
     vol: &Volume,
     c: &Coefficients,
     s: &LatticeSettings,
@@ -414,11 +465,15 @@ fn solve(
             ratio = 0.0;
             break;
         }
-        // The next order scatters this one (ρ·J at each node).
+        // The next order scatters this one (ρ·J at each node, tinted by the colour grid
+        // there: each scattering event carries its tint).
         rho_j
             .iter_mut()
             .zip(last.iter().zip(rho))
             .for_each(|(o, (j, r))| *o = j * r);
+        if let Some(t) = tint {
+            rho_j.iter_mut().zip(t).for_each(|(o, t)| *o *= t);
+        }
     }
     if ratio > 0.0 {
         // Each node's tail blends two geometric extrapolations of its last order: with
