@@ -9,9 +9,11 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn dir() -> PathBuf {
-    let d =
-        Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("mesh-render-{}", std::process::id()));
+/// A directory of the test's own: tests run in parallel and each removes its own at the
+/// end (a shared one was removed under the other test's feet).
+fn dir(test: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("mesh-render-{}-{test}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d
 }
@@ -67,7 +69,7 @@ fn max(v: &[f32]) -> f32 {
 
 #[test]
 fn a_mesh_renders_with_shadows_and_every_layer() {
-    let d = dir();
+    let d = dir("shadows");
     let dsm = d.join("dsm.exr");
     let stats = render(&dsm, &["--dsm-tolerance", "1e-2"]);
     assert_eq!(stats["grid_roles"]["density"], "density");
@@ -143,8 +145,7 @@ fn a_mesh_renders_with_shadows_and_every_layer() {
 /// The same image for any thread count: every channel bit for bit.
 #[test]
 fn a_mesh_render_does_not_depend_on_the_thread_count() {
-    let d = dir().join("threads");
-    std::fs::create_dir_all(&d).unwrap();
+    let d = dir("threads");
     let one = d.join("one.exr");
     let two = d.join("two.exr");
     render(&one, &["--shadows", "march", "--threads", "1"]);
