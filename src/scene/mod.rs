@@ -6,6 +6,7 @@
 
 pub mod camera;
 pub mod conventions;
+mod flag_values;
 pub mod frames;
 pub mod light;
 pub mod lights;

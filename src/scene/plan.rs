@@ -9,12 +9,15 @@ use super::transport::TransportPlan;
 use crate::integrate::ground::Ground;
 use crate::integrate::march::REFERENCE_STEP;
 use crate::integrate::phase::PhaseKind;
-use crate::integrate::phase::water_drop::RADIUS_RANGE_UM;
 use crate::integrate::{MarchSettings, Medium};
 use crate::output::{Background, ExrCompression, ExrOptions, PreviewOptions};
 use crate::shadow::ShadowQuadrature;
 use glam::DVec3;
 use std::path::PathBuf;
+
+use super::flag_values::{
+    colour, drop_radius, non_negative, positive, resolution, step_voxels, up_axis_choice, z_empty,
+};
 
 /// How light transmittance is found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -180,33 +183,6 @@ pub struct ProductionPlan {
     pub default_light: bool,
 }
 
-fn up_axis_choice(v: &Option<String>) -> Result<super::conventions::UpAxisChoice, String> {
-    use super::conventions::{UpAxis, UpAxisChoice};
-    match v.as_deref() {
-        None | Some("auto") => Ok(UpAxisChoice::Auto),
-        Some("y") | Some("Y") => Ok(UpAxisChoice::Fixed(UpAxis::Y)),
-        Some("z") | Some("Z") => Ok(UpAxisChoice::Fixed(UpAxis::Z)),
-        Some(o) => Err(format!("--up-axis \"{o}\": expected y, z or auto")),
-    }
-}
-
-/// `--z-empty`: a finite non-negative depth or `inf` (default 1e10).
-fn z_empty(v: &Option<String>) -> Result<f32, String> {
-    let Some(s) = v else {
-        return Ok(defaults::Z_EMPTY);
-    };
-    let t = s.trim();
-    if t.eq_ignore_ascii_case("inf") || t.eq_ignore_ascii_case("+inf") {
-        return Ok(f32::INFINITY);
-    }
-    match t.parse::<f32>() {
-        Ok(z) if z.is_finite() && z >= 0.0 => Ok(z),
-        _ => Err(format!(
-            "--z-empty \"{s}\": expected a non-negative number or inf"
-        )),
-    }
-}
-
 /// A validated render: every number checked, every default filled in.
 #[derive(Clone, Debug)]
 pub struct RenderPlan {
@@ -232,67 +208,10 @@ pub struct RenderPlan {
     pub transport: TransportPlan,
 }
 
-fn positive(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
-    let v = v.unwrap_or(default);
-    if v > 0.0 && v.is_finite() {
-        Ok(v)
-    } else {
-        Err(format!("{what} must be a positive number, not {v}"))
-    }
-}
-
 /// The shortest march or shadow step accepted, in voxels: 1/16 of the reference
 /// render's. Below it a frame would take longer than anyone waits (a step of 1e-9 voxel
 /// is 10⁹ segments a voxel), so it is refused rather than left to run as if hung.
 pub const MIN_STEP_VOXELS: f64 = 1.0 / 1024.0;
-
-/// A step in voxels: positive, finite and at least [`MIN_STEP_VOXELS`].
-fn step_voxels(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
-    let v = positive(v, default, what)?;
-    if v < MIN_STEP_VOXELS {
-        return Err(format!(
-            "{what} {v:e} is below the shortest step murk takes, 1/1024 voxel"
-        ));
-    }
-    Ok(v)
-}
-
-fn non_negative(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
-    let v = v.unwrap_or(default);
-    if v >= 0.0 && v.is_finite() {
-        Ok(v)
-    } else {
-        Err(format!("{what} must be a non-negative number, not {v}"))
-    }
-}
-
-fn colour(v: &Option<String>, default: DVec3, what: &str) -> Result<DVec3, String> {
-    let c = match v {
-        // One number is a grey: --sigma-a 0.2 is 0.2,0.2,0.2.
-        Some(s) if !s.contains(',') => match s.trim().parse::<f64>() {
-            Ok(g) if g.is_finite() => DVec3::splat(g),
-            _ => return Err(format!("{what} \"{s}\" is not a number or r,g,b")),
-        },
-        Some(s) => parse_triple(s, what)?,
-        None => default,
-    };
-    if c.min_element() < 0.0 {
-        return Err(format!("{what} must not be negative"));
-    }
-    Ok(c)
-}
-
-fn resolution(v: &Option<String>) -> Result<(usize, usize), String> {
-    let Some(s) = v else { return Ok(defaults::RES) };
-    let bad = || format!("--res \"{s}\" is not WxH with sizes from 1 to 16384");
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: usize = w.trim().parse().map_err(|_| bad())?;
-    let h: usize = h.trim().parse().map_err(|_| bad())?;
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        return Err(bad());
-    }
-    Ok((w, h))
-}
 
 impl RenderPlan {
     /// Validates options; `input` is the VDB file (from the command line or the scene).
@@ -618,17 +537,4 @@ fn safe_light_names(lights: &mut [Light]) -> Result<(), String> {
         l.name = safe;
     }
     Ok(())
-}
-
-/// `--drop-radius` in µm (default [`defaults::DROP_RADIUS_UM`]), within [`RADIUS_RANGE_UM`].
-fn drop_radius(r: Option<f64>) -> Result<f64, String> {
-    let r = r.unwrap_or(defaults::DROP_RADIUS_UM);
-    if r >= RADIUS_RANGE_UM.0 && r <= RADIUS_RANGE_UM.1 {
-        Ok(r)
-    } else {
-        Err(format!(
-            "--drop-radius {r} is outside {}–{} µm",
-            RADIUS_RANGE_UM.0, RADIUS_RANGE_UM.1
-        ))
-    }
 }
