@@ -6,6 +6,7 @@ pub mod converge;
 pub mod converge_fast;
 pub mod converge_path;
 pub mod converge_table;
+pub mod growth;
 pub mod phase_plot;
 pub mod plot;
 pub mod stability;

@@ -49,7 +49,7 @@ pub(crate) fn font() -> bool {
 const SIZE: (u32, u32) = (900, 600);
 
 /// A tick label with at most three significant digits.
-fn significant(v: f64) -> String {
+pub(crate) fn significant(v: f64) -> String {
     let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
     let s = format!("{v:.digits$}");
     if s.contains('.') {
