@@ -165,6 +165,12 @@ pub struct QualityArgs {
     /// Transmittance below which a ray stops (default 1e-4).
     #[arg(long, value_name = "T")]
     pub termination: Option<f64>,
+    /// Meet this relative radiance RMSE against --reference at least cost (e.g. 1e-2):
+    /// murk chooses the step and termination from a pilot render and the shadow map's
+    /// tolerance, and reports them (stats: error_budget). Not with --step, --termination,
+    /// --dsm-tolerance, --reference or --scattering path.
+    #[arg(long = "max-error", value_name = "E", allow_hyphen_values = true)]
+    pub max_error: Option<f64>,
     /// Samples per pixel (default 1: the pixel centre).
     #[arg(long, value_name = "N")]
     pub spp: Option<u32>,
@@ -342,6 +348,7 @@ impl RenderArgs {
             ground_visible: a.quality.ground_visible,
             reference: a.quality.reference,
             termination: a.quality.termination,
+            max_error: a.quality.max_error,
             spp: a.quality.spp,
             seed: a.quality.seed,
             compression: a.image.compression,

@@ -3,6 +3,7 @@
 //! write, timing every stage.
 
 pub mod channels;
+pub mod error_budget;
 pub mod piece;
 pub mod pixels;
 pub mod sequence;
@@ -156,13 +157,16 @@ pub fn render_image_frame(
     // The integrator of the plan's scattering mode.
     let (frame, render_seconds) = match plan.transport.mode {
         ScatteringMode::Single => {
-            let integrator = SingleScattering::new(
-                &volume,
-                scene.emits,
-                lights_named,
-                scene.ground.map(|g| (g, &lights as &dyn Illumination)),
-                plan.march_settings(),
-            );
+            let make = |march| {
+                SingleScattering::new(
+                    &volume,
+                    scene.emits,
+                    lights_named.clone(),
+                    scene.ground.map(|g| (g, &lights as &dyn Illumination)),
+                    march,
+                )
+            };
+            let integrator = make(march_settings(plan, &scene, &mut st, make));
             render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
         }
         ScatteringMode::Path => {
@@ -202,13 +206,16 @@ pub fn render_image_frame(
                 direct: &lights,
                 lattice,
             });
-            let integrator = FastScattering::new(
-                &volume,
-                scene.emits,
-                with.as_ref().map(|w| (w, scene.light_names())),
-                scene.ground.map(|g| (g, &lights as &dyn Illumination)),
-                plan.march_settings(),
-            );
+            let make = |march| {
+                FastScattering::new(
+                    &volume,
+                    scene.emits,
+                    with.as_ref().map(|w| (w, scene.light_names())),
+                    scene.ground.map(|g| (g, &lights as &dyn Illumination)),
+                    march,
+                )
+            };
+            let integrator = make(march_settings(plan, &scene, &mut st, make));
             render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
         }
     };
@@ -251,6 +258,9 @@ pub fn render_image_frame(
         .map(|s| s.to_string())
         .collect();
     st.scene = scene.report;
+    if let Some(budget) = &st.error_budget {
+        st.scene.notes.push(budget.note());
+    }
     st.scene
         .stages
         .insert("render".into(), Stage::ran(render_seconds));
@@ -265,6 +275,30 @@ pub fn render_image_frame(
         exr,
         stats: st,
     })
+}
+
+/// The camera march's settings: the plan's, or with `--max-error` those a pilot
+/// render through the integrators `make` builds chose (recorded in the stats).
+fn march_settings<I: Integrator>(
+    plan: &RenderPlan,
+    scene: &Scene,
+    st: &mut RenderStats,
+    make: impl Fn(crate::integrate::MarchSettings) -> I,
+) -> crate::integrate::MarchSettings {
+    let Some(max_error) = plan.march.max_error else {
+        return plan.march_settings();
+    };
+    let tolerance = (plan.shadows.mode == ShadowMode::Dsm && !scene.lights.is_empty())
+        .then_some(plan.shadows.dsm_tolerance);
+    let (march, report) = error_budget::choose(
+        max_error,
+        tolerance,
+        &scene.camera,
+        plan.sampling.seed,
+        make,
+    );
+    st.error_budget = Some(report);
+    march
 }
 
 /// Runs the pixel loop of `integrator` over the scene's camera on the plan's threads,

@@ -20,4 +20,7 @@ pub struct RenderStats {
     pub samples: u64,
     pub samples_per_second: f64,
     pub total_seconds: f64,
+    /// With `--max-error`: the settings chosen and what the pilot measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_budget: Option<super::error_budget::ErrorBudgetReport>,
 }

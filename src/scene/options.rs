@@ -148,6 +148,10 @@ pub struct RenderOptions {
     pub scattering: Option<crate::integrate::ScatteringMode>,
     /// Most scattering events a path may have (path: default 10000).
     pub bounces: Option<u32>,
+    // --- error budget (render/error_budget.rs) ---
+    /// Relative radiance RMSE against `--reference` to meet at least cost: murk chooses
+    /// the step, the termination and the shadow map's tolerance.
+    pub max_error: Option<f64>,
 }
 
 /// A light in a scene file, with the name its scatter layer gets.
@@ -245,7 +249,8 @@ impl RenderOptions {
             z_empty,
             colorspace,
             scattering,
-            bounces
+            bounces,
+            max_error
         )
     }
 }

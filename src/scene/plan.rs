@@ -148,6 +148,17 @@ pub struct MarchPlan {
     pub reference: bool,
     pub step: f64,
     pub termination: f64,
+    /// `--max-error`: the relative radiance RMSE to meet; the step and termination are
+    /// then chosen by a pilot render (`render::error_budget`), the map's tolerance here.
+    pub max_error: Option<f64>,
+}
+
+impl MarchPlan {
+    /// The part of `--max-error` each of the three independent error sources (step,
+    /// termination, shadow-map tolerance) may take: their squares add up to it.
+    pub fn error_share(max_error: f64) -> f64 {
+        max_error / 3f64.sqrt()
+    }
 }
 
 /// Samples, their random numbers and the threads that take them.
@@ -327,6 +338,30 @@ impl RenderPlan {
                 "--reference never stops a ray early: it cannot be combined with --termination {termination}"
             ));
         }
+        let max_error = match o.max_error {
+            None => None,
+            Some(e) if !(e > 0.0 && e < 1.0) => {
+                return Err(format!("--max-error {e} must lie in (0, 1)"));
+            }
+            Some(e) => {
+                for (set, flag) in [
+                    (o.step.is_some(), "--step"),
+                    (o.termination.is_some(), "--termination"),
+                    (o.dsm_tolerance.is_some(), "--dsm-tolerance"),
+                    (o.reference, "--reference"),
+                ] {
+                    if set {
+                        return Err(format!(
+                            "--max-error chooses the step, the termination and the shadow map's tolerance itself: it cannot be combined with {flag}"
+                        ));
+                    }
+                }
+                if transport.mode == crate::integrate::ScatteringMode::Path {
+                    return Err("--max-error sets the march's error; --scattering path's error is its noise (set --spp instead)".into());
+                }
+                Some(e)
+            }
+        };
         let spp = o.spp.unwrap_or(defaults::SPP);
         if spp == 0 || spp > 4096 {
             return Err(format!("--spp {spp} must be from 1 to 4096"));
@@ -422,7 +457,12 @@ impl RenderPlan {
             shadows: ShadowPlan {
                 mode: shadows,
                 dsm_tolerance: {
-                    let t = o.dsm_tolerance.unwrap_or(defaults::DSM_TOLERANCE);
+                    let t = o.dsm_tolerance.unwrap_or(match max_error {
+                        // Its share of the error, but no coarser than 5 %: the map's
+                        // bound is on transmittance, not on each pixel's radiance.
+                        Some(e) => MarchPlan::error_share(e).min(0.05),
+                        None => defaults::DSM_TOLERANCE,
+                    });
                     if !(t > 0.0 && t < 1.0) {
                         return Err(format!("--dsm-tolerance {t} must lie in (0, 1)"));
                     }
@@ -443,6 +483,7 @@ impl RenderPlan {
                 reference: o.reference,
                 step,
                 termination,
+                max_error,
             },
             sampling: SamplingPlan {
                 spp,
