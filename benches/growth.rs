@@ -152,7 +152,7 @@ fn run(args: &[String]) -> anyhow::Result<()> {
         }
         header.push_str(" dominant | peak RSS MB | map / density MB |");
         writeln!(md, "{header}")?;
-        writeln!(md, "|{}", "---|".repeat(8 + STAGES.len()))?;
+        writeln!(md, "|{}", "---|".repeat(7 + STAGES.len()))?;
         for (x, p) in &points {
             let stages: Vec<f64> = (0..STAGES.len()).map(|i| p.stage(i)).collect();
             let sum: f64 = stages.iter().sum();

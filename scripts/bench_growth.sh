@@ -15,7 +15,8 @@
 #    from /usr/bin/time, the stages' seconds from murk's --stats.
 # 3. benches/growth.rs reduces the runs, prints a markdown table per sweep (each
 #    stage's share, the dominant one, RSS, the map's and the density's memory) with the
-#    fitted exponents, and writes OUT_DIR/growth.png and growth.md.
+#    fitted exponents, and writes OUT_DIR/growth.png and growth.md (the raw runs are
+#    kept as OUT_DIR/growth.jsonl: `cargo bench --bench growth -- FILE --out DIR` redraws).
 # BENCH_KEEP=1 keeps the temporary directory (clouds, images, raw results).
 #
 # Needs cargo, /usr/bin/time (Debian `time`), /usr/bin/python3 with pyopenvdb and numpy.
@@ -82,4 +83,6 @@ for run in $(seq "$RUNS"); do
 done
 
 echo "_$(date -u +%Y-%m-%dT%H:%MZ), murk $(cd "$ROOT" && git rev-parse --short HEAD), $(nproc) cores, $THREADS thread(s), medians of $RUNS, load average $(cut -d' ' -f1-3 /proc/loadavg)_"
-(cd "$ROOT" && cargo bench -q --bench growth -- "$RESULTS" --out "$OUT_DIR" 2>/dev/null)
+mkdir -p "$OUT_DIR"
+cp "$RESULTS" "$OUT_DIR/growth.jsonl"
+(cd "$ROOT" && cargo bench -q --bench growth -- "$OUT_DIR/growth.jsonl" --out "$OUT_DIR" 2>/dev/null)
