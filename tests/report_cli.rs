@@ -126,9 +126,9 @@ fn converge_writes_csv_markdown_and_png() {
         ]
     );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    // The reference, three sweeps, the default; then the path tracer's reference and
-    // its spp sweep, and the fast approximation's bounces sweep against it.
-    assert_eq!(rows.len(), 1 + 7 + 5 + 6 + 1 + 1 + 6 + 6, "{csv}");
+    // The reference, three sweeps, --max-error's, the default; then the path tracer's
+    // reference and its spp sweep, and the fast approximation's bounces sweep against it.
+    assert_eq!(rows.len(), 1 + 7 + 5 + 6 + 4 + 1 + 1 + 6 + 6, "{csv}");
     assert_eq!(
         rows.iter().filter(|r| r[0] == "fast_bounces").count(),
         6,
@@ -173,6 +173,20 @@ fn converge_writes_csv_markdown_and_png() {
             num(r, "max_alpha_error") <= num(r, "termination") * 1.01 + 1e-6,
             "{r:?}"
         );
+    }
+
+    // --max-error meets what it is asked for, and spends less where it may err more.
+    let budget: Vec<(f64, f64, f64)> = rows
+        .iter()
+        .filter(|r| r[0] == "max_error")
+        .map(|r| (num(r, "value"), num(r, "rel_rmse"), num(r, "step")))
+        .collect();
+    assert_eq!(budget.len(), 4, "{csv}");
+    for w in budget.windows(2) {
+        assert!(w[0].0 > w[1].0 && w[0].2 >= w[1].2, "{budget:?}");
+    }
+    for (asked, got, _) in &budget {
+        assert!(got <= asked, "--max-error {asked}: {got}");
     }
 
     let md = fs::read_to_string(out.join("converge.md")).unwrap();

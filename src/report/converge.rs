@@ -8,7 +8,9 @@
 //! - `step`: the march step, with exact marched shadows and no termination (the
 //!   reference's settings but the step);
 //! - `dsm_tolerance`: the deep shadow map's tolerance, at step 1/16 voxel, no termination;
-//! - `termination`: the termination threshold, with exact marched shadows at step 0.5.
+//! - `termination`: the termination threshold, with exact marched shadows at step 0.5;
+//! - `max_error`: `--max-error E`, murk choosing all three (`render::error_budget`):
+//!   the measured error should stay below E and fall with it (order ≈ 1).
 //!
 //! - `path_spp`: the path tracer's samples per pixel, against a path-traced reference
 //!   ([`super::converge_path`]);
@@ -31,6 +33,8 @@ use std::path::Path;
 pub const STEPS: [f64; 7] = [4.0, 2.0, 1.0, 0.5, 0.25, 0.125, 0.0625];
 pub const DSM_TOLERANCES: [f64; 5] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5];
 pub const TERMINATIONS: [f64; 6] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6];
+/// `--max-error` values of its sweep: what it asks for against what it measures.
+pub const MAX_ERRORS: [f64; 4] = [3e-2, 1e-2, 3e-3, 1e-3];
 
 /// The step of the shadow-map sweep.
 pub const DSM_SWEEP_STEP: f64 = 0.0625;
@@ -40,7 +44,7 @@ pub const TERMINATION_SWEEP_STEP: f64 = 0.5;
 /// One render configuration of a sweep.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Point {
-    /// `step`, `dsm_tolerance`, `termination`, `default` or `reference`.
+    /// `step`, `dsm_tolerance`, `termination`, `max_error`, `default` or `reference`.
     pub sweep: &'static str,
     /// The swept setting's value.
     pub value: f64,
@@ -49,6 +53,8 @@ pub struct Point {
     pub termination: Option<f64>,
     /// Exact marched shadows (the reference's), else the deep shadow map.
     pub exact_shadows: bool,
+    /// `--max-error`: murk chooses step, tolerance and termination itself.
+    pub max_error: Option<f64>,
 }
 
 /// Every point of every sweep, then `default`.
@@ -60,6 +66,7 @@ pub fn sweep_points() -> Vec<Point> {
         dsm_tolerance,
         termination: Some(termination),
         exact_shadows,
+        max_error: None,
     };
     let mut v = Vec::new();
     for s in STEPS {
@@ -85,6 +92,17 @@ pub fn sweep_points() -> Vec<Point> {
             true,
         ));
     }
+    for e in MAX_ERRORS {
+        v.push(Point {
+            sweep: "max_error",
+            value: e,
+            step: None,
+            dsm_tolerance: None,
+            termination: None,
+            exact_shadows: false,
+            max_error: Some(e),
+        });
+    }
     v.push(Point {
         sweep: "default",
         value: f64::NAN,
@@ -92,6 +110,7 @@ pub fn sweep_points() -> Vec<Point> {
         dsm_tolerance: None,
         termination: None,
         exact_shadows: false,
+        max_error: None,
     });
     v
 }
@@ -150,6 +169,11 @@ pub(super) fn plan_of(options: &RenderOptions, input: &Path, p: &Point) -> Resul
     o.stats = None;
     o.step = p.step;
     o.dsm_tolerance = p.dsm_tolerance.or(o.dsm_tolerance);
+    // --max-error chooses the step and the tolerance itself (and refuses them).
+    o.max_error = p.max_error;
+    if p.max_error.is_some() {
+        o.dsm_tolerance = None;
+    }
     o.reference = p.exact_shadows;
     // The reference refuses a termination; a sweep point sets it on the plan.
     o.termination = None;
@@ -190,6 +214,7 @@ pub fn run(
         dsm_tolerance: None,
         termination: None,
         exact_shadows: true,
+        max_error: None,
     };
     let ref_plan = plan_of(options, input, &reference_point)?;
     let reference = render_image(&ref_plan)?;
@@ -217,8 +242,13 @@ pub fn run(
         let plan = plan_of(options, input, p)?;
         let (mut bakes, mut renders) = (Vec::new(), Vec::new());
         let mut frame = None;
+        // What --max-error chose (else the plan's step and termination).
+        let mut chosen = (plan.march.step, plan.march.termination);
         for _ in 0..runs {
             let image = render_image(&plan)?;
+            if let Some(b) = &image.stats.error_budget {
+                chosen = (b.step_voxels, b.termination);
+            }
             bakes.push(stage(&image.stats, "shadows"));
             renders.push(stage(&image.stats, "render"));
             let emits = image
@@ -240,9 +270,9 @@ pub fn run(
         rows.push(Measured {
             sweep: p.sweep.into(),
             value: p.value,
-            step: plan.march.step,
+            step: chosen.0,
             dsm_tolerance: plan.shadows.dsm_tolerance,
-            termination: plan.march.termination,
+            termination: chosen.1,
             shadows: if p.exact_shadows {
                 "march (exact)".into()
             } else if plan.shadows.mode == crate::scene::plan::ShadowMode::Dsm {
@@ -271,9 +301,21 @@ pub fn fmt_value(v: f64) -> String {
     } else if v == 0.0 {
         "0".into()
     } else if (1e-2..1e3).contains(&v) {
-        format!("{v}")
+        // Five significant digits at most (a chosen step such as 2.8934…), exact
+        // values (0.5, 0.015625) as they are.
+        let digits = (4 - v.log10().floor() as i32).max(0) as usize;
+        let s = format!("{v:.digits$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
     } else {
-        format!("{v:e}")
+        // Three significant digits: 5.77e-3, 1e-3.
+        let s = format!("{v:.2e}");
+        let (mantissa, exp) = s.split_once('e').unwrap_or((&s, "0"));
+        let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+        format!("{mantissa}e{exp}")
     }
 }
 

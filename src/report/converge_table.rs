@@ -6,10 +6,11 @@ use super::converge::{DSM_SWEEP_STEP, Measured, TERMINATION_SWEEP_STEP, fmt_valu
 use super::fit_slope;
 
 /// The sweeps, in table order.
-pub const SWEEPS: [&str; 5] = [
+pub const SWEEPS: [&str; 6] = [
     "step",
     "dsm_tolerance",
     "termination",
+    "max_error",
     "path_spp",
     "fast_bounces",
 ];
@@ -254,7 +255,9 @@ pub fn markdown(
          exact marched shadows, no termination), which took {rt:.1} s. Each sweep varies one setting \
          and keeps the others fine: `step` with exact marched shadows and no termination; \
          `dsm_tolerance` at step {ds} voxel, no termination; `termination` with exact marched shadows \
-         at step {ts} voxel. `default` is murk's defaults (step 0.5, `--shadows dsm`, \
+         at step {ts} voxel; `max_error` asks `--max-error` for the value and lets murk choose step, \
+         tolerance and termination (the step and termination columns show its choice: an order near 1 \
+         and errors below the values say its model holds). `default` is murk's defaults (step 0.5, `--shadows dsm`, \
          `--dsm-tolerance 1e-3`, `--termination 1e-4`). Relative RMSE is over R, G, B of every pixel; \
          the fitted order is the slope of log error against log setting above the sweep's floor.\n\n\
          ## Summary\n\n{}\n## Every render\n\n{}\n![error against time](converge.png)\n",

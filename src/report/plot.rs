@@ -14,13 +14,14 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 /// Line colours, in [`SWEEPS`] order, then the `default` point.
-pub const COLOURS: [(&str, RGBColor); 6] = [
+pub const COLOURS: [(&str, RGBColor); 7] = [
     ("blue", RGBColor(31, 119, 180)),
     ("orange", RGBColor(255, 127, 14)),
     ("green", RGBColor(44, 160, 44)),
     ("purple", RGBColor(148, 103, 189)),
     ("brown", RGBColor(140, 86, 75)),
     ("red", RGBColor(214, 39, 40)),
+    ("pink", RGBColor(227, 119, 194)),
 ];
 
 const FONT_FILES: [&str; 4] = [

@@ -85,7 +85,7 @@ fn sweep_points_plan_what_they_sweep() {
     };
     let input = std::path::Path::new("cloud.vdb");
     let points = sweep_points();
-    assert_eq!(points.len(), 7 + 5 + 6 + 1);
+    assert_eq!(points.len(), 7 + 5 + 6 + 4 + 1);
     for p in &points {
         let plan = plan_of(&user, input, p).unwrap();
         match p.sweep {
@@ -123,6 +123,13 @@ fn sweep_points_plan_what_they_sweep() {
                 );
                 assert_eq!(plan.shadow_quadrature(), ShadowQuadrature::Exact);
             }
+            "max_error" => {
+                // murk chooses: the map's tolerance now, the step and termination at
+                // render time; the user's --step and --termination do not reach it.
+                assert_eq!(plan.march.max_error, Some(p.value));
+                assert_eq!(plan.shadows.mode, ShadowMode::Dsm);
+                assert!((plan.shadows.dsm_tolerance - p.value / 3f64.sqrt()).abs() < 1e-15);
+            }
             "default" => {
                 assert_eq!(plan.march_settings(), MarchSettings::default());
                 assert_eq!(
@@ -134,4 +141,17 @@ fn sweep_points_plan_what_they_sweep() {
         }
         assert!(plan.outputs.quiet);
     }
+}
+
+#[test]
+fn swept_values_print_short_and_exact_ones_whole() {
+    use super::converge::fmt_value;
+    assert_eq!(fmt_value(0.015625), "0.015625");
+    assert_eq!(fmt_value(0.5), "0.5");
+    assert_eq!(fmt_value(4.0), "4");
+    assert_eq!(fmt_value(2.8934280302755813), "2.8934");
+    assert_eq!(fmt_value(5.773502691896258e-3), "5.77e-3");
+    assert_eq!(fmt_value(1e-3), "1e-3");
+    assert_eq!(fmt_value(0.0), "0");
+    assert_eq!(fmt_value(f64::NAN), "-");
 }
