@@ -207,7 +207,19 @@ fn pieces_of_frame_3(dir: &Path, pieces: usize, extra: &[&str]) -> Vec<PathBuf> 
 #[test]
 fn stitched_pieces_equal_the_one_piece_render() {
     let dir = scratch("stitch");
-    for (pieces, extra) in [(1, &[][..]), (3, &[][..]), (5, &["--float"][..])] {
+    let written_as = [
+        "--colorspace",
+        "acescg",
+        "--z-empty",
+        "inf",
+        "--crop-data-window",
+    ];
+    for (pieces, extra) in [
+        (1, &[][..]),
+        (3, &[][..]),
+        (5, &["--float"][..]),
+        (2, &written_as[..]),
+    ] {
         let paths = pieces_of_frame_3(&dir, pieces, extra);
         let header = exrheader(&paths[0]);
         assert!(header.contains("murk/tile (type string)"), "{header}");
@@ -238,6 +250,25 @@ fn stitched_pieces_equal_the_one_piece_render() {
         }
         let stitched = exrheader(&full);
         assert!(!stitched.contains("murk/tile"), "{stitched}");
+        // The header says what the one-piece render's does: chromaticities (ACEScg's
+        // with --colorspace acescg) and the data window (cropped with
+        // --crop-data-window).
+        let attribute = |header: &str, name: &str| -> String {
+            let at = header
+                .find(&format!("{name} (type"))
+                .unwrap_or_else(|| panic!("no {name} in {header}"));
+            header[at..].lines().take(3).collect::<Vec<_>>().join("\n")
+        };
+        let whole = exrheader(&one);
+        for name in ["chromaticities", "dataWindow", "displayWindow"] {
+            assert_eq!(attribute(&stitched, name), attribute(&whole, name));
+        }
+        if extra.contains(&"acescg") {
+            assert!(
+                attribute(&stitched, "chromaticities").contains("0.713"),
+                "{stitched}"
+            );
+        }
     }
     // Pieces of a frame of a sequence, found through --frame.
     let input = seq("fluid_####.vdb");

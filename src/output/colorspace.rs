@@ -39,6 +39,14 @@ fn xy_of_white(w: WhitePoint) -> [f32; 2] {
 }
 
 impl ColorSpace {
+    /// The name `--colorspace` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            ColorSpace::LinRec709 => "lin_rec709",
+            ColorSpace::AcesCg => "acescg",
+        }
+    }
+
     /// The EXR `chromaticities`: red, green, blue, white (CIE xy).
     pub fn chromaticities(self) -> [[f32; 2]; 4] {
         let (p, w) = match self {

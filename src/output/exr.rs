@@ -128,6 +128,9 @@ pub struct ExrOptions {
     pub crop_data_window: bool,
     /// The colour space the colour channels are written in (and `chromaticities`).
     pub colorspace: super::ColorSpace,
+    /// The frame's colour is already in `colorspace` (stitched pieces that were written
+    /// in it): stored as it is, not converted again.
+    pub colour_converted: bool,
 }
 
 impl Default for ExrOptions {
@@ -144,6 +147,7 @@ impl Default for ExrOptions {
             z_empty: 1e10,
             crop_data_window: false,
             colorspace: super::ColorSpace::default(),
+            colour_converted: false,
         }
     }
 }
@@ -258,7 +262,7 @@ pub fn write_exr(
     }
 
     let converted;
-    let frame = if opts.colorspace == super::ColorSpace::LinRec709 {
+    let frame = if opts.colorspace == super::ColorSpace::LinRec709 || opts.colour_converted {
         frame
     } else {
         converted = super::colorspace::convert_frame(frame, opts.colorspace);

@@ -150,7 +150,9 @@ fn same(pieces: &[Piece]) -> Result<()> {
             ));
         }
         if names(p) != names(first)
-            || p.strings.get(attr::STORAGE) != first.strings.get(attr::STORAGE)
+            || [attr::STORAGE, attr::COLORSPACE, attr::Z_EMPTY, attr::CROP]
+                .iter()
+                .any(|a| p.strings.get(*a) != first.strings.get(*a))
         {
             return Err(anyhow!("{b}: its channels are not those of {a}"));
         }
@@ -248,7 +250,15 @@ pub fn stitch(pieces: &[PathBuf], out: &Path) -> Result<(usize, usize, usize)> {
         .iter()
         .filter(|(k, _)| {
             k.starts_with("murk/")
-                && ![attr::TILE, attr::TILE_ROWS, attr::STORAGE].contains(&k.as_str())
+                && ![
+                    attr::TILE,
+                    attr::TILE_ROWS,
+                    attr::STORAGE,
+                    attr::COLORSPACE,
+                    attr::Z_EMPTY,
+                    attr::CROP,
+                ]
+                .contains(&k.as_str())
         })
         .map(|(k, v)| (k.clone(), v.clone()))
         .collect();
@@ -270,9 +280,32 @@ pub fn stitch(pieces: &[PathBuf], out: &Path) -> Result<(usize, usize, usize)> {
         render_time_seconds: Some(read.iter().map(|p| p.render_time as f64).sum()),
         input_file: first.strings.get("inputFile").cloned(),
         extra_strings: extra,
-        // The pieces' empty depth is already what they were written with (1e10 by
-        // default); the stitched frame takes murk's default window (the full frame).
-        ..ExrOptions::default()
+        // Written as the pieces were (pieces from before these attributes: murk's
+        // defaults): their colour is already in their colour space, and their empty
+        // depth already what they were asked for (the stitch's own empty pixels are
+        // +inf, which becomes it).
+        colorspace: match first.strings.get(attr::COLORSPACE) {
+            Some(c) => c.parse().map_err(|_| {
+                anyhow!(
+                    "{}: a malformed {} attribute",
+                    first.path.display(),
+                    attr::COLORSPACE
+                )
+            })?,
+            None => Default::default(),
+        },
+        colour_converted: true,
+        z_empty: match first.strings.get(attr::Z_EMPTY) {
+            Some(z) => z.parse().map_err(|_| {
+                anyhow!(
+                    "{}: a malformed {} attribute",
+                    first.path.display(),
+                    attr::Z_EMPTY
+                )
+            })?,
+            None => ExrOptions::default().z_empty,
+        },
+        crop_data_window: first.strings.get(attr::CROP).is_some_and(|c| c == "true"),
     };
     write_exr(out, &frame, &opts)?;
     Ok((w, h, count))

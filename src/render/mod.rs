@@ -235,6 +235,9 @@ pub fn render_image_frame(
                 piece::attr::STORAGE.into(),
                 if exr.float { "float" } else { "half" }.into(),
             ),
+            (piece::attr::COLORSPACE.into(), exr.colorspace.name().into()),
+            (piece::attr::Z_EMPTY.into(), exr.z_empty.to_string()),
+            (piece::attr::CROP.into(), exr.crop_data_window.to_string()),
         ]);
     }
     let camera = &scene.camera;

@@ -14,6 +14,12 @@ pub mod attr {
     pub const FRAME: &str = "murk/frame";
     /// `half` or `float`: how colour was asked to be stored (`--float`), for the stitch.
     pub const STORAGE: &str = "murk/storage";
+    /// How the piece wrote what the stitch must write the same way: the colour space its
+    /// colour is already in (`--colorspace`), the depth where nothing is (`--z-empty`),
+    /// and whether the data window is cropped (`--crop-data-window`: `true`/`false`).
+    pub const COLORSPACE: &str = "murk/colorspace";
+    pub const Z_EMPTY: &str = "murk/zEmpty";
+    pub const CROP: &str = "murk/cropDataWindow";
 }
 
 /// The I-th (from 1) of N bands of rows.
