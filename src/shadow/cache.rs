@@ -4,10 +4,14 @@
 //! A cache is an ordinary `.vdb` file. For every light, chart and level in use it holds a
 //! float grid `dsm_<light>_c<chart>_L<level>` of `∫ρ ds` toward the light (density ×
 //! world length; optical depth is σt × this) whose index space is that level's lattice,
-//! and a float grid `dsm_<light>_c<chart>_bricks` holding `level + 1` at each brick.
+//! and a float grid `dsm_<light>_c<chart>_bricks` holding `level + 1 + 16 × form` at
+//! each brick (form 0: Hermite, 1: Linear, 2: Constant; see [`BrickForm`]).
 //! Beside each level's grid, `…_L<level>_dx`, `_dy` and `_dxy` hold the map's slopes of
 //! that integral across the light (per lattice step) and its twist; the density slope
-//! along the light is read from the density itself. For a
+//! along the light is read from the density itself. Those grids hold the Hermite bricks;
+//! `…_L<level>_linear` holds the Linear bricks' τ (each brick apart, at index
+//! `key·(2^level + 1)`, so neighbours do not overwrite each other's 16-bit rounding) and
+//! `…_dark` the one τ of each Constant brick, at the brick. For a
 //! sun the transforms are the true light-space → world maps, so Houdini or Blender show
 //! the grids where they belong; a point light's charts are perspective, which an affine
 //! transform cannot express, so their grids sit in lattice space and the chart is in the
@@ -16,7 +20,10 @@
 
 use super::BakeReport;
 use super::chart::{Chart, ChartKind, LateralBlend};
-use super::map::{BRICK, BrickSamples, ChartMap, ChartSelect, LEVELS, ShadowMap, side, spacing};
+use super::map::{
+    BRICK, BakedBrick, BrickForm, BrickSamples, ChartMap, ChartSelect, LEVELS, ShadowMap, side,
+    spacing,
+};
 use super::{CachedLight, ShadowMapStats};
 use crate::field::{Field, VoxelGrid};
 use crate::vdb::{FloatGridOut, VdbFile, write_float_grids};
@@ -79,6 +86,25 @@ const STORED: [(&str, usize, &str); 4] = [
         "d2/dxdy of the integral across the light, per lattice step squared",
     ),
 ];
+
+const LINEAR_QUANTITY: &str = "integral of density toward the light of the bricks held as tau alone (trilinear), each brick side(level) samples a side at index key x (2^level + 1): bricks do not share samples";
+const DARK_QUANTITY: &str = "integral of density toward the light of the bricks held as one value (the light there is below the tolerance), at each brick";
+
+/// What the bricks grid holds per brick: `level + 1 + 16 × form`.
+fn brick_code(level: u8, form: BrickForm) -> f32 {
+    f32::from(level) + 1.0 + 16.0 * f32::from(form.code())
+}
+
+/// The level and form a bricks grid's value stands for.
+fn brick_from_code(v: f32) -> Option<(u8, BrickForm)> {
+    if !(v >= 1.0 && v < 64.0 && v.fract() == 0.0) {
+        return None;
+    }
+    let v = v as u8;
+    let level = v % 16;
+    (1..=LEVELS as u8).contains(&level).then_some(())?;
+    Some((level - 1, BrickForm::from_code(v / 16)?))
+}
 
 fn grid_name(light: &str, chart: usize, what: &str) -> String {
     format!("dsm_{light}_c{chart}_{what}")
@@ -150,16 +176,24 @@ pub fn write(
                 voxels: cm
                     .bricks
                     .iter()
-                    .map(|b| (b.key, b.level as f32 + 1.0))
+                    .map(|b| (b.key, brick_code(b.level, b.form)))
                     .collect(),
-                metadata: meta(None, "level + 1 of each brick of the shadow map"),
+                metadata: meta(
+                    None,
+                    "level + 1 + 16 x form of each brick of the shadow map (form 0: tau and its slopes, Hermite; 1: tau alone, trilinear; 2: one tau)",
+                ),
             });
             for level in 0..LEVELS as u8 {
                 let n = 1i32 << level;
                 let m = side(level);
+                let at_level = |form: BrickForm| {
+                    cm.bricks
+                        .iter()
+                        .filter(move |b| b.level == level && b.form == form)
+                };
                 for (suffix, plane, quantity) in STORED {
                     let mut voxels = Vec::new();
-                    for b in cm.bricks.iter().filter(|b| b.level == level) {
+                    for b in at_level(BrickForm::Hermite) {
                         let v = cm.brick_quantity(b, plane);
                         for k in 0..m {
                             for j in 0..m {
@@ -180,6 +214,42 @@ pub fn write(
                         metadata: meta(Some(level), quantity),
                     });
                 }
+                // Linear bricks hold 16-bit steps: stored apart, a brick's samples not
+                // shared with its neighbours', so they read back exactly.
+                let mut voxels = Vec::new();
+                for b in at_level(BrickForm::Linear) {
+                    let v = cm.brick_quantity(b, 0);
+                    for k in 0..m {
+                        for j in 0..m {
+                            for i in 0..m {
+                                let ijk = b.key * (n + 1) + IVec3::new(i as i32, j as i32, k as i32);
+                                voxels.push((ijk, v[i + m * (j + m * k)]));
+                            }
+                        }
+                    }
+                }
+                if !voxels.is_empty() {
+                    grids.push(FloatGridOut {
+                        name: grid_name(light.name(), ci, &format!("L{level}_linear")),
+                        index_to_world: lattice_transform(chart, spacing(level)),
+                        voxels,
+                        metadata: meta(Some(level), LINEAR_QUANTITY),
+                    });
+                }
+            }
+            let dark: Vec<(IVec3, f32)> = cm
+                .bricks
+                .iter()
+                .filter(|b| b.form == BrickForm::Constant)
+                .map(|b| (b.key, cm.brick_quantity(b, 0)[0]))
+                .collect();
+            if !dark.is_empty() {
+                grids.push(FloatGridOut {
+                    name: grid_name(light.name(), ci, "dark"),
+                    index_to_world: lattice_transform(chart, BRICK as f64),
+                    voxels: dark,
+                    metadata: meta(None, DARK_QUANTITY),
+                });
             }
         }
     }
@@ -285,18 +355,70 @@ pub fn read(
             let bricks_grid = VoxelGrid::load(&file, &name)?;
             // Per level: its stored grids, in STORED order.
             let mut levels: Vec<Option<[VoxelGrid; 4]>> = vec![None; LEVELS];
+            let mut linear_levels: Vec<Option<VoxelGrid>> = vec![None; LEVELS];
+            let mut dark: Option<VoxelGrid> = None;
+            let load_named = |what: &str| {
+                let name = grid_name(light.name(), ci, what);
+                if file.grids().iter().all(|g| g.name != name) {
+                    return Err(bad(format!(
+                        "lacks grid {name} (made by an older murk?); bake again with murk bake-shadows"
+                    )));
+                }
+                Ok(VoxelGrid::load(&file, &name)?)
+            };
             let mut bricks = Vec::new();
             let keys = active_voxels(&bricks_grid)
                 .ok_or_else(|| bad(format!("grid {name}: its bricks span too large a region")))?;
             for key in keys {
                 let v = bricks_grid.voxel_value(key, 0);
-                let level = v - 1.0;
-                if !(level >= 0.0 && level < LEVELS as f32 && level.fract() == 0.0) {
+                let Some((level, form)) = brick_from_code(v) else {
                     return Err(bad(format!(
-                        "grid {name}: brick level {v} is not 1..{LEVELS}"
+                        "grid {name}: brick code {v} is not a level 1..{LEVELS} plus 16 x a form 0..2"
                     )));
+                };
+                let n = 1i32 << level;
+                let m = side(level);
+                if form == BrickForm::Constant {
+                    let grid = match &mut dark {
+                        Some(g) => g,
+                        None => dark.insert(load_named("dark")?),
+                    };
+                    bricks.push(BakedBrick {
+                        key,
+                        level,
+                        form,
+                        samples: BrickSamples {
+                            tau: vec![grid.voxel_value(key, 0)],
+                            ..Default::default()
+                        },
+                    });
+                    continue;
                 }
-                let level = level as u8;
+                if form == BrickForm::Linear {
+                    let grid = match &mut linear_levels[level as usize] {
+                        Some(g) => g,
+                        slot => slot.insert(load_named(&format!("L{level}_linear"))?),
+                    };
+                    let mut tau = Vec::with_capacity(m * m * m);
+                    for k in 0..m {
+                        for j in 0..m {
+                            for i in 0..m {
+                                let ijk = key * (n + 1) + IVec3::new(i as i32, j as i32, k as i32);
+                                tau.push(grid.voxel_value(ijk, 0));
+                            }
+                        }
+                    }
+                    bricks.push(BakedBrick {
+                        key,
+                        level,
+                        form,
+                        samples: BrickSamples {
+                            tau,
+                            ..Default::default()
+                        },
+                    });
+                    continue;
+                }
                 let slot = &mut levels[level as usize];
                 let [tau, tau_x, tau_y, tau_xy] = match slot {
                     Some(grids) => grids,
@@ -323,8 +445,6 @@ pub fn read(
                         ])
                     }
                 };
-                let n = 1i32 << level;
-                let m = side(level);
                 let mut samples = BrickSamples::with_capacity(m * m * m);
                 for k in 0..m {
                     for j in 0..m {
@@ -339,7 +459,12 @@ pub fn read(
                         }
                     }
                 }
-                bricks.push((key, level, samples));
+                bricks.push(BakedBrick {
+                    key,
+                    level,
+                    form,
+                    samples,
+                });
             }
             let cm = ChartMap::new(chart, bricks, 64 << 20)
                 .ok_or_else(|| bad(format!("grid {name}: its bricks span too large a region")))?;

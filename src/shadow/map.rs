@@ -212,15 +212,59 @@ pub fn reconstruct(
         + corner(column(m + 1), (x1, xs1), (y1, ys1))
 }
 
-/// One brick: its lattice position (in bricks), its level, where its samples start
-/// and the scales of its packed quantities.
+/// How a brick holds its values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BrickForm {
+    /// τ and its slopes at every sample, blended by [`reconstruct`] (12 bytes a sample).
+    Hermite,
+    /// τ alone at every sample as a 16-bit step above the brick's least τ, blended
+    /// trilinearly (2 bytes a sample): where the bake found that blend within the
+    /// tolerance at the brick's level.
+    Linear,
+    /// One τ for the whole brick, a lower bound: where the light left at the brick's top
+    /// is already below the tolerance, whatever τ does below (no samples).
+    Constant,
+}
+
+impl BrickForm {
+    /// The number a shadow cache stores it as.
+    pub fn code(self) -> u8 {
+        match self {
+            BrickForm::Hermite => 0,
+            BrickForm::Linear => 1,
+            BrickForm::Constant => 2,
+        }
+    }
+
+    pub fn from_code(code: u8) -> Option<Self> {
+        [BrickForm::Hermite, BrickForm::Linear, BrickForm::Constant]
+            .into_iter()
+            .find(|f| f.code() == code)
+    }
+}
+
+/// One brick: its lattice position (in bricks), its level and form, where its samples
+/// start and how to read them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Brick {
     pub key: IVec3,
     pub level: u8,
-    /// Index of its first sample in the map.
+    pub form: BrickForm,
+    /// Index of its first sample in the map's store for its form.
     pub offset: u32,
+    /// Hermite: the scales of the packed slopes. Linear: τ's base and step, then 0, 0.
+    /// Constant: τ, then 0, 0, 0.
     scales: [f32; QUANTITIES - 1],
+}
+
+/// A brick as a bake or a cache hands it to [`ChartMap::new`]: Hermite needs every
+/// quantity at all `side(level)³` samples, Linear τ alone, Constant one τ (the first).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakedBrick {
+    pub key: IVec3,
+    pub level: u8,
+    pub form: BrickForm,
+    pub samples: BrickSamples,
 }
 
 /// The bricks of one chart, with a dense table from brick position to brick.
@@ -231,24 +275,22 @@ pub struct ChartMap {
     dims: IVec3,
     slots: Vec<u32>,
     pub bricks: Vec<Brick>,
-    /// Per brick: its samples, x fastest.
+    /// Per Hermite brick: its samples, x fastest.
     samples: Vec<PackedSample>,
+    /// Per Linear brick: its τ steps, x fastest.
+    linear: Vec<u16>,
 }
 
 const NO_BRICK: u32 = u32::MAX;
 
 impl ChartMap {
-    /// A map from finished bricks `(key, level, samples)`; `None` if the table of brick
-    /// positions would exceed `max_slots` entries.
-    pub fn new(
-        chart: Chart,
-        bricks: Vec<(IVec3, u8, BrickSamples)>,
-        max_slots: usize,
-    ) -> Option<Self> {
+    /// A map from finished bricks; `None` if the table of brick positions would exceed
+    /// `max_slots` entries or a brick lacks samples its form needs.
+    pub fn new(chart: Chart, bricks: Vec<BakedBrick>, max_slots: usize) -> Option<Self> {
         let (mut lo, mut hi) = (IVec3::MAX, IVec3::MIN);
-        for (k, _, _) in &bricks {
-            lo = lo.min(*k);
-            hi = hi.max(*k);
+        for b in &bricks {
+            lo = lo.min(b.key);
+            hi = hi.max(b.key);
         }
         let dims = if bricks.is_empty() {
             IVec3::ZERO
@@ -259,45 +301,78 @@ impl ChartMap {
         if n > max_slots {
             return None;
         }
+        let held = |form: BrickForm| {
+            bricks
+                .iter()
+                .filter(|b| b.form == form)
+                .map(|b| side(b.level).pow(3))
+                .sum()
+        };
         let mut map = ChartMap {
             chart,
             lo,
             dims,
             slots: vec![NO_BRICK; n],
             bricks: Vec::with_capacity(bricks.len()),
-            samples: Vec::with_capacity(bricks.iter().map(|b| b.2.len()).sum()),
+            samples: Vec::with_capacity(held(BrickForm::Hermite)),
+            linear: Vec::with_capacity(held(BrickForm::Linear)),
         };
-        for (key, level, samples) in bricks {
+        for BakedBrick {
+            key,
+            level,
+            form,
+            samples,
+        } in bricks
+        {
             let n = side(level).pow(3);
-            if !samples.has_len(n) {
-                return None;
-            }
             let slot = map.slot_index(key)?;
             map.slots[slot] = map.bricks.len() as u32;
-            let planes = samples.planes();
-            let scales = std::array::from_fn(|q| {
-                let max = planes[q + 1].iter().fold(0f32, |m, v| m.max(v.abs()));
-                if max > 0.0 && max.is_finite() {
-                    max / i16::MAX as f32
-                } else {
-                    1.0
+            let (offset, scales) = match form {
+                BrickForm::Hermite => {
+                    if !samples.has_len(n) {
+                        return None;
+                    }
+                    let offset = u32::try_from(map.samples.len()).ok()?;
+                    let planes = samples.planes();
+                    let scales: [f32; QUANTITIES - 1] = std::array::from_fn(|q| {
+                        let max = planes[q + 1].iter().fold(0f32, |m, v| m.max(v.abs()));
+                        if max > 0.0 && max.is_finite() {
+                            max / i16::MAX as f32
+                        } else {
+                            1.0
+                        }
+                    });
+                    let pack = |v: f32, scale: f32| {
+                        (v / scale)
+                            .round()
+                            .clamp(-(i16::MAX as f32), i16::MAX as f32)
+                            as i16
+                    };
+                    map.samples.extend((0..n).map(|k| PackedSample {
+                        tau: planes[0][k],
+                        rest: std::array::from_fn(|q| pack(planes[q + 1][k], scales[q])),
+                    }));
+                    (offset, scales)
                 }
-            });
+                BrickForm::Linear => {
+                    if samples.tau.len() != n {
+                        return None;
+                    }
+                    let offset = u32::try_from(map.linear.len()).ok()?;
+                    let (base, step) = linear_scale(&samples.tau);
+                    map.linear
+                        .extend(samples.tau.iter().map(|&t| quantise(t, base, step)));
+                    (offset, [base, step, 0.0, 0.0])
+                }
+                BrickForm::Constant => (0, [*samples.tau.first()?, 0.0, 0.0, 0.0]),
+            };
             map.bricks.push(Brick {
                 key,
                 level,
-                offset: u32::try_from(map.samples.len()).ok()?,
+                form,
+                offset,
                 scales,
             });
-            let pack = |v: f32, scale: f32| {
-                (v / scale)
-                    .round()
-                    .clamp(-(i16::MAX as f32), i16::MAX as f32) as i16
-            };
-            map.samples.extend((0..n).map(|k| PackedSample {
-                tau: planes[0][k],
-                rest: std::array::from_fn(|q| pack(planes[q + 1][k], scales[q])),
-            }));
         }
         Some(map)
     }
@@ -380,9 +455,13 @@ impl ChartMap {
         0.0
     }
 
-    /// τ at `q` (clamped into the brick) from `brick`'s samples (see [`reconstruct`]).
+    /// τ at `q` (clamped into the brick) from `brick`'s values: [`reconstruct`] for a
+    /// Hermite brick, trilinear for a Linear one, its one τ for a Constant one.
     #[inline]
     fn blend(&self, brick: &Brick, q: DVec3) -> f64 {
+        if brick.form == BrickForm::Constant {
+            return brick.scales[0] as f64;
+        }
         let n = (1i32 << brick.level) as f64;
         let h = spacing(brick.level);
         // × 1/h rather than ÷ h: both are powers of two, so this is exact and cheaper.
@@ -391,9 +470,16 @@ impl ChartMap {
         let i = floor_dvec3(local).min(DVec3::splat(n - 1.0));
         let f = local - i;
         let i = i.as_uvec3();
+        let m = side(brick.level);
+        if brick.form == BrickForm::Linear {
+            let v = &self.linear[brick.offset as usize..][..m * m * m];
+            let base = i.x as usize + m * (i.y as usize + m * i.z as usize);
+            return brick.scales[0] as f64
+                + brick.scales[1] as f64 * trilinear(|k| v[base + k] as f64, m, f);
+        }
         reconstruct(
             &self.packed_brick(brick),
-            side(brick.level),
+            m,
             [i.x as usize, i.y as usize, i.z as usize],
             f,
             h,
@@ -405,15 +491,25 @@ impl ChartMap {
     /// Bytes held: values, bricks and the position table.
     pub fn memory_bytes(&self) -> usize {
         self.samples.len() * std::mem::size_of::<PackedSample>()
+            + self.linear.len() * 2
             + self.bricks.len() * std::mem::size_of::<Brick>()
             + self.slots.len() * 4
     }
 
-    /// Values held at each level.
+    /// Values held at each level (a Constant brick holds none).
     pub fn points_per_level(&self) -> [u64; LEVELS] {
         let mut n = [0u64; LEVELS];
-        for b in &self.bricks {
+        for b in self.bricks.iter().filter(|b| b.form != BrickForm::Constant) {
             n[b.level as usize] += side(b.level).pow(3) as u64;
+        }
+        n
+    }
+
+    /// Bricks of each form, in [`BrickForm::code`] order.
+    pub fn bricks_per_form(&self) -> [u64; 3] {
+        let mut n = [0u64; 3];
+        for b in &self.bricks {
+            n[b.form.code() as usize] += 1;
         }
         n
     }
@@ -427,13 +523,65 @@ impl ChartMap {
     }
 
     /// Quantity `q` ([`BrickSamples::planes`] order) of brick `b`'s samples, as the map
-    /// holds them: `side(level)³` values, x fastest.
+    /// holds them: `side(level)³` values, x fastest (a Linear or Constant brick holds τ
+    /// alone: its other quantities read 0).
     pub fn brick_quantity(&self, b: &Brick, q: usize) -> Vec<f32> {
-        let packed = self.packed_brick(b);
-        (0..packed.samples.len())
-            .map(|k| packed.get(q, k) as f32)
-            .collect()
+        let n = side(b.level).pow(3);
+        match b.form {
+            BrickForm::Hermite => {
+                let packed = self.packed_brick(b);
+                (0..n).map(|k| packed.get(q, k) as f32).collect()
+            }
+            _ if q != 0 => vec![0.0; n],
+            BrickForm::Linear => self.linear[b.offset as usize..][..n]
+                .iter()
+                .map(|&u| b.scales[0] + b.scales[1] * u as f32)
+                .collect(),
+            BrickForm::Constant => vec![b.scales[0]; n],
+        }
     }
+}
+
+/// τ's base and step for a Linear brick: its least value, and its range over 65,535.
+fn linear_scale(tau: &[f32]) -> (f32, f32) {
+    let (lo, hi) = tau
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &t| {
+            (lo.min(t), hi.max(t))
+        });
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (0.0, 0.0);
+    }
+    (lo, (hi - lo) / u16::MAX as f32)
+}
+
+#[inline]
+fn quantise(t: f32, base: f32, step: f32) -> u16 {
+    if step > 0.0 {
+        ((t - base) / step).round().clamp(0.0, u16::MAX as f32) as u16
+    } else {
+        0
+    }
+}
+
+/// The largest transmittance error a Linear brick's 16-bit τ adds, in any channel of
+/// `sigmas` (ascending): half a step, where the light is at most `e^{−σ·base}`.
+pub fn linear_rounding_error(tau: &[f32], sigmas: &[f64]) -> f64 {
+    let (base, step) = linear_scale(tau);
+    sigmas
+        .iter()
+        .map(|&s| s * 0.5 * step as f64 * (-s * base as f64).exp())
+        .fold(0.0, f64::max)
+}
+
+/// Trilinear blend of the cell whose lowest sample is `v(0)`, in a brick `m` samples a
+/// side, at `f` ∈ [0, 1]³.
+#[inline]
+pub fn trilinear(v: impl Fn(usize) -> f64, m: usize, f: DVec3) -> f64 {
+    let dz = m * m;
+    let row = |d: usize| v(d) + (v(d + 1) - v(d)) * f.x;
+    let plane = |d: usize| row(d) + (row(d + m) - row(d)) * f.y;
+    plane(0) + (plane(dz) - plane(0)) * f.z
 }
 
 /// The cubic Hermite basis at `t` ∈ [0, 1]: weights of (v0, slope0, v1, slope1).
@@ -506,6 +654,17 @@ impl ShadowMap {
         n
     }
 
+    /// Bricks of each form, in [`BrickForm::code`] order.
+    pub fn bricks_per_form(&self) -> [u64; 3] {
+        let mut n = [0u64; 3];
+        for c in &self.charts {
+            for (a, b) in n.iter_mut().zip(c.bricks_per_form()) {
+                *a += b;
+            }
+        }
+        n
+    }
+
     pub fn brick_count(&self) -> usize {
         self.charts.iter().map(|c| c.bricks.len()).sum()
     }
@@ -537,7 +696,13 @@ mod tests {
                 }
             }
         }
-        let map = ChartMap::new(chart, vec![(IVec3::ZERO, 1, samples)], 1 << 20).unwrap();
+        let brick = BakedBrick {
+            key: IVec3::ZERO,
+            level: 1,
+            form: BrickForm::Hermite,
+            samples,
+        };
+        let map = ChartMap::new(chart, vec![brick], 1 << 20).unwrap();
         for q in [
             DVec3::new(0.0, 0.0, 0.0),
             DVec3::new(8.0, 8.0, 8.0),
