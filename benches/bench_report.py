@@ -78,6 +78,17 @@ def run_record(out, time_file, murk_stats=None, vdb_log=None, extra=None):
         rec["bake_s"] = sh.get("seconds") if sh.get("status") == "ran" else None
         rec["map_bytes"] = st.get("shadow_map_memory_bytes") or None
         rec["density_bytes"] = st.get("density_memory_bytes") or None
+        rec["total_s"] = st.get("total_seconds")
+        maps = st.get("shadow_maps") or []
+        if maps:
+            m = maps[0]
+            rec["map_bricks"] = m.get("bricks")
+            rec["map_linear_bricks"] = m.get("linear_bricks")
+            rec["map_dark_bricks"] = m.get("dark_bricks")
+            rec["map_budget_stops"] = m.get("bricks_stopped_by_budget")
+            if m.get("verify"):
+                rec["dsm_max_error"] = m["verify"]["max_error"]
+                rec["dsm_p99_error"] = m["verify"]["p99_error"]
     if vdb_log:
         # vdb_render -v prints "ray-tracing <grid>..." then "...completed in X sec".
         text = open(vdb_log).read()
@@ -216,7 +227,33 @@ def dsm_table(cases, meta):
                          fmt(med(cases, c, "peak_rss_bytes"), "MiB"), fmt(med(cases, vdb, "peak_rss_bytes"), "MiB"),
                          fmt(med(cases, c, "map_bytes"), "MiB"), fmt(med(cases, c, "density_bytes"), "MiB"),
                          fmt(ratio(med(cases, c, "map_bytes"), med(cases, c, "density_bytes")), "x"),
-                         "≤ 0.25×" if key == "murk-dsm" else ""))
+                         "≤ 2× (#14)" if key == "murk-dsm" else ""))
+    return rows
+
+
+def shadow_table(cases, meta):
+    """Issue #14's shadow-map targets per cloud: the map's memory against the density
+    structure's, the bake's share of the whole run, the lookups' share of the render
+    stage (render with the map against `--shadows none`), and `--dsm-verify`'s max error."""
+    rows = []
+    tol = float(meta.get("dsm_tolerance", "1e-3"))
+    for cloud in meta.get("shadow_clouds", []):
+        dsm, none, ver = (f"shadow-{cloud}-{k}" for k in ("dsm", "none", "verify"))
+        if dsm not in cases:
+            continue
+        mem, dens = med(cases, ver, "map_bytes"), med(cases, ver, "density_bytes")
+        bake, total = med(cases, dsm, "bake_s"), med(cases, dsm, "total_s")
+        r_dsm, r_none = med(cases, dsm, "render_s"), med(cases, none, "render_s")
+        lookups = (r_dsm - r_none) / r_dsm if r_dsm and r_none is not None else None
+        err = med(cases, ver, "dsm_max_error")
+        share = lambda v: "–" if v is None else f"{100 * v:.0f} %"
+        rows.append((cloud, meta.get("shadow_res", {}).get(cloud, ""),
+                     f"{fmt(mem, 'MiB')} / {fmt(dens, 'MiB')} = {fmt(ratio(mem, dens), 'x')}", "≤ 2×",
+                     f"{fmt(bake, 's')} of {fmt(total, 's')} = {share(ratio(bake, total))}", "≤ 25 %",
+                     f"{fmt(r_dsm, 's')} vs {fmt(r_none, 's')} = {share(lookups)}", "≤ 30 %",
+                     fmt(err), f"≤ {2 * tol:.0e}",
+                     f"{med(cases, ver, 'map_bricks')} ({med(cases, ver, 'map_linear_bricks')} linear, "
+                     f"{med(cases, ver, 'map_dark_bricks')} dark, {med(cases, ver, 'map_budget_stops')} stopped by budget)"))
     return rows
 
 
@@ -260,6 +297,21 @@ def table(d):
         print_table(("step (voxels)", "murk", "bake", "murk wall", "vdb_render wall", "wall ratio", "CPU ratio",
                      "target", "murk peak RSS", "vdb_render peak RSS", "map memory", "density memory",
                      "map / density", "target"), rows)
+    print_shadow(cases, meta)
+
+
+def print_shadow(cases, meta):
+    rows = shadow_table(cases, meta)
+    if rows:
+        print(f"Deep shadow map (#14 target 2), {meta.get('shadow_threads')} thread(s), murk's default camera "
+              f"and medium, --dsm-tolerance {meta.get('dsm_tolerance')}: map memory against the density "
+              "structure; bake (the shadows stage) against the whole run; lookups as the render stage with "
+              "the map minus the render stage with --shadows none, against the first; --dsm-verify's max "
+              "transmittance error (10,000 points, a separate run).")
+        print()
+        print_table(("cloud", "res", "map / density memory", "target", "bake / total", "target",
+                     "render stage: dsm vs none = lookups", "target", "dsm-verify max", "target", "bricks"),
+                    rows)
 
 
 def main():

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Benchmarks murk against OpenVDB, measured in the same run; prints a markdown table.
 #
-#   scripts/bench.sh [load|render|all]      (default: all)
+#   scripts/bench.sh [load|render|shadow|all]      (default: all)
 #
 # load:   a 264³ grid (18.4 M active voxels; float and half) made at run time by
 #         benches/make_big_grid.py. murk's VdbFile::open + VoxelGrid::load against
@@ -14,11 +14,20 @@
 #         per voxel / voxel size) and primary step in voxels; alpha error of both against a
 #         fine-step murk reference; whole-process wall time and peak RSS; the shadow map's
 #         bake time and memory against the density structure's.
+# shadow: the deep shadow map's targets (#14 target 2) on the demo cloud at 960x540 and a
+#         generated large cloud (benches/make_big_grid.py, BENCH_SHADOW_SIZE³ voxels, all
+#         active) at 480x270, murk's default camera and medium: the map's memory against
+#         the density structure's (target ≤ 2×), the bake's share of the whole run (≤ 25 %),
+#         the lookups' share of the render stage (render stage with the map minus with
+#         --shadows none, ≤ 30 %), and --dsm-verify's max error (≤ 2× the tolerance).
 #
 # Knobs (environment): BENCH_RUNS (3), BENCH_THREADS (nproc), BENCH_RES (960x540),
 # BENCH_STEPS ("1 0.5": primary steps in voxels), BENCH_SHADOW_STEP (1),
 # BENCH_REF_STEP (0.05: murk's reference), BENCH_CONV_STEP (0.1: vdb_render's convention
-# check), BENCH_GRID_SIZE (264), BENCH_SAMPLE_REPS (5),
+# check), BENCH_GRID_SIZE (264), BENCH_SAMPLE_REPS (5), BENCH_SHADOW_SIZE (300: 27 M
+# voxels), BENCH_SHADOW_THREADS (1), BENCH_DSM_TOL (1e-3), BENCH_MURK (shadow: a murk
+# binary to measure instead of building this tree's, e.g. an older one for "before"),
+# BENCH_SHADOW_VDB (shadow: a large cloud already made, instead of writing one),
 # BENCH_KEEP=1 keeps the temporary directory (images, raw JSON).
 #
 # Needs: cargo, /usr/bin/time (Debian package `time`), /usr/bin/python3 with pyopenvdb and numpy (python3-openvdb), vdb_render
@@ -38,12 +47,15 @@ REF_STEP=${BENCH_REF_STEP:-0.05}
 CONV_STEP=${BENCH_CONV_STEP:-0.1}
 GRID_SIZE=${BENCH_GRID_SIZE:-264}
 SAMPLE_REPS=${BENCH_SAMPLE_REPS:-5}
+SHADOW_SIZE=${BENCH_SHADOW_SIZE:-300}
+SHADOW_THREADS=${BENCH_SHADOW_THREADS:-1}
+DSM_TOL=${BENCH_DSM_TOL:-1e-3}
 PY=/usr/bin/python3
 REPORT="$PY $ROOT/benches/bench_report.py"
 
 case "$WHAT" in
-    load | render | all) ;;
-    *) echo "usage: scripts/bench.sh [load|render|all]" >&2; exit 2 ;;
+    load | render | shadow | all) ;;
+    *) echo "usage: scripts/bench.sh [load|render|shadow|all]" >&2; exit 2 ;;
 esac
 for tool in cargo oiiotool vdb_render "$PY" /usr/bin/time; do
     command -v "$tool" >/dev/null || { echo "bench.sh: $tool not found" >&2; exit 2; }
@@ -205,8 +217,46 @@ bench_render() {
     done
 }
 
+# ------------------------------------------------------------------ C. shadow
+bench_shadow() {
+    if [[ -n "${BENCH_MURK:-}" ]]; then
+        MURK=$BENCH_MURK
+    else
+        log "building murk (cargo build --release)"
+        (cd "$ROOT" && cargo build --release --quiet)
+        MURK="$ROOT/target/release/murk"
+    fi
+    if [[ -n "${BENCH_SHADOW_VDB:-}" ]]; then
+        mkdir -p "$TMP/shadow" && ln -s "$BENCH_SHADOW_VDB" "$TMP/shadow/big_float.vdb"
+    else
+        log "writing the ${SHADOW_SIZE}³ cloud"
+        $PY "$ROOT/benches/make_big_grid.py" "$TMP/shadow" --size "$SHADOW_SIZE" >&2
+    fi
+    local cloud vdb res run shadows
+    for cloud in demo large; do
+        vdb=$CLOUD res=960x540
+        [[ $cloud == large ]] && vdb=$TMP/shadow/big_float.vdb res=480x270
+        for run in $(seq "$RUNS"); do
+            for shadows in dsm none; do
+                log "$cloud cloud, $res: murk --shadows $shadows, run $run/$RUNS"
+                TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
+                    "$MURK" render "$vdb" -o "$TMP/shadow.exr" --res "$res" --shadows "$shadows" \
+                    --dsm-tolerance "$DSM_TOL" --stats "$TMP/stats.json" --quiet --threads "$SHADOW_THREADS"
+                $REPORT run "$OUT/shadow-$cloud-$shadows.$run.json" --time "$TMP/time" --murk-stats "$TMP/stats.json"
+            done
+        done
+        # The map and its verification do not depend on the image: a tiny one.
+        log "$cloud cloud: murk --dsm-verify"
+        TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
+            "$MURK" render "$vdb" -o "$TMP/shadow.exr" --res 16x9 --dsm-tolerance "$DSM_TOL" --dsm-verify \
+            --stats "$TMP/stats.json" --quiet --threads "$SHADOW_THREADS"
+        $REPORT run "$OUT/shadow-$cloud-verify.1.json" --time "$TMP/time" --murk-stats "$TMP/stats.json"
+    done
+}
+
 if [[ "$WHAT" == load || "$WHAT" == all ]]; then bench_load; fi
 if [[ "$WHAT" == render || "$WHAT" == all ]]; then bench_render; fi
+if [[ "$WHAT" == shadow || "$WHAT" == all ]]; then bench_shadow; fi
 
 steps_json=$($PY -c 'import json, sys; print(json.dumps(sys.argv[1].split()))' "$STEPS")
 cat >"$OUT/meta.info" <<EOF
@@ -215,6 +265,8 @@ cat >"$OUT/meta.info" <<EOF
  "camera": "eye $EYE, look-at $LOOK, horizontal fov $FOV°; σa $SIGMA_A, σs $SIGMA_S per world unit; shadow step $SHADOW_STEP voxel",
  "reference": "murk --step $REF_STEP --shadows none",
  "ref_step": "$REF_STEP", "conv_step": "$CONV_STEP",
+ "dsm_tolerance": "$DSM_TOL", "shadow_threads": $SHADOW_THREADS, "shadow_clouds": ["demo", "large"],
+ "shadow_res": {"demo": "960x540 (fixtures/cloud.vdb)", "large": "480x270 (${SHADOW_SIZE}³ generated)"},
  "vdb_cutoff_default": "$VDB_CUTOFF_DEFAULT", "vdb_cutoff_matched": "$VDB_CUTOFF_MATCHED", "vdb_cutoff_tiny": "$VDB_CUTOFF_TINY"}
 EOF
 echo

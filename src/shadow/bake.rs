@@ -541,7 +541,24 @@ fn refine(
             // Coarser than a voxel, the check alone could pass over unseen density.
             let resolved = trial >= VOXEL_LEVEL || unresolved <= allowed;
             // Trilinear τ in 16 bits first: a sixth of the memory and a cheaper lookup.
-            if resolved && error_in(BrickForm::Linear) <= allowed {
+            // Checked where the level on trial would be kept, and at two voxels, where an
+            // unresolved brick that passes is kept one level finer (below).
+            let linear = (resolved || fine_level == VOXEL_LEVEL)
+                && error_in(BrickForm::Linear) <= allowed;
+            if linear && !resolved {
+                // Trilinear from two-voxel samples meets the one-voxel ones: one sample
+                // per voxel, which cannot step over density, trilinear too (2 bytes a
+                // sample, where Hermite at one voxel would take 12).
+                held += fine.len();
+                done.push(BakedBrick {
+                    key,
+                    level: fine_level,
+                    form: BrickForm::Linear,
+                    samples: fine,
+                });
+                continue;
+            }
+            if linear {
                 held += coarse.len();
                 done.push(BakedBrick {
                     key,
