@@ -543,8 +543,8 @@ fn refine(
             // Trilinear τ in 16 bits first: a sixth of the memory and a cheaper lookup.
             // Checked where the level on trial would be kept, and at two voxels, where an
             // unresolved brick that passes is kept one level finer (below).
-            let linear = (resolved || fine_level == VOXEL_LEVEL)
-                && error_in(BrickForm::Linear) <= allowed;
+            let linear =
+                (resolved || fine_level == VOXEL_LEVEL) && error_in(BrickForm::Linear) <= allowed;
             if linear && !resolved {
                 // Trilinear from two-voxel samples meets the one-voxel ones: one sample
                 // per voxel, which cannot step over density, trilinear too (2 bytes a

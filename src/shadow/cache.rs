@@ -97,7 +97,7 @@ fn brick_code(level: u8, form: BrickForm) -> f32 {
 
 /// The level and form a bricks grid's value stands for.
 fn brick_from_code(v: f32) -> Option<(u8, BrickForm)> {
-    if !(v >= 1.0 && v < 64.0 && v.fract() == 0.0) {
+    if !((1.0..64.0).contains(&v) && v.fract() == 0.0) {
         return None;
     }
     let v = v as u8;
@@ -222,7 +222,8 @@ pub fn write(
                     for k in 0..m {
                         for j in 0..m {
                             for i in 0..m {
-                                let ijk = b.key * (n + 1) + IVec3::new(i as i32, j as i32, k as i32);
+                                let ijk =
+                                    b.key * (n + 1) + IVec3::new(i as i32, j as i32, k as i32);
                                 voxels.push((ijk, v[i + m * (j + m * k)]));
                             }
                         }
