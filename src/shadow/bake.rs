@@ -17,6 +17,11 @@
 //!    brick stays coarser than a voxel only if, besides passing the check, the density's
 //!    range over it and over every brick above it toward the light bounds what it could
 //!    miss below the tolerance ([`unresolved_bounds`]).
+//! 5. Forms (see [`BrickForm`]): a brick kept at a level is held as τ alone, trilinear in
+//!    16 bits, when that blend (plus its rounding) passes the same check, else with τ's
+//!    slopes for the Hermite blend; a brick below which at least `−ln(tol/2)/σ` of optical
+//!    depth lies for certain (the density's least value over the bricks above) is held as
+//!    one τ and its columns are not marched.
 
 use super::chart::{Chart, ChartKind};
 use super::columns::sample_level;
@@ -423,22 +428,21 @@ fn brick_range(density: &dyn Field, chart: &Chart, key: IVec3) -> ValueRange {
 /// Σ min ρ · L}` over the bricks above. Their product, doubled for the blend's
 /// overshoot, bounds what samples coarser than the density's features can miss.
 ///
-/// Also per brick: `Σ min ρ · L` over the bricks above it, a lower bound on `∫ρ ds` from
-/// the light to any point of it.
+/// Also per brick, [`Upstream`]: what the bricks above it say about `∫ρ ds` down to it.
 fn unresolved_bounds(
     density: &dyn Field,
     chart: &Chart,
     keys: &[IVec3],
     sigmas: &[f64],
-) -> Vec<(f64, f64)> {
+) -> Vec<(f64, Upstream)> {
     let (Some(&s_min), Some(&s_max)) = (sigmas.first(), sigmas.last()) else {
-        return vec![(0.0, 0.0); keys.len()];
+        return vec![(0.0, Upstream::default()); keys.len()];
     };
     let length = BRICK as f64 * chart.unit;
     // Stack by stack, from the light down.
     let mut order: Vec<usize> = (0..keys.len()).collect();
     order.sort_by_key(|&i| (keys[i].x, keys[i].y, keys[i].z));
-    let mut out = vec![(0.0, 0.0); keys.len()];
+    let mut out = vec![(0.0, Upstream::default()); keys.len()];
     let mut stack = None;
     let (mut variation, mut depth_below) = (0.0, 0.0);
     for i in order {
@@ -453,14 +457,28 @@ fn unresolved_bounds(
         } else {
             (0.0, 0.0)
         };
+        let above = Upstream {
+            depth: depth_below,
+            variation,
+        };
         variation += (max - min) * length;
         out[i] = (
             2.0 * s_max * variation * (-s_min * depth_below).exp(),
-            depth_below,
+            above,
         );
         depth_below += min * length;
     }
     out
+}
+
+/// What the bricks above a brick (toward the light) say about `∫ρ ds` down to it.
+#[derive(Clone, Copy, Debug, Default)]
+struct Upstream {
+    /// `Σ min ρ · L` over them: a lower bound on `∫ρ ds` to any point of the brick.
+    depth: f64,
+    /// `Σ (max ρ − min ρ) · L` over them: a bound on how much `∫ρ ds` to the brick's top
+    /// face differs between any two of its columns.
+    variation: f64,
 }
 
 /// Chooses every brick's level and form.
@@ -486,25 +504,26 @@ fn refine(
     // the light there is at most e^{−σ·upstream} ≤ `allowed` in every channel, and so is
     // the error of reading τ = upstream anywhere in it (or below it). They are the tails
     // of their stacks (upstream only grows downward): their columns need no marching.
-    let dark = |upstream: f64| {
+    let dark = |depth: f64| {
         sigmas
             .first()
-            .is_some_and(|&s| (-s * upstream).exp() <= allowed)
+            .is_some_and(|&s| (-s * depth).exp() <= allowed)
+    };
+    let constant = |key, depth: f64| BakedBrick {
+        key,
+        level: 0,
+        form: BrickForm::Constant,
+        samples: BrickSamples {
+            tau: vec![depth as f32],
+            ..Default::default()
+        },
     };
     let mut lit = Vec::with_capacity(keys.len());
     for (&key, &(unresolved, upstream)) in keys.iter().zip(&bounds) {
-        if dark(upstream) {
-            done.push(BakedBrick {
-                key,
-                level: 0,
-                form: BrickForm::Constant,
-                samples: BrickSamples {
-                    tau: vec![upstream as f32],
-                    ..Default::default()
-                },
-            });
+        if dark(upstream.depth) {
+            done.push(constant(key, upstream.depth));
         } else {
-            lit.push((key, unresolved));
+            lit.push((key, unresolved, upstream));
         }
     }
     let max_level = settings.max_level.max(1);
@@ -512,12 +531,25 @@ fn refine(
     // Bricks still undecided: key, what coarse samples could miss there (see
     // `unresolved_bounds`), and the samples one level finer than the level on trial.
     let mut pending: Vec<(IVec3, f64, BrickSamples)> = {
-        let lit_keys: Vec<IVec3> = lit.iter().map(|(k, _)| *k).collect();
+        let lit_keys: Vec<IVec3> = lit.iter().map(|(k, _, _)| *k).collect();
         let vals = sample_level(density, chart, &lit_keys, 1, &stack_start, report);
-        lit.into_iter()
-            .zip(vals)
-            .map(|((k, b), v)| (k, b, v))
-            .collect()
+        let m = side(1);
+        let mut pending = Vec::with_capacity(lit.len());
+        for ((k, b, upstream), v) in lit.into_iter().zip(vals) {
+            // Dark from the samples: every point of the brick lies below a point of its
+            // top face on its column, where ∫ρ ds is at least the least sampled there
+            // less how much it can differ between columns.
+            let top = v.tau[..m * m]
+                .iter()
+                .fold(f64::INFINITY, |a, &t| a.min(t as f64));
+            let depth = upstream.depth.max(top - upstream.variation);
+            if dark(depth) {
+                done.push(constant(k, depth));
+            } else {
+                pending.push((k, b, v));
+            }
+        }
+        pending
     };
     let hermite = |key, level, samples| BakedBrick {
         key,

@@ -15,6 +15,11 @@
 //! a bilinear blend errs by ~σ·ρ·voxel/8 in optical depth (2–5e-2 in transmittance on
 //! the fixtures at one sample per voxel). With the slopes the blend is exact for cubics
 //! and the error falls about tenfold at one sample per voxel and fifty-fold at two.
+//!
+//! That is a brick's [`BrickForm::Hermite`] (12 bytes a sample). Where the bake finds less
+//! enough, a brick holds τ alone as 16-bit steps above its least τ, blended trilinearly
+//! ([`BrickForm::Linear`], 2 bytes), or, where the light reaching its top is already below
+//! the tolerance, one τ ([`BrickForm::Constant`], no samples).
 
 use super::chart::{Chart, LateralBlend};
 use crate::field::floor::floor_dvec3;
