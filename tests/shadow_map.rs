@@ -419,7 +419,7 @@ fn a_budget_that_stops_refinement_is_reported_with_the_error_to_expect() {
 /// brick dark stays 0; the generated all-active cloud of `scripts/bench.sh shadow` has
 /// 14 % of its bricks dark.)
 #[test]
-fn dark_and_linear_bricks_keep_the_tolerance_and_round_trip() {
+fn linear_bricks_shrink_the_map_keep_the_tolerance_and_round_trip() {
     let block = fixture("cloud.vdb");
     let sigma = SIGMA;
     let sun = Light::parse("sun:0.6,1,0.5:1,1,1:6", "sun0".into()).unwrap();
