@@ -174,6 +174,7 @@ def render_table(cases, meta):
         ("murk-dsm", "murk --shadows dsm"),
         ("murk-march", "murk --shadows march"),
         ("murk-none", "murk --shadows none"),
+        ("murk-maxerr", "murk --max-error 1e-2 (its own step, tolerance, termination)"),
         ("vdb-default", f"vdb_render -cutoff {meta.get('vdb_cutoff_default')} (its default)"),
         ("vdb-matched", f"vdb_render -cutoff {meta.get('vdb_cutoff_matched')} (termination matched)"),
         ("vdb-noshadow", "vdb_render -shadowstep 1000 (shadows all but off)"),

@@ -8,8 +8,8 @@
 #         pyopenvdb.readAll (time, peak RSS), each in a fresh process; then trilinear
 #         samples per second, murk's value_at_index against OpenVDB-rs's BoxSampler with
 #         a cached ValueAccessor (benches/grid.rs).
-# render: fixtures/cloud.vdb at 960x540, murk (release; --shadows dsm, march and none)
-#         against vdb_render (and vdb_render with -shadowstep 1000: its shadows all but
+# render: fixtures/cloud.vdb at 960x540, murk (release; single scattering, as vdb_render; --shadows dsm,
+#         march and none, and --max-error 1e-2 choosing its own settings) against vdb_render (and vdb_render with -shadowstep 1000: its shadows all but
 #         off, the floor of its cost) with the same camera, σ (murk's per world unit = vdb_render's
 #         per voxel / voxel size) and primary step in voxels; alpha error of both against a
 #         fine-step murk reference; whole-process wall time and peak RSS; the shadow map's
@@ -137,7 +137,17 @@ murk_render() { # OUT.exr STATS.json STEP SHADOWS [extra flags]
     "$MURK" render "$CLOUD" -o "$out" --res "$RES" --eye "$EYE" --look-at "$LOOK" --fov "$FOV" \
         --sigma-a "$SIGMA_A,$SIGMA_A,$SIGMA_A" --sigma-s "$SIGMA_S,$SIGMA_S,$SIGMA_S" \
         --light "sun:$SUN:1,1,1:6" --step "$step" --shadows "$shadows" --shadow-step "$SHADOW_STEP" \
-        --float --stats "$stats" --quiet --threads "$THREADS" "$@"
+        --scattering single --float --stats "$stats" --quiet --threads "$THREADS" "$@"
+}
+
+# murk choosing its own step, tolerance and termination for a relative radiance error of
+# 1e-2 against its --reference (#14): OUT.exr STATS.json. Single scattering, as
+# vdb_render (murk's default adds the fast multiple-scattering lattice).
+murk_render_budget() {
+    "$MURK" render "$CLOUD" -o "$1" --res "$RES" --eye "$EYE" --look-at "$LOOK" --fov "$FOV" \
+        --sigma-a "$SIGMA_A,$SIGMA_A,$SIGMA_A" --sigma-s "$SIGMA_S,$SIGMA_S,$SIGMA_S" \
+        --light "sun:$SUN:1,1,1:6" --max-error 1e-2 --shadow-step "$SHADOW_STEP" \
+        --scattering single --float --stats "$2" --quiet --threads "$THREADS"
 }
 
 vdb_render_run() { # OUT.exr STEP CUTOFF SHADOWSTEP [VDB]
@@ -149,7 +159,7 @@ vdb_render_run() { # OUT.exr STEP CUTOFF SHADOWSTEP [VDB]
         -cutoff "$3" -cpus "$THREADS" -v
 }
 
-export -f vdb_sigma murk_render vdb_render_run
+export -f vdb_sigma murk_render murk_render_budget vdb_render_run
 
 # Alpha error of IMAGE against the reference, as JSON in $TMP/err.json.
 alpha_err() {
@@ -195,6 +205,14 @@ bench_render() {
                 $REPORT run "$OUT/render-$name.$run.json" --time "$TMP/time" --murk-stats "$TMP/stats.json" \
                     --extra "$TMP/err.json"
             done
+            # The step is murk's to choose here; run once per step row to sit beside it.
+            log "step $step (ignored): murk --max-error 1e-2, run $run/$RUNS"
+            local name="murk-maxerr-s$step"
+            TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
+                murk_render_budget "$img/$name.exr" "$TMP/stats.json"
+            alpha_err "$img/$name.exr"
+            $REPORT run "$OUT/render-$name.$run.json" --time "$TMP/time" --murk-stats "$TMP/stats.json" \
+                --extra "$TMP/err.json"
             for cut in default matched; do
                 local cutoff=$VDB_CUTOFF_DEFAULT
                 [[ $cut == matched ]] && cutoff=$VDB_CUTOFF_MATCHED
