@@ -5,6 +5,8 @@
     bench_report.py alpha-error REF.fits TEST.fits   # JSON: rmse, rmse_covered, max
     bench_report.py run OUT.json --time FILE [--murk-stats FILE] [--vdb-log FILE]
     bench_report.py table DIR                        # markdown table of DIR/*.json
+    bench_report.py rel-rmse REF.exr TEST.exr [LAYER]  # RMSE of TEST − REF over R,G,B
+                                                     # (or LAYER.R/G/B) ÷ the RMS of REF
 
 Every measurement is a JSON file DIR/<case>.<run>.json; `table` takes the median of
 each field over a case's runs. Needs /usr/bin/python3 with numpy, and oiiotool.
@@ -28,6 +30,26 @@ def alpha(exr, fits):
     (the simplest float format this oiiotool writes)."""
     subprocess.run(["oiiotool", exr, "--ch", "A", "--croptofull", "-d", "float", "-o", fits],
                    check=True, stdout=subprocess.DEVNULL)
+
+
+def rel_rmse(ref_exr, test_exr, layer=""):
+    """RMSE of `test_exr` − `ref_exr` over the R, G, B channels (of `layer`, or the
+    beauty), divided by the RMS of the reference's: one number for how much an image
+    changed."""
+    import tempfile
+    prefix = f"{layer}." if layer else ""
+    num = den = 0.0
+    with tempfile.TemporaryDirectory() as tmp:
+        for c in "RGB":
+            imgs = []
+            for k, exr in enumerate((ref_exr, test_exr)):
+                fits = os.path.join(tmp, f"{k}{c}.fits")
+                subprocess.run(["oiiotool", exr, "--ch", prefix + c, "--croptofull", "-d", "float", "-o", fits],
+                               check=True, stdout=subprocess.DEVNULL)
+                imgs.append(read_fits(fits).astype(np.float64))
+            num += float(np.sum((imgs[1] - imgs[0]) ** 2))
+            den += float(np.sum(imgs[0] ** 2))
+    return float(np.sqrt(num / den)) if den > 0 else float(np.sqrt(num))
 
 
 def read_fits(path):
@@ -271,6 +293,8 @@ def main():
     elif cmd == "run":
         out, opts = args[0], dict(zip(args[1::2], args[2::2]))
         run_record(out, opts["--time"], opts.get("--murk-stats"), opts.get("--vdb-log"), opts.get("--extra"))
+    elif cmd == "rel-rmse":
+        print(f"{rel_rmse(*args):.3g}")
     elif cmd == "table":
         table(args[0])
     else:
