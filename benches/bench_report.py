@@ -250,6 +250,29 @@ def print_table(header, rows):
     print()
 
 
+def emission_table(cases, meta):
+    """Per fixture and scattering mode: the render with its emission against the same
+    render without it (whole process CPU and wall, render stage, samples)."""
+    rows = []
+    names = sorted({c[len("emission-"):-len("-on")] for c in cases if c.startswith("emission-") and c.endswith("-on")})
+    for name in names:
+        on, off = f"emission-{name}-on", f"emission-{name}-off"
+        fixture, scattering = name.rsplit("-", 1)
+        cpu = ratio(med(cases, on, "cpu_s"), med(cases, off, "cpu_s"))
+        rows.append((
+            f"{fixture}.vdb", scattering,
+            f"{fmt(med(cases, on, 'cpu_s'), 's')} / {fmt(med(cases, off, 'cpu_s'), 's')}",
+            fmt(cpu, "x"),
+            f"{fmt(med(cases, on, 'wall_s'), 's')} / {fmt(med(cases, off, 'wall_s'), 's')}",
+            fmt(ratio(med(cases, on, "wall_s"), med(cases, off, "wall_s")), "x"),
+            f"{fmt(med(cases, on, 'render_s'), 's')} / {fmt(med(cases, off, 'render_s'), 's')}",
+            fmt(ratio(med(cases, on, "render_s"), med(cases, off, "render_s")), "x"),
+            f"{fmt(med(cases, on, 'samples'))} / {fmt(med(cases, off, 'samples'))}",
+            "≤ 1.5× " + ("met" if cpu is not None and cpu <= 1.5 else "NOT met"),
+        ))
+    return rows
+
+
 def table(d):
     cases = load_cases(d)
     meta_path = os.path.join(d, "meta.info")
@@ -273,6 +296,17 @@ def table(d):
         print()
         print_table(("step (voxels)", "renderer", "render stage", "wall", "CPU", "÷ vdb_render default",
                      "÷ vdb_render matched", "alpha RMSE", "alpha RMSE (covered px)", "alpha max err"), rows)
+    rows = emission_table(cases, meta)
+    if rows:
+        print(f"Emission cost: each fixture rendered with its emission and without it (--emission-grid none "
+              f"--temperature-grid none), back to back, {meta.get('emission_res')}, "
+              f"{meta.get('emission_threads')} thread(s); load average at the end {meta.get('load', '?')}. "
+              "Whole-process CPU (user+sys) and wall seconds, and the render stage (wall, from the stats); "
+              "the target is on CPU.")
+        print()
+        print_table(("fixture", "scattering", "CPU with / without", "CPU ratio", "wall with / without",
+                     "wall ratio", "render stage with / without", "ratio", "samples with / without",
+                     "target"), rows)
     rows = dsm_table(cases, meta)
     if rows:
         print("Deep shadow map: whole processes (murk: load + bake + render + write) against vdb_render "
