@@ -284,24 +284,6 @@ impl VoxelGrid {
         self.stencil_in(i, p - i.as_dvec3(), c, &mut LeafCache::new())
     }
 
-    /// [`VoxelGrid::sample_channel`] of channel 0 at `ray.at(t)` for each `t` of `ts`,
-    /// the leaf of the previous point remembered.
-    pub(super) fn sample_along(&self, ray: &IndexRay, ts: &[f64], out: &mut [f32]) {
-        let mut cache = LeafCache::new();
-        for (&t, o) in ts.iter().zip(out.iter_mut()) {
-            let p = ray.at(t);
-            *o = if p.abs().max_element() < LOOKUP_LIMIT {
-                let i = IVec3::new(floor_i32(p.x), floor_i32(p.y), floor_i32(p.z));
-                match self.stencil_in(i, p - i.as_dvec3(), 0, &mut cache) {
-                    Stencil::Constant(v) => v,
-                    Stencil::Corners(v, t) => trilinear(&v, t.as_vec3()),
-                }
-            } else {
-                self.tile_values[0]
-            };
-        }
-    }
-
     /// The slot of the 8³ block holding global voxel `g`, from `cache` when the last
     /// lookup was in the same block.
     #[inline(always)]
