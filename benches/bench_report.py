@@ -5,6 +5,8 @@
     bench_report.py alpha-error REF.fits TEST.fits   # JSON: rmse, rmse_covered, max
     bench_report.py run OUT.json --time FILE [--murk-stats FILE] [--vdb-log FILE]
     bench_report.py table DIR                        # markdown table of DIR/*.json
+    bench_report.py rel-rmse REF.exr TEST.exr [LAYER]  # RMSE of TEST − REF over R,G,B
+                                                     # (or LAYER.R/G/B) ÷ the RMS of REF
 
 Every measurement is a JSON file DIR/<case>.<run>.json; `table` takes the median of
 each field over a case's runs. Needs /usr/bin/python3 with numpy, and oiiotool.
@@ -28,6 +30,26 @@ def alpha(exr, fits):
     (the simplest float format this oiiotool writes)."""
     subprocess.run(["oiiotool", exr, "--ch", "A", "--croptofull", "-d", "float", "-o", fits],
                    check=True, stdout=subprocess.DEVNULL)
+
+
+def rel_rmse(ref_exr, test_exr, layer=""):
+    """RMSE of `test_exr` − `ref_exr` over the R, G, B channels (of `layer`, or the
+    beauty), divided by the RMS of the reference's: one number for how much an image
+    changed."""
+    import tempfile
+    prefix = f"{layer}." if layer else ""
+    num = den = 0.0
+    with tempfile.TemporaryDirectory() as tmp:
+        for c in "RGB":
+            imgs = []
+            for k, exr in enumerate((ref_exr, test_exr)):
+                fits = os.path.join(tmp, f"{k}{c}.fits")
+                subprocess.run(["oiiotool", exr, "--ch", prefix + c, "--croptofull", "-d", "float", "-o", fits],
+                               check=True, stdout=subprocess.DEVNULL)
+                imgs.append(read_fits(fits).astype(np.float64))
+            num += float(np.sum((imgs[1] - imgs[0]) ** 2))
+            den += float(np.sum(imgs[0] ** 2))
+    return float(np.sqrt(num / den)) if den > 0 else float(np.sqrt(num))
 
 
 def read_fits(path):
@@ -269,6 +291,29 @@ def print_table(header, rows):
     print()
 
 
+def emission_table(cases, meta):
+    """Per fixture and scattering mode: the render with its emission against the same
+    render without it (whole process CPU and wall, render stage, samples)."""
+    rows = []
+    names = sorted({c[len("emission-"):-len("-on")] for c in cases if c.startswith("emission-") and c.endswith("-on")})
+    for name in names:
+        on, off = f"emission-{name}-on", f"emission-{name}-off"
+        fixture, scattering = name.rsplit("-", 1)
+        cpu = ratio(med(cases, on, "cpu_s"), med(cases, off, "cpu_s"))
+        rows.append((
+            f"{fixture}.vdb", scattering,
+            f"{fmt(med(cases, on, 'cpu_s'), 's')} / {fmt(med(cases, off, 'cpu_s'), 's')}",
+            fmt(cpu, "x"),
+            f"{fmt(med(cases, on, 'wall_s'), 's')} / {fmt(med(cases, off, 'wall_s'), 's')}",
+            fmt(ratio(med(cases, on, "wall_s"), med(cases, off, "wall_s")), "x"),
+            f"{fmt(med(cases, on, 'render_s'), 's')} / {fmt(med(cases, off, 'render_s'), 's')}",
+            fmt(ratio(med(cases, on, "render_s"), med(cases, off, "render_s")), "x"),
+            f"{fmt(med(cases, on, 'samples'))} / {fmt(med(cases, off, 'samples'))}",
+            "≤ 1.5× " + ("met" if cpu is not None and cpu <= 1.5 else "NOT met"),
+        ))
+    return rows
+
+
 def table(d):
     cases = load_cases(d)
     meta_path = os.path.join(d, "meta.info")
@@ -292,6 +337,17 @@ def table(d):
         print()
         print_table(("step (voxels)", "renderer", "render stage", "wall", "CPU", "÷ vdb_render default",
                      "÷ vdb_render matched", "alpha RMSE", "alpha RMSE (covered px)", "alpha max err"), rows)
+    rows = emission_table(cases, meta)
+    if rows:
+        print(f"Emission cost: each fixture rendered with its emission and without it (--emission-grid none "
+              f"--temperature-grid none), back to back, {meta.get('emission_res')}, "
+              f"{meta.get('emission_threads')} thread(s); load average at the end {meta.get('load', '?')}. "
+              "Whole-process CPU (user+sys) and wall seconds, and the render stage (wall, from the stats); "
+              "the target is on CPU.")
+        print()
+        print_table(("fixture", "scattering", "CPU with / without", "CPU ratio", "wall with / without",
+                     "wall ratio", "render stage with / without", "ratio", "samples with / without",
+                     "target"), rows)
     rows = dsm_table(cases, meta)
     if rows:
         print("Deep shadow map: whole processes (murk: load + bake + render + write) against vdb_render "
@@ -328,6 +384,8 @@ def main():
     elif cmd == "run":
         out, opts = args[0], dict(zip(args[1::2], args[2::2]))
         run_record(out, opts["--time"], opts.get("--murk-stats"), opts.get("--vdb-log"), opts.get("--extra"))
+    elif cmd == "rel-rmse":
+        print(f"{rel_rmse(*args):.3g}")
     elif cmd == "table":
         table(args[0])
     else:

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Benchmarks murk against OpenVDB, measured in the same run; prints a markdown table.
 #
-#   scripts/bench.sh [load|render|shadow|all]      (default: all)
+#   scripts/bench.sh [load|render|shadow|emission|all]      (default: all)
 #
 # load:   a 264³ grid (18.4 M active voxels; float and half) made at run time by
 #         benches/make_big_grid.py. murk's VdbFile::open + VoxelGrid::load against
@@ -22,6 +22,12 @@
 #         (≤ 2× the tolerance). Shares in process CPU seconds: bake = the 16x9 run with the
 #         map minus the one without; render stage = a run minus its 16x9 twin; lookups =
 #         the render stage with the map minus the one with --shadows none.
+# emission: the three production fixtures (fixtures/blender_smoke.vdb, houdini_pyro.vdb,
+#         pyro.vdb), each rendered with its emission (flame and temperature grids as
+#         detected) and without it (--emission-grid none --temperature-grid none), in the
+#         same run, at BENCH_EMISSION_RES with BENCH_EMISSION_THREADS threads, for each of
+#         BENCH_EMISSION_SCATTERING; CPU and wall seconds of the whole process and the
+#         render stage, samples, and the ratio with/without against the 1.5× target.
 #
 # Knobs (environment): BENCH_RUNS (3), BENCH_THREADS (nproc), BENCH_RES (960x540),
 # BENCH_STEPS ("1 0.5": primary steps in voxels), BENCH_SHADOW_STEP (1),
@@ -30,7 +36,8 @@
 # voxels), BENCH_SHADOW_THREADS (1), BENCH_DSM_TOL (1e-3), BENCH_MURK (shadow: a murk
 # binary to measure instead of building this tree's, e.g. an older one for "before"),
 # BENCH_SHADOW_VDB (shadow: a large cloud already made, instead of writing one),
-# BENCH_KEEP=1 keeps the temporary directory (images, raw JSON).
+# BENCH_EMISSION_RES (480x270), BENCH_EMISSION_THREADS (1), BENCH_EMISSION_SCATTERING
+# ("single fast"), BENCH_KEEP=1 keeps the temporary directory (images, raw JSON).
 #
 # Needs: cargo, /usr/bin/time (Debian package `time`), /usr/bin/python3 with pyopenvdb and numpy (python3-openvdb), vdb_render
 # (libopenvdb-tools), oiiotool (openimageio-tools). Not part of CI: run it by hand, on a
@@ -52,14 +59,19 @@ SAMPLE_REPS=${BENCH_SAMPLE_REPS:-5}
 SHADOW_SIZE=${BENCH_SHADOW_SIZE:-300}
 SHADOW_THREADS=${BENCH_SHADOW_THREADS:-1}
 DSM_TOL=${BENCH_DSM_TOL:-1e-3}
+EMISSION_RES=${BENCH_EMISSION_RES:-480x270}
+EMISSION_THREADS=${BENCH_EMISSION_THREADS:-1}
+EMISSION_SCATTERING=${BENCH_EMISSION_SCATTERING:-"single fast"}
 PY=/usr/bin/python3
 REPORT="$PY $ROOT/benches/bench_report.py"
 
 case "$WHAT" in
-    load | render | shadow | all) ;;
-    *) echo "usage: scripts/bench.sh [load|render|shadow|all]" >&2; exit 2 ;;
+    load | render | shadow | emission | all) ;;
+    *) echo "usage: scripts/bench.sh [load|render|shadow|emission|all]" >&2; exit 2 ;;
 esac
-for tool in cargo oiiotool vdb_render "$PY" /usr/bin/time; do
+tools=(cargo "$PY" /usr/bin/time)
+[[ "$WHAT" == emission ]] || tools+=(oiiotool vdb_render)
+for tool in "${tools[@]}"; do
     command -v "$tool" >/dev/null || { echo "bench.sh: $tool not found" >&2; exit 2; }
 done
 
@@ -281,14 +293,49 @@ bench_shadow() {
     done
 }
 
+# ------------------------------------------------------------------ D. emission
+EMISSION_FIXTURES="blender_smoke houdini_pyro pyro"
+
+murk_emission() { # FIXTURE OUT.exr STATS.json SCATTERING [extra flags]
+    local fixture=$1 out=$2 stats=$3 scattering=$4
+    shift 4
+    "$MURK" render "$ROOT/fixtures/$fixture.vdb" -o "$out" --res "$EMISSION_RES" --threads "$EMISSION_THREADS" \
+        --scattering "$scattering" --stats "$stats" --quiet "$@"
+}
+export -f murk_emission
+
+bench_emission() {
+    log "building murk (cargo build --release)"
+    (cd "$ROOT" && cargo build --release --quiet)
+    MURK="$ROOT/target/release/murk"
+    for run in $(seq "$RUNS"); do
+        for scattering in $EMISSION_SCATTERING; do
+            for fixture in $EMISSION_FIXTURES; do
+                # With and without emission back to back, so both see the same load.
+                for emission in on off; do
+                    local flags=()
+                    [[ $emission == off ]] && flags=(--emission-grid none --temperature-grid none)
+                    log "emission $emission: $fixture, --scattering $scattering, run $run/$RUNS"
+                    TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
+                        murk_emission "$fixture" "$TMP/emission.exr" "$TMP/stats.json" "$scattering" "${flags[@]}"
+                    $REPORT run "$OUT/emission-$fixture-$scattering-$emission.$run.json" --time "$TMP/time" \
+                        --murk-stats "$TMP/stats.json"
+                done
+            done
+        done
+    done
+}
+
 if [[ "$WHAT" == load || "$WHAT" == all ]]; then bench_load; fi
 if [[ "$WHAT" == render || "$WHAT" == all ]]; then bench_render; fi
 if [[ "$WHAT" == shadow || "$WHAT" == all ]]; then bench_shadow; fi
+if [[ "$WHAT" == emission || "$WHAT" == all ]]; then bench_emission; fi
 
 steps_json=$($PY -c 'import json, sys; print(json.dumps(sys.argv[1].split()))' "$STEPS")
 cat >"$OUT/meta.info" <<EOF
 {"when": "$(date -u +%Y-%m-%dT%H:%MZ), murk $(cd "$ROOT" && git rev-parse --short HEAD 2>/dev/null || echo '?')",
- "runs": $RUNS, "cores": $(nproc), "threads": $THREADS, "res": "$RES", "steps": $steps_json,
+ "runs": $RUNS, "cores": $(nproc), "threads": $THREADS, "load": "$(cut -d' ' -f1-3 /proc/loadavg)",
+ "emission_res": "$EMISSION_RES", "emission_threads": $EMISSION_THREADS, "res": "$RES", "steps": $steps_json,
  "camera": "eye $EYE, look-at $LOOK, horizontal fov $FOV°; σa $SIGMA_A, σs $SIGMA_S per world unit; shadow step $SHADOW_STEP voxel",
  "reference": "murk --step $REF_STEP --shadows none",
  "ref_step": "$REF_STEP", "conv_step": "$CONV_STEP",

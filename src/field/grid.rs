@@ -537,6 +537,10 @@ impl Field for VoxelGrid {
         self.exact_piece_integrals(ray, t0, ends, out)
     }
 
+    fn values_along(&self, ray: &IndexRay, ts: &[f64], out: &mut [f32]) {
+        self.sample_along(ray, ts, out)
+    }
+
     fn slopes_along(
         &self,
         ray: &IndexRay,

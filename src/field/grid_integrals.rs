@@ -1,4 +1,5 @@
-//! Exact integrals of a [`VoxelGrid`] along rays: the ray is cut at every voxel face
+//! A [`VoxelGrid`] along rays: trilinear values at many points of a ray, the leaf of the
+//! last remembered ([`VoxelGrid::sample_along`]); and exact integrals: the ray is cut at every voxel face
 //! (Amanatides–Woo) and inside a voxel the trilinear reconstruction along the ray is a
 //! cubic, which two-point Gauss–Legendre integrates exactly.
 //!
@@ -12,7 +13,7 @@
 //! crosses the face at rate `|d_k|`).
 
 use super::floor::floor_i32;
-use super::grid::{LOOKUP_LIMIT, LeafCache, Stencil, VoxelGrid, trilinear_f64};
+use super::grid::{LOOKUP_LIMIT, LeafCache, Stencil, VoxelGrid, trilinear, trilinear_f64};
 use super::{GL2_HALF_OFFSET, IndexRay, Sideways, gauss_legendre_2};
 use glam::{DVec3, IVec3};
 
@@ -162,6 +163,24 @@ fn trilinear_mixed(v: &[f32; 8], t: DVec3, a: DVec3, b: DVec3) -> f64 {
 }
 
 impl VoxelGrid {
+    /// [`VoxelGrid::sample_channel`] of channel 0 at `ray.at(t)` for each `t` of `ts`,
+    /// the leaf of the previous point remembered.
+    pub(super) fn sample_along(&self, ray: &IndexRay, ts: &[f64], out: &mut [f32]) {
+        let mut cache = LeafCache::new();
+        for (&t, o) in ts.iter().zip(out.iter_mut()) {
+            let p = ray.at(t);
+            *o = if p.abs().max_element() < LOOKUP_LIMIT {
+                let i = IVec3::new(floor_i32(p.x), floor_i32(p.y), floor_i32(p.z));
+                match self.stencil_in(i, p - i.as_dvec3(), 0, &mut cache) {
+                    Stencil::Constant(v) => v,
+                    Stencil::Corners(v, t) => trilinear(&v, t.as_vec3()),
+                }
+            } else {
+                self.tile_values[0]
+            };
+        }
+    }
+
     /// `∫ρ dt` over `[t0, t1]` of `ray`, exactly (see the module).
     pub(super) fn exact_integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
         if !(t1 > t0) || !t0.is_finite() || !t1.is_finite() {
@@ -331,8 +350,8 @@ impl VoxelGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::field::Affine;
     use crate::field::random::SplitMix64;
+    use crate::field::{Affine, Field};
     use glam::DMat4;
 
     /// A 12³ block of random values in [0, 1].
@@ -347,6 +366,39 @@ mod tests {
             }
         }
         VoxelGrid::from_voxels("density", voxels, DMat4::IDENTITY).unwrap()
+    }
+
+    /// Values along a ray with the last leaf remembered are the values looked up one by
+    /// one, to the bit: points within a leaf, across leaves and their +1 stencil layer,
+    /// out of the grid, back into it, and beyond the lookup range.
+    #[test]
+    fn values_along_match_value_at_index() {
+        let g = random_grid();
+        let centre = DVec3::splat(6.0) - g.transform.origin.as_dvec3();
+        let mut rng = SplitMix64(8);
+        for _ in 0..200 {
+            let dir = DVec3::new(
+                rng.next_f64() - 0.5,
+                rng.next_f64() - 0.5,
+                rng.next_f64() - 0.5,
+            )
+            .normalize();
+            let ray = IndexRay {
+                origin: centre - dir * 12.0,
+                dir,
+            };
+            let mut ts: Vec<f64> = (0..60)
+                .map(|k| k as f64 * 0.4 + rng.next_f64() * 0.3)
+                .collect();
+            ts.push(1e12);
+            let mut out = vec![f32::NAN; ts.len()];
+            g.values_along(&ray, &ts, &mut out);
+            for (&t, &v) in ts.iter().zip(&out) {
+                let want = g.value_at_index(ray.at(t));
+                assert_eq!(v.to_bits(), want.to_bits(), "t {t}: {v} against {want}");
+            }
+            assert!(out.iter().any(|&v| v > 0.0) && out.contains(&0.0));
+        }
     }
 
     /// One walk for many pieces gives what a walk per piece gives: pieces inside one

@@ -251,6 +251,15 @@ pub trait Field: Send + Sync {
         gauss_legendre_2(|t| self.value_at_index(ray.at(t)) as f64, t0, t1)
     }
 
+    /// [`Field::value_at_index`] at `ray.at(t)` for each `t` of `ts` into `out` (as
+    /// long as `ts`). A voxel grid remembers the last leaf it looked up, so points
+    /// close together along a ray do not each descend the tree.
+    fn values_along(&self, ray: &IndexRay, ts: &[f64], out: &mut [f32]) {
+        for (&t, o) in ts.iter().zip(out.iter_mut()) {
+            *o = self.value_at_index(ray.at(t));
+        }
+    }
+
     /// [`Field::integral`] over consecutive pieces of one ray: `out[i] = ∫ρ dt` over
     /// `[ends[i−1], ends[i]]`, with `ends[−1] = t0` (`ends` ascending, as long as `out`).
     /// A voxel grid walks the voxels once for all the pieces, so a march of many short

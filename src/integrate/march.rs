@@ -179,6 +179,11 @@ pub struct Scratch {
     /// The ends of the segments of the current batch, and the density integral over each.
     ends: Vec<f64>,
     integrals: Vec<f64>,
+    /// The emission grid's integral over each segment of the batch, the segments'
+    /// midpoints and the temperature grid's values there.
+    emission_integrals: Vec<f64>,
+    mids: Vec<f64>,
+    temperatures: Vec<f32>,
 }
 
 impl Scratch {
@@ -189,7 +194,42 @@ impl Scratch {
             indirect: DVec3::ZERO,
             ends: Vec::with_capacity(SEGMENT_BATCH),
             integrals: vec![0.0; SEGMENT_BATCH],
+            emission_integrals: vec![0.0; SEGMENT_BATCH],
+            mids: Vec::with_capacity(SEGMENT_BATCH),
+            temperatures: vec![0.0; SEGMENT_BATCH],
         }
+    }
+}
+
+impl Scratch {
+    /// For the batch of segments from `a` to `self.ends`: the emission grid's integral
+    /// over each (into `emission_integrals`) and the temperature at each midpoint (into
+    /// `temperatures`), where the grid is on the density's lattice (`true` for each
+    /// that was).
+    fn emission_batch(&mut self, e: &Emission, ray: &IndexRay, a: f64) -> (bool, bool) {
+        let batch = self.ends.len();
+        if self.emission_integrals.len() < batch {
+            self.emission_integrals.resize(batch, 0.0);
+        }
+        if self.temperatures.len() < batch {
+            self.temperatures.resize(batch, 0.0);
+        }
+        let grid = e.grid.as_ref().is_some_and(|g| {
+            g.piece_integrals(ray, a, &self.ends, &mut self.emission_integrals[..batch])
+        });
+        let temperature = match &e.temperature {
+            Some(c) if c.same_lattice() => {
+                self.mids.clear();
+                let mut s = a;
+                for &b in &self.ends {
+                    self.mids.push(0.5 * (s + b));
+                    s = b;
+                }
+                c.values_along(ray, &self.mids, &mut self.temperatures[..batch])
+            }
+            _ => false,
+        };
+        (grid, temperature)
     }
 }
 
@@ -337,6 +377,13 @@ pub fn march(
                     &mut scratch.integrals[..batch],
                 );
             }
+            // The emission grid's exact segment means and the temperature at the
+            // segments' midpoints, each in one walk for the batch (a tree descent per
+            // segment cost more than the density's batched walk).
+            let (emission_batched, temperature_batched) = match emission {
+                Some(e) => scratch.emission_batch(e, &ray, a),
+                None => (false, false),
+            };
             for i in 0..batch {
                 let b = scratch.ends[i];
                 let ds = b - a;
@@ -352,7 +399,21 @@ pub fn march(
                 let w = per_channel(grey, |c| ds * phi(st[c] * ds));
                 let xw = origin + dir * mid;
                 if let Some(e) = emission {
-                    let eps = e.mean(&ray, a, b, p, xw);
+                    let eps = if emission_batched || temperature_batched {
+                        let grid_mean = match &e.grid {
+                            Some(_) if emission_batched => Some(scratch.emission_integrals[i] / ds),
+                            Some(c) => Some(c.mean(&ray, a, b, xw)),
+                            None => None,
+                        };
+                        let temperature = match &e.temperature {
+                            Some(_) if temperature_batched => Some(scratch.temperatures[i]),
+                            Some(c) => Some(c.value(p, xw)),
+                            None => None,
+                        };
+                        e.from_samples(grid_mean, temperature)
+                    } else {
+                        e.mean(&ray, a, b, p, xw)
+                    };
                     if eps.max_element() > 0.0 {
                         out.emission += t_now * eps * w;
                     }

@@ -67,6 +67,32 @@ impl<'a> Companion<'a> {
         }
     }
 
+    /// [`Field::piece_integrals`] of the companion along a ray of the density's local
+    /// index space: `out[i] = ∫ over [ends[i−1], ends[i]]` (`ends[−1] = t0`), in one walk.
+    /// `false` (nothing written) when the lattices differ; [`Companion::mean`] then
+    /// samples the world midpoint per segment.
+    pub fn piece_integrals(&self, ray: &IndexRay, t0: f64, ends: &[f64], out: &mut [f64]) -> bool {
+        let Some(o) = self.offset else { return false };
+        let shifted = IndexRay {
+            origin: ray.origin + o,
+            dir: ray.dir,
+        };
+        self.field.piece_integrals(&shifted, t0, ends, out);
+        true
+    }
+
+    /// [`Field::values_along`] of the companion at `ray.at(t)` for each `t` (density's
+    /// local index space); `false` (nothing written) when the lattices differ.
+    pub fn values_along(&self, ray: &IndexRay, ts: &[f64], out: &mut [f32]) -> bool {
+        let Some(o) = self.offset else { return false };
+        let shifted = IndexRay {
+            origin: ray.origin + o,
+            dir: ray.dir,
+        };
+        self.field.values_along(&shifted, ts, out);
+        true
+    }
+
     #[inline]
     pub fn value(&self, p_density_index: DVec3, p_world: DVec3) -> f32 {
         match self.offset {
@@ -150,16 +176,24 @@ impl<'a> Emission<'a> {
     /// segment's midpoint `p` (world `w`).
     #[inline]
     pub fn mean(&self, ray: &IndexRay, a: f64, b: f64, p: DVec3, w: DVec3) -> DVec3 {
+        let grid_mean = self.grid.as_ref().map(|c| c.mean(ray, a, b, w));
+        let temperature = self.temperature.as_ref().map(|c| c.value(p, w));
+        self.from_samples(grid_mean, temperature)
+    }
+
+    /// The emission coefficient from the emission grid's mean over a segment
+    /// (`grid_mean`) and the temperature grid's value at its midpoint (`temperature`,
+    /// grid units), each `None` where there is no such grid.
+    #[inline]
+    pub fn from_samples(&self, grid_mean: Option<f64>, temperature: Option<f32>) -> DVec3 {
         let mut e = DVec3::ZERO;
-        if let Some(c) = &self.grid {
-            let v = c.mean(ray, a, b, w);
-            if v > 0.0 {
-                e += self.color * (v * self.intensity);
-            }
+        if let Some(v) = grid_mean
+            && v > 0.0
+        {
+            e += self.color * (v * self.intensity);
         }
-        if let Some(c) = &self.temperature {
-            let v = c.value(p, w) as f64;
-            let k = v * self.temperature_scale + self.temperature_offset;
+        if let Some(v) = temperature {
+            let k = v as f64 * self.temperature_scale + self.temperature_offset;
             if k > 0.0 && k.is_finite() {
                 let rgb = DVec3::from_array(self.table.rgb_normalized_clamped(k));
                 let brightness = (k / 1000.0).powi(4) * self.blackbody_intensity;
