@@ -16,8 +16,9 @@ use glam::{DVec3, IVec3};
 
 use super::blocks::nonzero_blocks;
 
-/// Most blocks a grid may have (2²² ranges, 32 MiB): coarser blocks beyond.
-const MAX_BLOCKS: usize = 1 << 22;
+/// Most blocks a grid may have (2²¹ ranges, 16 MiB; building reads up to 125 values
+/// per non-empty 4-voxel block): coarser blocks beyond.
+const MAX_BLOCKS: usize = 1 << 21;
 
 /// The field's range over every block of its active bounds.
 #[derive(Clone, Debug)]

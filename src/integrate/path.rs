@@ -4,8 +4,10 @@
 //! ([`MajorantGrid`]: the density's range over 4-voxel blocks, crossed by a 3-D DDA): in
 //! each block the majorant `σ̄ = max_c σt_c · max ρ` is the block's own (empty blocks are
 //! skipped, thin ones take long steps), and tentative collisions are drawn at rate σ̄
-//! (delta tracking, Woodcock; the cell-wise majorants of pbrt-v4's `VolPathIntegrator`). At a tentative collision the path scatters with
-//! probability `P = ⟨β·σt⟩ / (σ̄·⟨β⟩)` (⟨·⟩ the mean over R, G, B, β the path's
+//! (delta tracking, Woodcock; the cell-wise majorants of pbrt-v4's `VolPathIntegrator`).
+//! (A grid too large for 4-voxel blocks in [`MajorantGrid`]'s budget is crossed by the
+//! tree's own cells instead, [`Spans`].) At a tentative collision the path scatters
+//! with probability `P = ⟨β·σt⟩ / (σ̄·⟨β⟩)` (⟨·⟩ the mean over R, G, B, β the path's
 //! throughput) and otherwise passes on; the throughput is multiplied by `σs/(σ̄·P)` or
 //! `(σ̄ − σt)/(σ̄·(1 − P))` per channel. That is spectral tracking (Kutz et al. 2017,
 //! Novák et al. 2018): unbiased in every channel when σ differs between channels, and
@@ -41,7 +43,7 @@ use super::integrator::{CameraSample, Integrator, SampleRng};
 use super::march::{Illumination, Volume};
 use super::pass::PassLayout;
 use super::scatter_passes::{ScatterPassSpec, ScatterPasses};
-use crate::accel::{IndexRay, MajorantGrid, Spans, clip_to_box};
+use crate::accel::{IndexRay, MajorantGrid, MajorantSpan, MajorantSpans, Spans, clip_to_box};
 use crate::field::random::SplitMix64;
 use glam::DVec3;
 
@@ -100,8 +102,9 @@ pub struct PathTracer<'a> {
     /// Every channel's extinction is the same: spectral tracking is delta tracking.
     grey: bool,
     /// The density's majorants over blocks of a few voxels (free flights and ratio
-    /// tracking step through these).
-    majorants: MajorantGrid,
+    /// tracking step through these); `None` when the grid's budget would make its blocks
+    /// larger (a grid of more than 2²¹ blocks of 4 voxels): the tree's cells serve then.
+    majorants: Option<MajorantGrid>,
     /// The camera ray's exact opacity and depth on the pixel's first `n` samples only,
     /// alpha weighted by `weight` (spp / n); `None`: on every sample.
     opacity_samples: Option<OpacitySamples>,
@@ -112,6 +115,28 @@ pub struct PathTracer<'a> {
 struct OpacitySamples {
     n: u32,
     weight: f64,
+}
+
+/// [`PathTracer::spans`]: the majorant grid's blocks or the tree's cells.
+enum MajorantStretches<'a> {
+    Blocks(MajorantSpans<'a>),
+    Cells(Spans<'a>),
+}
+
+impl Iterator for MajorantStretches<'_> {
+    type Item = MajorantSpan;
+
+    #[inline]
+    fn next(&mut self) -> Option<MajorantSpan> {
+        match self {
+            MajorantStretches::Blocks(b) => b.next(),
+            MajorantStretches::Cells(c) => c.next().map(|s| MajorantSpan {
+                t0: s.t0,
+                t1: s.t1,
+                range: s.range,
+            }),
+        }
+    }
 }
 
 /// Where a flight ended.
@@ -158,7 +183,8 @@ impl<'a> PathTracer<'a> {
             sigma_t_max: sigma_t.max_element(),
             grey: sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z,
             opacity_samples: None,
-            majorants: MajorantGrid::build(volume.density, MAJORANT_BLOCK),
+            majorants: Some(MajorantGrid::build(volume.density, MAJORANT_BLOCK))
+                .filter(|m| m.block() <= MAJORANT_BLOCK),
         }
     }
 
@@ -172,6 +198,15 @@ impl<'a> PathTracer<'a> {
             weight: spp as f64 / n as f64,
         });
         self
+    }
+
+    /// The stretches of `ray` over `[t_min, t_max]` with the density's range over each:
+    /// the majorant grid's blocks, or the tree's cells.
+    fn spans(&self, ray: IndexRay, t_min: f64, t_max: f64) -> MajorantStretches<'_> {
+        match &self.majorants {
+            Some(m) => MajorantStretches::Blocks(m.spans(ray, t_min, t_max)),
+            None => MajorantStretches::Cells(Spans::new(self.volume.density, ray, t_min, t_max)),
+        }
     }
 
     /// σs at a point (the colour grid tints it).
@@ -210,7 +245,7 @@ impl<'a> PathTracer<'a> {
                 *emitted += beta * self.emission_over(e, &ray, origin, dir, a, b);
             }
         };
-        for span in self.majorants.spans(ray, t_min, t_max) {
+        for span in self.spans(ray, t_min, t_max) {
             let maj = self.sigma_t_max * span.range.max as f64;
             if !(maj > 0.0) {
                 continue;
@@ -295,7 +330,7 @@ impl<'a> PathTracer<'a> {
         let density = self.volume.density;
         let ray = IndexRay::new(density, x, toward);
         let mut tr = DVec3::ONE;
-        for span in self.majorants.spans(ray, 0.0, dist) {
+        for span in self.spans(ray, 0.0, dist) {
             let rho_max = span.range.max as f64;
             if span.range.is_constant() {
                 // A constant cell: its transmittance is exact.
