@@ -3,7 +3,9 @@
 
 pub mod blocks;
 pub mod hdda;
+pub mod majorant;
 
 pub use crate::field::IndexRay;
 pub use blocks::nonzero_blocks;
 pub use hdda::{Span, Spans, clip_to_box};
+pub use majorant::{MajorantGrid, MajorantSpan, MajorantSpans};

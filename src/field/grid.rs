@@ -552,6 +552,25 @@ impl Field for VoxelGrid {
         VoxelGrid::slopes_along(self, ray, t0, targets, side, out)
     }
 
+    fn tight_range_over(&self, b: &IndexBox) -> ValueRange {
+        let lo = b.min.floor().as_ivec3();
+        let hi = b.max.ceil().as_ivec3();
+        let points = (hi - lo + IVec3::ONE).max(IVec3::ZERO).as_i64vec3();
+        if points.x * points.y * points.z > 1 << 15 {
+            return self.range_over(b);
+        }
+        let o = self.transform.origin;
+        let mut r = ValueRange::EMPTY;
+        for x in lo.x..=hi.x {
+            for y in lo.y..=hi.y {
+                for z in lo.z..=hi.z {
+                    r.include(self.voxel(IVec3::new(x, y, z) + o, 0));
+                }
+            }
+        }
+        r
+    }
+
     fn range_over(&self, b: &IndexBox) -> ValueRange {
         let clipped = IndexBox::new(b.min.max(self.bounds.min), b.max.min(self.bounds.max));
         let outside = if b.min.cmplt(self.bounds.min).any() || b.max.cmpgt(self.bounds.max).any() {

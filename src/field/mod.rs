@@ -243,6 +243,14 @@ pub trait Field: Send + Sync {
     /// A majorant and minorant of the field over a local-index box.
     fn range_over(&self, b: &IndexBox) -> ValueRange;
 
+    /// [`Field::range_over`] as tight as the field can make it, for a small box (a
+    /// block of a majorant grid, built once per render). A voxel grid reads the values
+    /// at the box's points — the trilinear reconstruction stays between them — where
+    /// `range_over` unions whole cells and their neighbours.
+    fn tight_range_over(&self, b: &IndexBox) -> ValueRange {
+        self.range_over(b)
+    }
+
     /// `∫ value dt` along `ray` over `[t0, t1]` (t in world units). Fields that can do it
     /// exactly do (a voxel grid voxel by voxel, the analytic shapes by chord length);
     /// the default is two-point Gauss–Legendre over the interval, and the caller keeps

@@ -38,6 +38,11 @@ impl SampleRng {
         }
     }
 
+    /// Which of the pixel's samples this is (0, 1, …).
+    pub fn sample_index(&self) -> u32 {
+        self.s
+    }
+
     /// The next uniform number in [0, 1).
     #[inline]
     pub fn uniform(&mut self) -> f64 {

@@ -105,6 +105,10 @@ pub fn run_frame(
 /// 160×90, are at or near the default), and the fewest it uses.
 const FAST_NODES_PER_PIXEL: usize = 16;
 const FAST_MIN_NODES: usize = 4_096;
+/// `--scattering path` computes `A` and `Z` (the camera ray's exact opacity) on this
+/// many of a pixel's samples: the exact walk cost more than the rest of a sample on the
+/// demo cloud, and the opacity needs no more rays than `single` anti-aliases it with.
+const PATH_OPACITY_SAMPLES: u32 = 16;
 
 /// Renders a plan into memory: build the scene → render. Nothing is written.
 pub fn render_image(plan: &RenderPlan) -> Result<RenderedImage> {
@@ -188,7 +192,8 @@ pub fn render_image_frame(
                         ShadowMode::Dsm | ShadowMode::None => LightTransmittance::Lookup,
                     },
                 },
-            );
+            )
+            .with_opacity_samples(PATH_OPACITY_SAMPLES, plan.sampling.spp);
             render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
         }
         ScatteringMode::Fast => {
