@@ -144,7 +144,7 @@ def main():
         default="",
         help="CASE:FILE: write CASE's path-traced reference (the mean of the two halves) as "
         "little-endian f32 [row][column][RGB] (tests/fast_scattering.rs reads "
-        "fixtures/path_fog_backlit.f32, made with --spp 4096 --res 64x36)",
+        "fixtures/path_white_x10_side.f32, made with --spp 1024 --res 80x45)",
     )
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
