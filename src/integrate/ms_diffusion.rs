@@ -4,8 +4,10 @@
 //! In a thick white medium light needs hundreds of scattering events to leave, and after
 //! the few dozen orders [`super::ms_lattice`] sweeps, the light is still spreading: on the
 //! side away from the sun the orders are still growing. A geometric tail `J_N·r/(1−r)`
-//! keeps the last order's shape and misses that (a white sphere of optical diameter 40
-//! lit from behind the camera's view came out ~10 % dark; scripts/check_fast.py). The sum
+//! keeps the last order's shape and misses that: on a lattice grown for a thick medium,
+//! which sweeps only 10 orders, clouds lit from behind came out 6 % dark with it (the
+//! demo cloud ×4 at albedo 0.99: relative RMSE 0.070 against the path tracer, 0.037 with
+//! this solve; scripts/check_fast.py). The sum
 //! `T = Σ_{k>N} J_k` is exactly the solution of the transport equation whose source is the
 //! last order scattered once more, `σs·ρ·J_N`; where that sum matters (many orders, so
 //! many mean free paths) the light is diffuse and the transport equation is well
@@ -179,9 +181,10 @@ pub fn diffusion_tail(
 mod tests {
     use super::*;
 
-    /// A thick white slab lit inside: with no absorption, what the source puts in must
-    /// all leave through the two faces (conservation of the discrete system), and the
-    /// tail is symmetric and largest at the centre.
+    /// A thick white block (5×5×39 nodes) with a uniform source: with no absorption,
+    /// what the source puts in must all leave through its open faces (conservation of the
+    /// discrete system, which a wrong conductance or a CG that stopped short breaks), and
+    /// the tail is symmetric and largest at the centre.
     #[test]
     fn slab_tail_is_symmetric_and_conserves() {
         let dims = [5, 5, 41];
