@@ -68,9 +68,9 @@ pub fn diffusion_tail(
     // Unknowns: the medium nodes, numbered in node order.
     let mut index = vec![usize::MAX; len];
     let mut nodes = Vec::new();
-    for n in 0..len {
+    for (n, slot) in index.iter_mut().enumerate() {
         if medium(n) {
-            index[n] = nodes.len();
+            *slot = nodes.len();
             nodes.push(n);
         }
     }
