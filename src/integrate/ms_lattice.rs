@@ -29,8 +29,18 @@
 //! `r` half the ratio of the density-weighted sums of the last two orders (the source
 //! iteration's convergence rate; clamped below 1) and half the node's own ratio
 //! (see [`TAIL_OWN_WEIGHT`]).
+//!
+//! Cells are sized in mean free paths ([`LatticeSettings::cell_depth`]): where a cell at
+//! the medium's dense part is optically thicker than that, the lattice grows (up to
+//! [`LatticeSettings::node_cap`] times its budget), sweeps fewer orders over fewer
+//! directions with fewer sub-samples a cell (so it costs about what the base lattice
+//! does), and the orders after the last swept one are a diffusion solve
+//! ([`super::ms_diffusion`]) instead of the geometric tail: in such a medium light
+//! needs many orders to leave, where diffusion holds and the geometric extrapolation of
+//! one order's shape does not.
 
 use super::march::{Illumination, Volume};
+use super::ms_sweep::{Grid, sweep};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -44,10 +54,29 @@ pub struct LatticeSettings {
     pub max_nodes: usize,
     /// Directions per order.
     pub directions: usize,
+    /// Largest optical depth of a cell at the medium's dense part before the lattice
+    /// takes more nodes (None: the node budget alone).
+    pub cell_depth: Option<f64>,
+    /// Most times `max_nodes` the lattice may grow to for `cell_depth`.
+    pub node_cap: f64,
+    /// A grown lattice's orders after the last swept one as a diffusion solve
+    /// ([`super::ms_diffusion`]) rather than the geometric tail.
+    pub diffusion_tail: bool,
 }
 
 /// Sub-samples per cell side for the node means.
 const SUPERSAMPLE: usize = 3;
+/// Sub-samples per cell side of a lattice grown for a thick medium.
+const GROWN_SUPERSAMPLE: usize = 2;
+/// Fewest orders a grown lattice sweeps before its diffusion tail.
+const MIN_GROWN_ORDERS: u32 = 10;
+/// A medium this white keeps the base lattice and all its orders: there light survives
+/// hundreds of orders and the orders count for more than the cells' size (the white
+/// slab of tests/fast_scattering.rs, albedo 1, reflected 30 % too little with a grown
+/// lattice's 10 orders and the diffusion tail, 44 % with the geometric one).
+const MAX_GROWN_ALBEDO: f64 = 0.998;
+/// Directions per order of a grown lattice.
+const GROWN_DIRECTIONS: usize = 20;
 /// Directions swept by one task: fixed, so the sum over directions is done in the same
 /// order for any thread count (same image whatever `--threads`).
 const DIRECTION_GROUP: usize = 4;
@@ -115,11 +144,47 @@ impl MsLattice {
             return empty;
         }
         // Cells: cubes with at most max_nodes nodes (two of padding per axis).
-        let budget = s.max_nodes.max(64) as f64;
-        let mut h = (vol_ext / budget).cbrt();
+        let mut budget = s.max_nodes.max(64) as f64;
         let dims_for = |h: f64| ext.to_array().map(|e| (e / h).ceil() as usize + 3);
-        while dims_for(h).iter().product::<usize>() as f64 > budget {
-            h *= 1.05;
+        let cell_for = |budget: f64| {
+            let mut h = (vol_ext / budget).cbrt();
+            while dims_for(h).iter().product::<usize>() as f64 > budget {
+                h *= 1.05;
+            }
+            h
+        };
+        let mut h = cell_for(budget);
+        let mut grow = 1.0;
+        if let Some(target) = s.cell_depth {
+            // Cells sized in mean free paths: where the dense part of the medium (its
+            // 90th percentile of density, sampled at the nodes) makes a cell thicker
+            // than `target`, more nodes, up to `node_cap` times the budget.
+            let dims = dims_for(h);
+            let g = Grid::new(dims);
+            let mut d: Vec<f32> = (0..g.len)
+                .into_par_iter()
+                .map(|n| {
+                    let [i, j, k] = g.coords(n);
+                    let x = lo - DVec3::splat(h) + DVec3::new(i as f64, j as f64, k as f64) * h;
+                    vol.density.value_at_world(x).max(0.0)
+                })
+                .filter(|v| *v > 0.0)
+                .collect();
+            if !d.is_empty() {
+                let q = (0.9 * (d.len() - 1) as f64) as usize;
+                let (_, v, _) = d.select_nth_unstable_by(q, |a, b| a.total_cmp(b));
+                let st = vol.medium.sigma_t();
+                let g_mean = mean_cosine(vol);
+                let ss = vol.medium.sigma_s_scaled();
+                let st_red = st - ss * g_mean;
+                let albedo = (ss * (1.0 - g_mean) / st_red).max_element();
+                let tau = st_red.max_element() * *v as f64 * h;
+                if tau > target && albedo < MAX_GROWN_ALBEDO {
+                    grow = (tau / target).powi(3).min(s.node_cap);
+                    budget *= grow;
+                    h = cell_for(budget);
+                }
+            }
         }
         let dims = dims_for(h);
         let origin = lo - DVec3::splat(h);
@@ -147,7 +212,22 @@ impl MsLattice {
             let [i, j, k] = grid.coords(n);
             origin + DVec3::new(i as f64, j as f64, k as f64) * h
         };
-        let offsets: Vec<DVec3> = sub_offsets(h);
+        // A lattice grown for an optically thick medium sweeps fewer orders (the
+        // diffusion tail takes the rest, and it is at its best there) and samples each
+        // of its smaller cells at fewer points, so it costs about what the base one does.
+        let mut s = *s;
+        let grown = grow > 1.0;
+        let supersample = if grown {
+            s.orders = s
+                .orders
+                .min(((s.orders as f64 / grow).ceil() as u32).max(MIN_GROWN_ORDERS));
+            s.directions = s.directions.min(GROWN_DIRECTIONS);
+            GROWN_SUPERSAMPLE
+        } else {
+            SUPERSAMPLE
+        };
+        let s = &s;
+        let offsets: Vec<DVec3> = sub_offsets(h, supersample);
         // Per node, the density-weighted mean tint of its cell (what scattering there sees).
         let tint: Option<Vec<[f32; 3]>> = vol.color.is_some().then(|| {
             (0..grid.len)
@@ -187,7 +267,8 @@ impl MsLattice {
             cell_world: h,
             ..Default::default()
         };
-        let dirs_for = |order: u32| fibonacci_sphere(s.directions.max(1), order);
+        let n_dirs = s.directions.max(1);
+        let dirs_for = move |order: u32| fibonacci_sphere(n_dirs, order);
         for l in 0..n_lights {
             // First scattering's source per node and channel: mean of ρ·E·T over the cell,
             // and the light's travel direction at the node (for the phase).
@@ -248,6 +329,7 @@ impl MsLattice {
                     &coeffs,
                     s,
                     dirs_for,
+                    grown && s.diffusion_tail,
                 );
                 swept = k;
                 ratio = r;
@@ -311,27 +393,6 @@ impl MsLattice {
     }
 }
 
-/// Node indexing: x fastest.
-struct Grid {
-    dims: [usize; 3],
-    stride: [usize; 3],
-    len: usize,
-}
-
-impl Grid {
-    fn new(dims: [usize; 3]) -> Grid {
-        Grid {
-            dims,
-            stride: [1, dims[0], dims[0] * dims[1]],
-            len: dims[0] * dims[1] * dims[2],
-        }
-    }
-    fn coords(&self, n: usize) -> [usize; 3] {
-        let [nx, ny, _] = self.dims;
-        [n % nx, (n / nx) % ny, n / (nx * ny)]
-    }
-}
-
 /// One channel's coefficients for the sweeps.
 struct Coefficients {
     /// Reduced extinction per unit density.
@@ -343,8 +404,7 @@ struct Coefficients {
 }
 
 /// Offsets of the sub-samples of a cell around its node.
-fn sub_offsets(h: f64) -> Vec<DVec3> {
-    let n = SUPERSAMPLE;
+fn sub_offsets(h: f64, n: usize) -> Vec<DVec3> {
     let at = |i: usize| ((i as f64 + 0.5) / n as f64 - 0.5) * h;
     let mut v = Vec::with_capacity(n * n * n);
     for k in 0..n {
@@ -397,6 +457,7 @@ fn solve(
     c: &Coefficients,
     s: &LatticeSettings,
     dirs_for: impl Fn(u32) -> Vec<DVec3>,
+    diffusion: bool,
 ) -> (Vec<f32>, u32, f64) {
     let mut sum = vec![0f32; grid.len];
     if s.orders == 0 || source0.iter().all(|v| *v <= 0.0) {
@@ -475,7 +536,20 @@ fn solve(
             rho_j.iter_mut().zip(t).for_each(|(o, t)| *o *= t);
         }
     }
-    if ratio > 0.0 {
+    if ratio > 0.0 && diffusion {
+        let (tail, _) = super::ms_diffusion::diffusion_tail(
+            grid.dims,
+            rho,
+            &last,
+            tint,
+            &super::ms_diffusion::DiffusionCoefficients {
+                sigma_t: c.sigma_t,
+                albedo: c.albedo,
+                h: c.h,
+            },
+        );
+        sum.iter_mut().zip(&tail).for_each(|(s, t)| *s += *t);
+    } else if ratio > 0.0 {
         // Each node's tail blends two geometric extrapolations of its last order: with
         // the global ratio, and with the node's own ratio (never above the global one).
         for ((s, v), b) in sum.iter_mut().zip(&last).zip(&before) {
@@ -490,109 +564,4 @@ fn solve(
         }
     }
     (sum, swept, ratio)
-}
-
-/// One direction's upwind sweep: `radiance[n]` = L(node n, d) given the source `ρ·J`
-/// per node (`rho_j`).
-#[allow(clippy::too_many_arguments)]
-fn sweep(
-    grid: &Grid,
-    rho: &[f32],
-    rho_j: &[f32],
-    d: DVec3,
-    sigma_t: f64,
-    albedo: f64,
-    h: f64,
-    radiance: &mut [f32],
-) {
-    let da = d.abs();
-    let a = if da.x >= da.y && da.x >= da.z {
-        0
-    } else if da.y >= da.z {
-        1
-    } else {
-        2
-    };
-    let (b, cax) = ((a + 1) % 3, (a + 2) % 3);
-    let dv = d.to_array();
-    let step = h / da[a]; // world length of the characteristic
-    // Upstream point, in nodes, relative to the node along b and c.
-    let ob = -step * dv[b] / h;
-    let oc = -step * dv[cax] / h;
-    let (fb, fc) = (ob.floor(), oc.floor());
-    let (wb, wc) = (ob - fb, oc - fc);
-    let (fb, fc) = (fb as isize, fc as isize);
-    let weights = [
-        (0isize, 0isize, (1.0 - wb) * (1.0 - wc)),
-        (1, 0, wb * (1.0 - wc)),
-        (0, 1, (1.0 - wb) * wc),
-        (1, 1, wb * wc),
-    ];
-    let st = grid.stride;
-    let dims = grid.dims;
-    let forward = dv[a] > 0.0;
-    let sigma_step = sigma_t * step;
-    for ia_step in 0..dims[a] {
-        let ia = if forward {
-            ia_step
-        } else {
-            dims[a] - 1 - ia_step
-        };
-        let up_a = if forward {
-            ia as isize - 1
-        } else {
-            ia as isize + 1
-        };
-        let has_up = up_a >= 0 && (up_a as usize) < dims[a];
-        for ic in 0..dims[cax] {
-            for ib in 0..dims[b] {
-                let n = ia * st[a] + ib * st[b] + ic * st[cax];
-                let (mut l_up, mut r_up, mut rj_up) = (0.0f64, 0.0f64, 0.0f64);
-                if has_up {
-                    for &(db, dc, w) in &weights {
-                        if w == 0.0 {
-                            continue;
-                        }
-                        let jb = ib as isize + fb + db;
-                        let jc = ic as isize + fc + dc;
-                        if jb < 0 || jc < 0 || jb as usize >= dims[b] || jc as usize >= dims[cax] {
-                            continue;
-                        }
-                        let m = up_a as usize * st[a] + jb as usize * st[b] + jc as usize * st[cax];
-                        l_up += w * radiance[m] as f64;
-                        r_up += w * rho[m] as f64;
-                        rj_up += w * rho_j[m] as f64;
-                    }
-                }
-                let r_here = rho[n] as f64;
-                let rho_mean = 0.5 * (r_here + r_up);
-                if rho_mean <= 0.0 {
-                    radiance[n] = l_up as f32;
-                    continue;
-                }
-                let tau = sigma_step * rho_mean;
-                let j_here = if r_here > 0.0 {
-                    rho_j[n] as f64 / r_here
-                } else {
-                    0.0
-                };
-                let j_up = if r_up > 0.0 { rj_up / r_up } else { j_here };
-                let j_here = if r_here > 0.0 { j_here } else { j_up };
-                let e = (-tau).exp();
-                // P = (1 − e^{−τ} − τ·e^{−τ})/τ, by its series where τ is small.
-                let p = if tau < 1e-3 {
-                    tau * (0.5 - tau / 3.0)
-                } else {
-                    (1.0 - e - tau * e) / tau
-                };
-                let one_minus = if tau < 1e-3 {
-                    tau * (1.0 - 0.5 * tau)
-                } else {
-                    1.0 - e
-                };
-                let l = l_up * e + albedo * (j_here * (one_minus - p) + j_up * p);
-                radiance[n] = l.max(0.0) as f32;
-            }
-        }
-    }
 }
