@@ -15,6 +15,7 @@ pub mod floor;
 pub mod grid;
 pub mod grid_build;
 mod grid_integrals;
+mod grid_ranges;
 pub mod mesh;
 pub mod nonzero;
 pub mod procedural;

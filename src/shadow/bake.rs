@@ -7,7 +7,7 @@
 //!    light *columns* through each brick stack ([`super::columns`]).
 //! 3. Adaptivity: each brick is tried at level 0 (one sample per corner). Its samples at
 //!    the next level are computed, and the coarse level is kept if the map's
-//!    reconstruction from it ([`reconstruct`]: Hermite along the column and across)
+//!    reconstruction from it ([`reconstruct`](super::brick::reconstruct): Hermite along the column and across)
 //!    reproduces them within half the tolerance, in transmittance `e^{−σt·∫ρ ds}` for
 //!    every channel. Otherwise the brick moves one level finer, down to the finest level
 //!    the tolerance allows. Deep inside a thick cloud transmittance is small, so errors in
@@ -16,24 +16,25 @@
 //!    them, or the shadow of one), and then the next level's samples miss it too. So a
 //!    brick stays coarser than a voxel only if, besides passing the check, the density's
 //!    range over it and over every brick above it toward the light bounds what it could
-//!    miss below the tolerance ([`unresolved_bounds`]).
+//!    miss below the tolerance ([`unresolved_bounds`](super::level_checks::unresolved_bounds)).
 //! 5. Forms (see [`BrickForm`]): a brick kept at a level is held as τ alone, trilinear in
 //!    16 bits, when that blend (plus its rounding) passes the same check, else with τ's
 //!    slopes for the Hermite blend; a brick below which at least `−ln(tol/2)/σ` of optical
 //!    depth lies for certain (the density's least value over the bricks above) is held as
 //!    one τ and its columns are not marched.
 
-use super::chart::{Chart, ChartKind};
+use super::chart::Chart;
 use super::columns::sample_level;
 use super::lattice::{
     MAX_COARSENINGS, block_corners, block_edge, cells_per_column, cells_per_unit, charts_for,
     column_cells,
 };
+use super::level_checks::{channels, coarse_error, coarsen, unresolved_bounds};
 use super::map::{
     BRICK, BakedBrick, BrickForm, BrickSamples, ChartMap, ChartSelect, LEVELS, MAX_LEVEL,
-    ShadowMap, VOXEL_LEVEL, linear_rounding_error, reconstruct, side, spacing, trilinear,
+    ShadowMap, VOXEL_LEVEL, side,
 };
-use crate::field::{Field, IndexBox, ValueRange};
+use crate::field::Field;
 use glam::{DVec3, IVec3};
 use std::collections::{BTreeMap, HashSet};
 
@@ -304,181 +305,6 @@ fn bake_at(
     };
     report.count(&map);
     Some((map, report))
-}
-
-/// The distinct extinction coefficients of the channels.
-fn channels(sigma_t: DVec3) -> Vec<f64> {
-    let mut v: Vec<f64> = sigma_t
-        .to_array()
-        .into_iter()
-        .filter(|s| *s > 0.0)
-        .collect();
-    v.sort_by(f64::total_cmp);
-    v.dedup();
-    v
-}
-
-/// Largest transmittance error of reconstructing `fine` (level ℓ+1 samples) from
-/// `coarse` (its even-index samples, level ℓ) as the map would in `form` (Hermite:
-/// [`reconstruct`]; Linear: trilinear τ, plus its 16-bit rounding).
-fn coarse_error(
-    fine: &BrickSamples,
-    coarse: &BrickSamples,
-    level_fine: u8,
-    chart: &Chart,
-    sigmas: &[f64],
-    form: BrickForm,
-) -> f64 {
-    let m = side(level_fine);
-    let mc = side(level_fine - 1);
-    let h = spacing(level_fine - 1);
-    let planes = &coarse.planes();
-    // The coarse cell holding fine index i, and the place in it (0, ½ or 1).
-    let cell = |i: usize| (i / 2).min(mc - 2);
-    let frac = |i: usize| (i as f64 - 2.0 * cell(i) as f64) / 2.0;
-    let mut worst: f64 = if form == BrickForm::Linear {
-        linear_rounding_error(&coarse.tau, sigmas)
-    } else {
-        0.0
-    };
-    let rounding = worst;
-    for k in 0..m {
-        for j in 0..m {
-            for i in 0..m {
-                let at = i + m * (j + m * k);
-                // At voxel spacing and finer, only where there is density, and on the
-                // bottom face (points downstream of the brick read it): nothing else looks
-                // the map up. (Coarser samples could step over density: all count.)
-                if (i % 2 == 0 && j % 2 == 0 && k % 2 == 0)
-                    || (level_fine >= VOXEL_LEVEL && k + 1 < m && fine.rho[at] <= 0.0)
-                {
-                    continue;
-                }
-                let (c, f) = (
-                    [cell(i), cell(j), cell(k)],
-                    DVec3::new(frac(i), frac(j), frac(k)),
-                );
-                let got = match form {
-                    BrickForm::Linear => {
-                        let base = c[0] + mc * (c[1] + mc * c[2]);
-                        trilinear(|d| coarse.tau[base + d] as f64, mc, f)
-                    }
-                    _ => reconstruct(planes, mc, c, f, h, chart.unit, chart.lateral),
-                };
-                let exact = fine.tau[at] as f64;
-                for &s in sigmas {
-                    worst = worst.max(((-s * got).exp() - (-s * exact).exp()).abs() + rounding);
-                }
-            }
-        }
-    }
-    worst
-}
-
-/// The even-index samples of `fine`: the same brick one level coarser.
-fn coarsen(fine: &BrickSamples, level_fine: u8) -> BrickSamples {
-    let m = side(level_fine);
-    let mc = side(level_fine - 1);
-    let mut out = BrickSamples::with_capacity(mc * mc * mc);
-    for k in 0..mc {
-        for j in 0..mc {
-            for i in 0..mc {
-                out.push_sample(fine, 2 * i + m * (2 * j + m * 2 * k));
-            }
-        }
-    }
-    out
-}
-
-/// The density's range over the world region of brick `key` of `chart`, from the
-/// field's hierarchy (a bound, not a sample).
-fn brick_range(density: &dyn Field, chart: &Chart, key: IVec3) -> ValueRange {
-    // A parallel chart is affine: its corners bound it. A perspective one has spherical
-    // ends and diverging columns, so points across its faces too, and a voxel of margin.
-    let (per_axis, margin) = match chart.kind {
-        ChartKind::Parallel { .. } => (2, 1.0),
-        ChartKind::Perspective { .. } => (5, 2.0),
-    };
-    let tr = density.transform();
-    let base = key.as_dvec3() * BRICK as f64;
-    let step = BRICK as f64 / (per_axis - 1) as f64;
-    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    for k in 0..per_axis {
-        for j in 0..per_axis {
-            for i in 0..per_axis {
-                let q = base + DVec3::new(i as f64, j as f64, k as f64) * step;
-                let p = tr.world_to_index(chart.to_world(q));
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-        }
-    }
-    if !(lo.is_finite() && hi.is_finite()) {
-        return ValueRange::EMPTY;
-    }
-    let m = DVec3::splat(margin);
-    density.range_over(&IndexBox::new((lo - m).as_vec3(), (hi + m).as_vec3()))
-}
-
-/// Per brick of `keys`: a bound
-/// on the transmittance error the map could make there from density its samples do not
-/// see. Along any column, optical depth down to a point in the brick varies with the
-/// point by at most `σt · Σ (max ρ − min ρ) · L` over this brick and those above it (L
-/// the length of a column in a brick), and transmittance there is at most `e^{−σt ·
-/// Σ min ρ · L}` over the bricks above. Their product, doubled for the blend's
-/// overshoot, bounds what samples coarser than the density's features can miss.
-///
-/// Also per brick, [`Upstream`]: what the bricks above it say about `∫ρ ds` down to it.
-fn unresolved_bounds(
-    density: &dyn Field,
-    chart: &Chart,
-    keys: &[IVec3],
-    sigmas: &[f64],
-) -> Vec<(f64, Upstream)> {
-    let (Some(&s_min), Some(&s_max)) = (sigmas.first(), sigmas.last()) else {
-        return vec![(0.0, Upstream::default()); keys.len()];
-    };
-    let length = BRICK as f64 * chart.unit;
-    // Stack by stack, from the light down.
-    let mut order: Vec<usize> = (0..keys.len()).collect();
-    order.sort_by_key(|&i| (keys[i].x, keys[i].y, keys[i].z));
-    let mut out = vec![(0.0, Upstream::default()); keys.len()];
-    let mut stack = None;
-    let (mut variation, mut depth_below) = (0.0, 0.0);
-    for i in order {
-        let key = keys[i];
-        if stack != Some((key.x, key.y)) {
-            stack = Some((key.x, key.y));
-            (variation, depth_below) = (0.0, 0.0);
-        }
-        let r = brick_range(density, chart, key);
-        let (min, max) = if r.min <= r.max {
-            (f64::from(r.min).max(0.0), f64::from(r.max).max(0.0))
-        } else {
-            (0.0, 0.0)
-        };
-        let above = Upstream {
-            depth: depth_below,
-            variation,
-        };
-        variation += (max - min) * length;
-        out[i] = (
-            2.0 * s_max * variation * (-s_min * depth_below).exp(),
-            above,
-        );
-        depth_below += min * length;
-    }
-    out
-}
-
-/// What the bricks above a brick (toward the light) say about `∫ρ ds` down to it.
-#[derive(Clone, Copy, Debug, Default)]
-struct Upstream {
-    /// `Σ min ρ · L` over them: a lower bound on `∫ρ ds` to any point of the brick.
-    depth: f64,
-    /// `Σ (max ρ − min ρ) · L` over them: a bound on how much `∫ρ ds` to the brick's top
-    /// face differs between any two of its columns.
-    variation: f64,
 }
 
 /// Chooses every brick's level and form.

@@ -6,10 +6,12 @@
 //! the map against marched rays.
 
 pub mod bake;
+pub mod brick;
 pub mod cache;
 pub mod chart;
 pub mod columns;
 mod lattice;
+mod level_checks;
 pub mod map;
 pub mod march;
 pub mod verify;
