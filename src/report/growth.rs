@@ -3,7 +3,7 @@
 //! this fits and draws).
 
 use super::fit_slope;
-use super::plot::{COLOURS, font, significant};
+use super::plot::{COLOURS, draw_legend, draw_line, font, significant};
 use crate::output::write_atomically;
 use anyhow::{Result, anyhow};
 use plotters::prelude::*;
@@ -132,31 +132,14 @@ where
     for (series, (_, colour)) in panel.series.iter().zip(COLOURS.iter().cycle()) {
         let line = positive(&series.points);
         let colour = *colour;
-        let drawn = chart
-            .draw_series(LineSeries::new(line.clone(), colour.stroke_width(2)))
-            .map_err(|e| err(&e))?;
-        if text {
-            let label = match fit_power_law(&line) {
-                Some(fit) => format!("{} (x^{:.2})", series.label, fit.exponent),
-                None => series.label.clone(),
-            };
-            drawn.label(label).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-            });
-        }
-        chart
-            .draw_series(line.iter().map(|p| Circle::new(*p, 4, colour.filled())))
-            .map_err(|e| err(&e))?;
+        let label = text.then(|| match fit_power_law(&line) {
+            Some(fit) => format!("{} (x^{:.2})", series.label, fit.exponent),
+            None => series.label.clone(),
+        });
+        draw_line(&mut chart, line, colour, label)?;
     }
     if text {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 13))
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()
-            .map_err(|e| err(&e))?;
+        draw_legend(&mut chart, 13, SeriesLabelPosition::UpperLeft)?;
     }
     Ok(())
 }

@@ -179,14 +179,7 @@ fn draw(drop: &WaterDrop, buffer: &mut [u8]) -> Result<bool> {
         }
     }
     if text {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| err(&e))?;
+        super::plot::draw_legend(&mut chart, 14, SeriesLabelPosition::UpperRight)?;
     }
     root.present().map_err(|e| err(&e))?;
     Ok(text)

@@ -60,6 +60,51 @@ pub(crate) fn significant(v: f64) -> String {
     }
 }
 
+/// Draws one measured line of a log–log chart with a dot at each point, and its legend
+/// entry (`label`) when the plot has text.
+pub(crate) fn draw_line<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>,
+    line: Vec<(f64, f64)>,
+    colour: RGBColor,
+    label: Option<String>,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: &dyn std::fmt::Display| anyhow!("drawing a plot: {e}");
+    let drawn = chart
+        .draw_series(LineSeries::new(line.clone(), colour.stroke_width(2)))
+        .map_err(|e| err(&e))?;
+    if let Some(label) = label {
+        drawn.label(label).legend(move |(x, y)| {
+            PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+        });
+    }
+    chart
+        .draw_series(line.iter().map(|p| Circle::new(*p, 4, colour.filled())))
+        .map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// Draws the legend box of a chart's labelled lines.
+pub(crate) fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    font_size: u32,
+    position: SeriesLabelPosition,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .label_font(("sans-serif", font_size))
+        .position(position)
+        .draw()
+        .map_err(|e| anyhow!("drawing a plot's legend: {e}"))
+}
+
 /// Draws the plot into an RGB buffer.
 fn draw(rows: &[Measured], buffer: &mut [u8]) -> Result<bool> {
     let text = font();
@@ -112,28 +157,10 @@ fn draw(rows: &[Measured], buffer: &mut [u8]) -> Result<bool> {
             .map(|r| (r.total_seconds, r.rel_rmse))
             .collect();
         line.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let style = colour.stroke_width(2);
-        let drawn = chart
-            .draw_series(LineSeries::new(line.clone(), style))
-            .map_err(|e| err(&e))?;
-        if text {
-            drawn.label(sweep.clone()).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-            });
-        }
-        chart
-            .draw_series(line.iter().map(|p| Circle::new(*p, 4, colour.filled())))
-            .map_err(|e| err(&e))?;
+        draw_line(&mut chart, line, colour, text.then(|| sweep.clone()))?;
     }
     if text {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| err(&e))?;
+        draw_legend(&mut chart, 14, SeriesLabelPosition::UpperRight)?;
     }
     root.present().map_err(|e| err(&e))?;
     Ok(text)
