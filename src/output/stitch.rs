@@ -113,6 +113,18 @@ fn read_piece(path: &Path) -> Result<Piece> {
     })
 }
 
+/// A piece's attribute `name` parsed, `None` when it has none (pieces written before it).
+fn attribute<T: std::str::FromStr>(piece: &Piece, name: &str) -> Result<Option<T>> {
+    piece
+        .strings
+        .get(name)
+        .map(|v| {
+            v.parse()
+                .map_err(|_| anyhow!("{}: a malformed {name} attribute", piece.path.display()))
+        })
+        .transpose()
+}
+
 /// What must be the same in every piece, with the words that say so when it is not.
 fn same(pieces: &[Piece]) -> Result<()> {
     let first = &pieces[0];
@@ -284,27 +296,9 @@ pub fn stitch(pieces: &[PathBuf], out: &Path) -> Result<(usize, usize, usize)> {
         // defaults): their colour is already in their colour space, and their empty
         // depth already what they were asked for (the stitch's own empty pixels are
         // +inf, which becomes it).
-        colorspace: match first.strings.get(attr::COLORSPACE) {
-            Some(c) => c.parse().map_err(|_| {
-                anyhow!(
-                    "{}: a malformed {} attribute",
-                    first.path.display(),
-                    attr::COLORSPACE
-                )
-            })?,
-            None => Default::default(),
-        },
+        colorspace: attribute(first, attr::COLORSPACE)?.unwrap_or(Default::default()),
         colour_converted: true,
-        z_empty: match first.strings.get(attr::Z_EMPTY) {
-            Some(z) => z.parse().map_err(|_| {
-                anyhow!(
-                    "{}: a malformed {} attribute",
-                    first.path.display(),
-                    attr::Z_EMPTY
-                )
-            })?,
-            None => ExrOptions::default().z_empty,
-        },
+        z_empty: attribute(first, attr::Z_EMPTY)?.unwrap_or(ExrOptions::default().z_empty),
         crop_data_window: first.strings.get(attr::CROP).is_some_and(|c| c == "true"),
     };
     write_exr(out, &frame, &opts)?;

@@ -4,7 +4,6 @@
 
 use super::fit_slope;
 use super::plot::{COLOURS, draw_legend, draw_line, font, significant};
-use crate::output::write_atomically;
 use anyhow::{Result, anyhow};
 use plotters::prelude::*;
 use std::path::Path;
@@ -163,13 +162,7 @@ pub fn write_growth_plot(path: &Path, panels: &[Panel]) -> Result<bool> {
         }
         root.present().map_err(|e| err(&e))?;
     }
-    let image = image::RgbImage::from_raw(size.0, size.1, buffer)
-        .ok_or_else(|| anyhow!("{}: plot buffer of the wrong size", path.display()))?;
-    write_atomically(path, |tmp| {
-        image
-            .save_with_format(tmp, image::ImageFormat::Png)
-            .map_err(|e| anyhow!("{}: {e}", path.display()))
-    })?;
+    super::plot::write_png(path, size, buffer)?;
     Ok(text)
 }
 

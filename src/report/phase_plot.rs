@@ -190,12 +190,6 @@ fn draw(drop: &WaterDrop, buffer: &mut [u8]) -> Result<bool> {
 pub fn write_plot(path: &Path, drop: &WaterDrop) -> Result<bool> {
     let mut buffer = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
     let text = draw(drop, &mut buffer)?;
-    let image = image::RgbImage::from_raw(SIZE.0, SIZE.1, buffer)
-        .ok_or_else(|| anyhow!("drawing the phase plot: buffer of the wrong size"))?;
-    write_atomically(path, |tmp| {
-        image
-            .save_with_format(tmp, image::ImageFormat::Png)
-            .map_err(|e| anyhow!("{}: {e}", path.display()))
-    })?;
+    super::plot::write_png(path, SIZE, buffer)?;
     Ok(text)
 }

@@ -170,12 +170,17 @@ fn draw(rows: &[Measured], buffer: &mut [u8]) -> Result<bool> {
 pub fn write_plot(path: &Path, rows: &[Measured]) -> Result<bool> {
     let mut buffer = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
     let text = draw(rows, &mut buffer)?;
-    let image = image::RgbImage::from_raw(SIZE.0, SIZE.1, buffer)
-        .ok_or_else(|| anyhow!("drawing converge.png: buffer of the wrong size"))?;
+    write_png(path, SIZE, buffer)?;
+    Ok(text)
+}
+
+/// Writes an RGB buffer of `size` as a PNG, atomically.
+pub(crate) fn write_png(path: &Path, size: (u32, u32), buffer: Vec<u8>) -> Result<()> {
+    let image = image::RgbImage::from_raw(size.0, size.1, buffer)
+        .ok_or_else(|| anyhow!("{}: plot buffer of the wrong size", path.display()))?;
     write_atomically(path, |tmp| {
         image
             .save_with_format(tmp, image::ImageFormat::Png)
             .map_err(|e| anyhow!("{}: {e}", path.display()))
-    })?;
-    Ok(text)
+    })
 }
