@@ -100,6 +100,13 @@ const MAX_TAIL_RATIO: f64 = 0.995;
 pub struct LatticeReport {
     pub dims: [usize; 3],
     pub cell_world: f64,
+    /// Times the node budget the lattice grew to for cells sized in mean free paths
+    /// (1: not grown).
+    pub growth: f64,
+    /// Directions swept per order.
+    pub directions: usize,
+    /// The orders after the last swept one: "diffusion", "geometric" or "none".
+    pub tail: &'static str,
     /// Orders swept per light (after the first scattering), and the tail's ratio.
     pub orders_swept: Vec<u32>,
     pub tail_ratio: Vec<f64>,
@@ -228,6 +235,22 @@ impl MsLattice {
         };
         let s = &s;
         let offsets: Vec<DVec3> = sub_offsets(h, supersample);
+        // The density at every sub-sample of every cell (looked up once: the node means
+        // and each light's first-scattering source read it), and the mean per node.
+        let subs = offsets.len();
+        let sub_rho: Vec<f32> = (0..grid.len)
+            .into_par_iter()
+            .flat_map_iter(|n| {
+                let x = node_pos(n);
+                offsets
+                    .iter()
+                    .map(move |o| vol.density.value_at_world(x + *o).max(0.0))
+            })
+            .collect();
+        let rho: Vec<f32> = sub_rho
+            .par_chunks(subs)
+            .map(|c| (c.iter().map(|v| *v as f64).sum::<f64>() / subs as f64) as f32)
+            .collect();
         // Per node, the density-weighted mean tint of its cell (what scattering there sees).
         let tint: Option<Vec<[f32; 3]>> = vol.color.is_some().then(|| {
             (0..grid.len)
@@ -235,9 +258,9 @@ impl MsLattice {
                 .map(|n| {
                     let x = node_pos(n);
                     let (mut acc, mut w) = (DVec3::ZERO, 0.0);
-                    for o in &offsets {
+                    for (o, r) in offsets.iter().zip(&sub_rho[n * subs..(n + 1) * subs]) {
                         let p = x + *o;
-                        let r = vol.density.value_at_world(p).max(0.0) as f64;
+                        let r = *r as f64;
                         if r > 0.0 {
                             acc += r * tint_at(p);
                             w += r;
@@ -249,22 +272,19 @@ impl MsLattice {
                 })
                 .collect()
         });
-        // Mean density per node.
-        let rho: Vec<f32> = (0..grid.len)
-            .into_par_iter()
-            .map(|n| {
-                let x = node_pos(n);
-                let sum: f64 = offsets
-                    .iter()
-                    .map(|o| vol.density.value_at_world(x + *o).max(0.0) as f64)
-                    .sum();
-                (sum / offsets.len() as f64) as f32
-            })
-            .collect();
         let mut values = Vec::with_capacity(n_lights);
         let mut report = LatticeReport {
             dims,
             cell_world: h,
+            growth: grow,
+            directions: s.directions.max(1),
+            tail: if s.orders == 0 {
+                "none"
+            } else if grown && s.diffusion_tail {
+                "diffusion"
+            } else {
+                "geometric"
+            },
             ..Default::default()
         };
         let n_dirs = s.directions.max(1);
@@ -284,9 +304,9 @@ impl MsLattice {
                     let x = node_pos(n);
                     let mut acc = DVec3::ZERO;
                     if rho[n] > 0.0 {
-                        for o in &offsets {
+                        for (o, r) in offsets.iter().zip(&sub_rho[n * subs..(n + 1) * subs]) {
                             let p = x + *o;
-                            let r = vol.density.value_at_world(p).max(0.0) as f64;
+                            let r = *r as f64;
                             if r > 0.0 {
                                 let (irr, _) = lights.incident(l, p);
                                 let e = if grey {

@@ -207,6 +207,7 @@ pub fn render_image_frame(
                 .max(FAST_MIN_NODES);
             let lattice = lights_named.map(|(l, _)| MsLattice::build(&volume, l, &fast.lattice()));
             multiple_seconds = Some(t.elapsed().as_secs_f64());
+            st.multiple_scattering = lattice.as_ref().map(|l| l.report.clone());
             let with = lattice.as_ref().map(|lattice| WithMultiple {
                 direct: &lights,
                 lattice,

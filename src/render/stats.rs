@@ -23,4 +23,8 @@ pub struct RenderStats {
     /// With `--max-error`: the settings chosen and what the pilot measured.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error_budget: Option<super::error_budget::ErrorBudgetReport>,
+    /// With `--scattering fast`: the lattice of multiple scattering (its size, cell,
+    /// orders swept per light and the tail's ratio).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub multiple_scattering: Option<crate::integrate::ms_lattice::LatticeReport>,
 }
