@@ -174,6 +174,11 @@ pub struct QualityArgs {
     /// Samples per pixel (default 1: the pixel centre).
     #[arg(long, value_name = "N")]
     pub spp: Option<u32>,
+    /// At one sample a pixel, silhouette pixels (alpha differs from a neighbour's by more
+    /// than 0.1) are rendered again as N×N stratified samples (default 4; 1: pixel
+    /// centres only).
+    #[arg(long, value_name = "N")]
+    pub antialias: Option<u32>,
     /// Seed of the per-pixel step offsets and pixel jitter (default 0).
     #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
@@ -350,6 +355,7 @@ impl RenderArgs {
             termination: a.quality.termination,
             max_error: a.quality.max_error,
             spp: a.quality.spp,
+            antialias: a.quality.antialias,
             seed: a.quality.seed,
             compression: a.image.compression,
             float: a.image.float,

@@ -321,20 +321,19 @@ fn render_frame<I: Integrator>(
     st: &mut RenderStats,
 ) -> Result<(Frame, f64)> {
     let t = Instant::now();
-    let tiles =
-        (plan.camera.width.div_ceil(pixels::TILE) * rows.len().div_ceil(pixels::TILE)) as u64;
-    progress.start("rendering", tiles, "tiles");
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(plan.sampling.threads.unwrap_or(0))
-        .build()
-        .context("starting worker threads")?;
     let job = pixels::PixelJob {
         integrator,
         camera: &scene.camera,
         spp: plan.sampling.spp,
         seed: plan.sampling.seed,
         rows,
+        antialias: plan.sampling.antialias,
     };
+    progress.start("rendering", job.tiles() as u64, "tiles");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(plan.sampling.threads.unwrap_or(0))
+        .build()
+        .context("starting worker threads")?;
     let passes = pool.install(|| pixels::render_pixels(&job, progress));
     progress.finish();
     let render_seconds = t.elapsed().as_secs_f64();

@@ -40,66 +40,147 @@ pub struct PixelJob<'a, I: Integrator> {
     /// The rows rendered (all: `0..height`); other pixels stay empty. A pixel's value
     /// depends only on its position and the seed, never on which rows are rendered.
     pub rows: std::ops::Range<usize>,
+    /// Edge antialiasing at one sample a pixel: a pixel whose alpha differs from a
+    /// neighbour's by more than [`EDGE_ALPHA`] is sampled again on an `antialias ×
+    /// antialias` stratified grid (0 or 1: pixel centres only). See [`render_pixels`].
+    pub antialias: u32,
 }
 
+impl<I: Integrator> PixelJob<'_, I> {
+    /// Whether edges are antialiased: one sample a pixel, `antialias` > 1, and an alpha
+    /// pass to find them by.
+    fn edges(&self) -> bool {
+        self.spp == 1
+            && self.antialias > 1
+            && self
+                .integrator
+                .passes()
+                .offset_of_kind(PassKind::Alpha)
+                .is_some()
+    }
+
+    /// The rows whose centres are rendered: the job's, and with edge antialiasing one
+    /// more on each side for the neighbours.
+    fn centre_rows(&self) -> (usize, usize) {
+        let h = self.camera.height;
+        let (r0, r1) = (self.rows.start.min(h), self.rows.end.min(h));
+        if self.edges() && r1 > r0 {
+            (r0.saturating_sub(1), (r1 + 1).min(h))
+        } else {
+            (r0, r1)
+        }
+    }
+
+    /// The tiles the render reports progress in.
+    pub fn tiles(&self) -> usize {
+        let (c0, c1) = self.centre_rows();
+        self.camera.width.div_ceil(TILE) * c1.saturating_sub(c0).div_ceil(TILE)
+    }
+}
+
+/// The alpha difference to a neighbour above which a pixel is an edge (0.05 resampled
+/// 3 % of the demo cloud's pixels at 640×360, its fBm detail, for +77 % CPU; 0.1 0.2 %
+/// for +6 %; on dense clouds' silhouettes at 80×45 0.05, 0.1 and 0.2 found the same
+/// pixels). Alpha is what decides because the march integrates optical depth exactly: it does not move with
+/// the step, the shadow tolerance or the scattering mode, so the same pixels are
+/// resampled in a render and in its `--reference`.
+pub const EDGE_ALPHA: f32 = 0.1;
+
 /// Renders every pixel of the job's rows.
+///
+/// With one sample a pixel it is the pixel's centre, which is the mean over the pixel
+/// wherever the image is smooth on the scale of a pixel, but not across a silhouette: a
+/// dense volume's edge, often its brightest part when it is lit from behind, would
+/// alias. With `antialias` N > 1 the pixels whose alpha differs from one of their eight
+/// neighbours' by more than [`EDGE_ALPHA`] are rendered again as the mean of N×N
+/// samples, one jittered in each cell of an N×N grid over the pixel, which estimates the
+/// pixel's mean (what a many-sample render converges to) at a fraction of the cost of
+/// N² samples everywhere. The decision reads the centres of the neighbours, so a band of
+/// rows renders the row above and below it too: a pixel's value never depends on which
+/// rows or threads rendered it.
 pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) -> PixelPasses {
     let (w, h) = (job.camera.width, job.camera.height);
     let layout = job.integrator.passes().clone();
     let stride = layout.slots();
     let alpha_at = layout.offset_of_kind(PassKind::Alpha);
     let depth_at = layout.offset_of_kind(PassKind::Depth);
-    let tiles_x = w.div_ceil(TILE);
     let (r0, r1) = (job.rows.start.min(h), job.rows.end.min(h));
-    let tiles = tiles_x * r1.saturating_sub(r0).div_ceil(TILE);
+    let edges = job.edges();
+    let (c0, c1) = job.centre_rows();
     let frame = job.camera.frame();
     let samples = AtomicU64::new(0);
+    // One pixel: the mean of `grid`² samples, stratified over the pixel (grid 0: its
+    // centre alone), into `px`; returns the samples' count of march samples.
+    let render_pixel = |x: usize,
+                        y: usize,
+                        grid: u32,
+                        scratch: &mut I::Scratch,
+                        acc: &mut [f64],
+                        px: &mut [f32]|
+     -> u64 {
+        acc.fill(0.0);
+        let mut n_samples = 0;
+        let count = if grid == 0 { job.spp } else { grid * grid };
+        for s in 0..count {
+            let (jx, jy, stream) = if grid > 0 {
+                // Streams 1.. (the centre's is 0).
+                let s1 = s + 1;
+                (
+                    ((s % grid) as f64 + unit_random(job.seed, x, y, s1, 1)) / grid as f64,
+                    ((s / grid) as f64 + unit_random(job.seed, x, y, s1, 2)) / grid as f64,
+                    s1,
+                )
+            } else if job.spp == 1 {
+                (0.5, 0.5, 0)
+            } else {
+                (
+                    unit_random(job.seed, x, y, s, 1),
+                    unit_random(job.seed, x, y, s, 2),
+                    s,
+                )
+            };
+            let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
+            let sample = CameraSample {
+                ray: WorldRay::new(o, d),
+                depth_rate: d.dot(frame.forward),
+            };
+            let mut rng = SampleRng::new(job.seed, x, y, stream);
+            n_samples += job.integrator.sample(&sample, &mut rng, scratch, acc);
+        }
+        let inv = 1.0 / count as f64;
+        for (dst, a) in px.iter_mut().zip(acc.iter()) {
+            let v = (a * inv) as f32;
+            *dst = if v.is_finite() { v } else { 0.0 };
+        }
+        // Z follows the pixel's opacity: finite only where the mean alpha reaches 0.5
+        // (then at least one sample crossed it), the mean of the crossings.
+        if let Some(d) = depth_at {
+            let opaque = alpha_at.is_none_or(|a| acc[a] * inv >= 0.5);
+            px[d] = if acc[d + 1] > 0.0 && opaque {
+                (acc[d] / acc[d + 1]) as f32
+            } else {
+                f32::INFINITY
+            };
+        }
+        n_samples
+    };
+    // Pass 1: the centres (or the job's samples), 16×16 tiles in parallel, into one
+    // row-major buffer of rows c0..c1.
+    let tiles_x = w.div_ceil(TILE);
+    let tiles = tiles_x * c1.saturating_sub(c0).div_ceil(TILE);
     let results: Vec<(usize, Vec<f32>)> = (0..tiles)
         .into_par_iter()
         .map_init(
             || (job.integrator.scratch(), vec![0f64; stride]),
             |(scratch, acc), tile| {
-                let (x0, y0) = ((tile % tiles_x) * TILE, r0 + (tile / tiles_x) * TILE);
-                let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(r1));
+                let (x0, y0) = ((tile % tiles_x) * TILE, c0 + (tile / tiles_x) * TILE);
+                let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(c1));
                 let mut out = vec![0f32; (x1 - x0) * (y1 - y0) * stride];
                 let mut tile_samples = 0;
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let px = &mut out[((y - y0) * (x1 - x0) + (x - x0)) * stride..][..stride];
-                        acc.fill(0.0);
-                        for s in 0..job.spp {
-                            let (jx, jy) = if job.spp == 1 {
-                                (0.5, 0.5)
-                            } else {
-                                (
-                                    unit_random(job.seed, x, y, s, 1),
-                                    unit_random(job.seed, x, y, s, 2),
-                                )
-                            };
-                            let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
-                            let sample = CameraSample {
-                                ray: WorldRay::new(o, d),
-                                depth_rate: d.dot(frame.forward),
-                            };
-                            let mut rng = SampleRng::new(job.seed, x, y, s);
-                            tile_samples += job.integrator.sample(&sample, &mut rng, scratch, acc);
-                        }
-                        let inv = 1.0 / job.spp as f64;
-                        for (dst, a) in px.iter_mut().zip(acc.iter()) {
-                            let v = (a * inv) as f32;
-                            *dst = if v.is_finite() { v } else { 0.0 };
-                        }
-                        // Z follows the pixel's opacity: finite only where the mean alpha
-                        // reaches 0.5 (then at least one sample crossed it), the mean of
-                        // the crossings.
-                        if let Some(d) = depth_at {
-                            let opaque = alpha_at.is_none_or(|a| acc[a] * inv >= 0.5);
-                            px[d] = if acc[d + 1] > 0.0 && opaque {
-                                (acc[d] / acc[d + 1]) as f32
-                            } else {
-                                f32::INFINITY
-                            };
-                        }
+                        tile_samples += render_pixel(x, y, 0, scratch, acc, px);
                     }
                 }
                 samples.fetch_add(tile_samples, Ordering::Relaxed);
@@ -108,6 +189,54 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
             },
         )
         .collect();
+    let mut values = vec![0f32; w * (c1 - c0) * stride];
+    for (tile, out) in results {
+        let (x0, y0) = ((tile % tiles_x) * TILE, c0 + (tile / tiles_x) * TILE);
+        let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(c1));
+        for y in y0..y1 {
+            let src = &out[(y - y0) * (x1 - x0) * stride..][..(x1 - x0) * stride];
+            values[((y - c0) * w + x0) * stride..][..src.len()].copy_from_slice(src);
+        }
+    }
+    // Pass 2: the edges, again on the stratified grid.
+    let mut resampled = 0u64;
+    if let (true, Some(a)) = (edges && r1 > r0, alpha_at) {
+        let alpha = |x: usize, y: usize| values[((y - c0) * w + x) * stride + a];
+        let is_edge = |x: usize, y: usize| {
+            let here = alpha(x, y);
+            (y.saturating_sub(1)..(y + 2).min(h)).any(|ny| {
+                (x.saturating_sub(1)..(x + 2).min(w))
+                    .any(|nx| (alpha(nx, ny) - here).abs() > EDGE_ALPHA)
+            })
+        };
+        let edge_pixels: Vec<(usize, usize)> = (r0..r1)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| is_edge(x, y))
+            .collect();
+        let again: Vec<(usize, Vec<f32>)> = edge_pixels
+            .par_chunks(TILE * TILE / 4)
+            .enumerate()
+            .map_init(
+                || (job.integrator.scratch(), vec![0f64; stride]),
+                |(scratch, acc), (chunk, pixels)| {
+                    let mut out = vec![0f32; pixels.len() * stride];
+                    let mut chunk_samples = 0;
+                    for (&(x, y), px) in pixels.iter().zip(out.chunks_mut(stride)) {
+                        chunk_samples += render_pixel(x, y, job.antialias, scratch, acc, px);
+                    }
+                    samples.fetch_add(chunk_samples, Ordering::Relaxed);
+                    (chunk, out)
+                },
+            )
+            .collect();
+        for (chunk, out) in again {
+            let pixels = &edge_pixels[chunk * (TILE * TILE / 4)..];
+            for (&(x, y), px) in pixels.iter().zip(out.chunks(stride)) {
+                values[((y - c0) * w + x) * stride..][..stride].copy_from_slice(px);
+            }
+        }
+        resampled = edge_pixels.len() as u64;
+    }
     let n = w * h;
     let mut planes: Vec<Vec<Vec<f32>>> = layout
         .passes()
@@ -118,18 +247,14 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
             PassKind::Depth => vec![vec![f32::INFINITY; n]],
         })
         .collect();
-    for (tile, out) in results {
-        let (x0, y0) = ((tile % tiles_x) * TILE, r0 + (tile / tiles_x) * TILE);
-        let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(r1));
-        for y in y0..y1 {
-            for x in x0..x1 {
-                let px = &out[((y - y0) * (x1 - x0) + (x - x0)) * stride..][..stride];
-                let i = y * w + x;
-                for (p, pass_planes) in planes.iter_mut().enumerate() {
-                    let at = layout.offset(p);
-                    for (c, plane) in pass_planes.iter_mut().enumerate() {
-                        plane[i] = px[at + c];
-                    }
+    for y in r0..r1 {
+        for x in 0..w {
+            let px = &values[((y - c0) * w + x) * stride..][..stride];
+            let i = y * w + x;
+            for (p, pass_planes) in planes.iter_mut().enumerate() {
+                let at = layout.offset(p);
+                for (c, plane) in pass_planes.iter_mut().enumerate() {
+                    plane[i] = px[at + c];
                 }
             }
         }
@@ -139,7 +264,131 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         height: h,
         layout,
         planes,
-        rays: ((r1.saturating_sub(r0) * w) as u64) * job.spp as u64,
+        rays: ((c1.saturating_sub(c0) * w) as u64) * job.spp as u64
+            + resampled * (job.antialias as u64).pow(2),
         samples: samples.load(Ordering::Relaxed),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrate::pass::Pass;
+    use crate::scene::camera::Projection;
+    use crate::scene::progress::Silent;
+    use glam::DVec3;
+
+    /// An opaque disc of radius `r` about the origin in the z = 0 plane, seen straight on:
+    /// alpha 1 and a unit colour where the ray meets it.
+    struct Disc {
+        r: f64,
+        passes: PassLayout,
+    }
+
+    impl Integrator for Disc {
+        type Scratch = ();
+        fn passes(&self) -> &PassLayout {
+            &self.passes
+        }
+        fn scratch(&self) {}
+        fn sample(&self, c: &CameraSample, _: &mut SampleRng, _: &mut (), acc: &mut [f64]) -> u64 {
+            let t = -c.ray.origin.z / c.ray.dir.z;
+            let p = c.ray.origin + c.ray.dir * t;
+            if p.truncate().length() < self.r {
+                acc[..3].iter_mut().for_each(|v| *v += 1.0);
+                acc[3] += 1.0;
+            }
+            1
+        }
+    }
+
+    /// The disc's area inside pixel (x, y) of a `n`×`n` orthographic view of width 2,
+    /// by a fine midpoint sum.
+    fn coverage(r: f64, n: usize, x: usize, y: usize) -> f64 {
+        let m = 64;
+        let px = 2.0 / n as f64;
+        let mut inside = 0;
+        for j in 0..m {
+            for i in 0..m {
+                let u = -1.0 + (x as f64 + (i as f64 + 0.5) / m as f64) * px;
+                let v = 1.0 - (y as f64 + (j as f64 + 0.5) / m as f64) * px;
+                inside += (u * u + v * v < r * r) as usize;
+            }
+        }
+        inside as f64 / (m * m) as f64
+    }
+
+    fn render(antialias: u32, rows: std::ops::Range<usize>, n: usize) -> PixelPasses {
+        let disc = Disc {
+            r: 0.71,
+            passes: PassLayout::new(vec![Pass::beauty("beauty"), Pass::alpha()]),
+        };
+        let camera = Camera {
+            projection: Projection::Orthographic { width: 2.0 },
+            eye: DVec3::new(0.0, 0.0, 5.0),
+            look_at: DVec3::ZERO,
+            up: DVec3::Y,
+            width: n,
+            height: n,
+        };
+        let job = PixelJob {
+            integrator: &disc,
+            camera: &camera,
+            spp: 1,
+            seed: 3,
+            rows,
+            antialias,
+        };
+        render_pixels(&job, &Silent)
+    }
+
+    #[test]
+    fn silhouette_pixels_take_the_mean_over_the_pixel() {
+        let n = 24;
+        let (centres, edges) = (render(1, 0..n, n), render(4, 0..n, n));
+        let a = |p: &PixelPasses| p.pass("A").map(|a| a[0].clone()).unwrap_or_default();
+        let (a1, a4) = (a(&centres), a(&edges));
+        let (mut err1, mut err4, mut resampled) = (0.0, 0.0, 0);
+        for y in 0..n {
+            for x in 0..n {
+                let want = coverage(0.71, n, x, y);
+                let i = y * n + x;
+                err1 += (a1[i] as f64 - want).powi(2);
+                err4 += (a4[i] as f64 - want).powi(2);
+                if a4[i] != a1[i] {
+                    resampled += 1;
+                }
+                // Away from the edge, the centre is exact and kept.
+                if want == 0.0 || want == 1.0 {
+                    assert_eq!(a4[i] as f64, want, "pixel ({x}, {y})");
+                }
+                // 16 stratified samples: within a few strata of the coverage.
+                assert!(
+                    (a4[i] as f64 - want).abs() < 0.2,
+                    "pixel ({x}, {y}): {} against {want}",
+                    a4[i]
+                );
+            }
+        }
+        assert!(resampled > 20, "only {resampled} pixels were resampled");
+        assert!(
+            err4 < 0.1 * err1,
+            "squared error {err4} with antialiasing, {err1} without"
+        );
+    }
+
+    #[test]
+    fn a_band_of_rows_renders_as_the_whole_frame_does() {
+        let n = 24;
+        let whole = render(4, 0..n, n);
+        for rows in [0..7, 7..8, 8..17, 17..24] {
+            let band = render(4, rows.clone(), n);
+            for (pw, pb) in whole.planes.iter().zip(&band.planes) {
+                for (w, b) in pw.iter().zip(pb) {
+                    let (lo, hi) = (rows.start * n, rows.end * n);
+                    assert_eq!(&w[lo..hi], &b[lo..hi], "rows {rows:?}");
+                }
+            }
+        }
     }
 }

@@ -106,6 +106,8 @@ pub struct RenderOptions {
     pub termination: Option<f64>,
     /// Samples per pixel (default 1: the pixel centre).
     pub spp: Option<u32>,
+    /// Silhouette pixels' stratified grid at one sample a pixel (default 4; 1: off).
+    pub antialias: Option<u32>,
     /// Seed of the per-pixel step offsets and pixel jitter (default 0).
     pub seed: Option<u64>,
     /// Worker threads (default: all cores).
@@ -237,6 +239,7 @@ impl RenderOptions {
             ground,
             termination,
             spp,
+            antialias,
             seed,
             threads,
             compression,

@@ -77,6 +77,10 @@ pub mod defaults {
     /// Transmittance below which a ray stops.
     pub const TERMINATION: f64 = crate::integrate::march::DEFAULT_TERMINATION;
     pub const SPP: u32 = 1;
+    /// Silhouette pixels' stratified grid: 4×4 samples (at 80×45, the edge of a dense
+    /// cloud lit from behind was 6–7 % of the scattered light's RMSE against a
+    /// many-sample path-traced render at pixel centres, ~2 % with 4×4).
+    pub const ANTIALIAS: u32 = 4;
     pub const SEED: u64 = 0;
     pub const EXPOSURE: f32 = 0.0;
     /// Z written where nothing is (`--z-empty`), as Cycles does.
@@ -165,6 +169,9 @@ impl MarchPlan {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SamplingPlan {
     pub spp: u32,
+    /// `--antialias N`: at one sample a pixel, silhouette pixels get N×N stratified
+    /// samples (1: pixel centres only).
+    pub antialias: u32,
     pub seed: u64,
     pub threads: Option<usize>,
 }
@@ -363,6 +370,10 @@ impl RenderPlan {
             }
         };
         let spp = o.spp.unwrap_or(defaults::SPP);
+        let antialias = o.antialias.unwrap_or(defaults::ANTIALIAS);
+        if antialias == 0 || antialias > 16 {
+            return Err(format!("--antialias {antialias} must be from 1 to 16"));
+        }
         if spp == 0 || spp > 4096 {
             return Err(format!("--spp {spp} must be from 1 to 4096"));
         }
@@ -487,6 +498,7 @@ impl RenderPlan {
             },
             sampling: SamplingPlan {
                 spp,
+                antialias,
                 seed: o.seed.unwrap_or(defaults::SEED),
                 threads: o.threads,
             },
