@@ -109,7 +109,7 @@ fn walk_typed<T: Channels>(grid: Grid<T>, sink: &mut dyn TreeSink) -> Result<usi
     let n = T::N;
     let mut tree = grid.into_tree();
     let root = tree.root_mut();
-    let bg = root.background().clone();
+    let bg = *root.background();
     let bg = &bg;
     let table = std::mem::take(root.table_mut());
     let mut bg_ch = vec![0.0f32; n];
@@ -218,6 +218,6 @@ fn take_child<C: Node, const LOG2DIM: u32>(
     if !node.is_child(n) {
         return None;
     }
-    let value = node.values()[n].clone();
+    let value = node.values()[n];
     node.steal_child(n, value, false)
 }
