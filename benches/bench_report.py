@@ -188,6 +188,15 @@ def load_table(cases):
     return rows
 
 
+def memory_table(cases):
+    """#14 target 3: the large cloud's whole-process peak RSS against its density structure."""
+    if "memory-large" not in cases:
+        return []
+    peak, dens = med(cases, "memory-large", "peak_rss_bytes"), med(cases, "memory-large", "density_bytes")
+    return [("peak RSS, whole process", fmt(peak, "MiB"), fmt(dens, "MiB"), fmt(ratio(peak, dens), "x"), "≤ 3×",
+             fmt(med(cases, "memory-large", "map_bytes"), "MiB"), fmt(med(cases, "memory-large", "cpu_s"), "s"))]
+
+
 def render_table(cases, meta):
     rows = []
     steps = meta.get("steps", [])
@@ -328,6 +337,13 @@ def table(d):
               "BoxSampler + ValueAccessor for sampling):")
         print()
         print_table(("measurement", "murk", "OpenVDB", "murk / OpenVDB", "target"), rows)
+    rows = memory_table(cases)
+    if rows:
+        print(f"Memory on the large cloud (benches/make_cloud.py --size {meta.get('memory_size', '?')}), "
+              "murk's defaults at 480x270: the process's peak RSS (/usr/bin/time) against the density "
+              "structure (--stats density_memory_bytes).")
+        print()
+        print_table(("measurement", "murk", "density structure", "ratio", "target", "shadow map", "CPU"), rows)
     rows = render_table(cases, meta)
     if rows:
         print(f"Render of fixtures/cloud.vdb, {meta.get('res')}, {meta.get('threads')} threads; {meta.get('camera')}. "

@@ -1,13 +1,17 @@
 #!/usr/bin/env bash
 # Benchmarks murk against OpenVDB, measured in the same run; prints a markdown table.
 #
-#   scripts/bench.sh [load|render|shadow|emission|all]      (default: all)
+#   scripts/bench.sh [load|memory|render|shadow|emission|all]      (default: all)
 #
 # load:   a 264³ grid (18.4 M active voxels; float and half) made at run time by
 #         benches/make_big_grid.py. murk's VdbFile::open + VoxelGrid::load against
 #         pyopenvdb.readAll (time, peak RSS), each in a fresh process; then trilinear
 #         samples per second, murk's value_at_index against OpenVDB-rs's BoxSampler with
-#         a cached ValueAccessor (benches/grid.rs).
+#         a cached ValueAccessor (benches/grid.rs). Then the memory part (#14 target 3,
+#         both figures in the same run).
+# memory: the large cloud (benches/make_cloud.py --size BENCH_MEMORY_SIZE, 480: 27.6 M
+#         active voxels) rendered with murk's defaults at 480x270: the whole process's peak
+#         RSS (/usr/bin/time) against the density structure's bytes (--stats), target ≤ 3×.
 # render: fixtures/cloud.vdb at 960x540, murk (release; single scattering, as vdb_render; --shadows dsm,
 #         march and none, and --max-error 1e-2 choosing its own settings) against vdb_render (and vdb_render with -shadowstep 1000: its shadows all but
 #         off, the floor of its cost) with the same camera, σ (murk's per world unit = vdb_render's
@@ -33,7 +37,7 @@
 # BENCH_STEPS ("1 0.5": primary steps in voxels), BENCH_SHADOW_STEP (1),
 # BENCH_REF_STEP (0.05: murk's reference), BENCH_CONV_STEP (0.1: vdb_render's convention
 # check), BENCH_GRID_SIZE (264), BENCH_SAMPLE_REPS (5), BENCH_SHADOW_SIZE (300: 27 M
-# voxels), BENCH_SHADOW_THREADS (1), BENCH_DSM_TOL (1e-3), BENCH_MURK (shadow: a murk
+# voxels), BENCH_MEMORY_SIZE (480), BENCH_SHADOW_THREADS (1), BENCH_DSM_TOL (1e-3), BENCH_MURK (shadow: a murk
 # binary to measure instead of building this tree's, e.g. an older one for "before"),
 # BENCH_SHADOW_VDB (shadow: a large cloud already made, instead of writing one),
 # BENCH_EMISSION_RES (480x270), BENCH_EMISSION_THREADS (1), BENCH_EMISSION_SCATTERING
@@ -57,6 +61,7 @@ CONV_STEP=${BENCH_CONV_STEP:-0.1}
 GRID_SIZE=${BENCH_GRID_SIZE:-264}
 SAMPLE_REPS=${BENCH_SAMPLE_REPS:-5}
 SHADOW_SIZE=${BENCH_SHADOW_SIZE:-300}
+MEMORY_SIZE=${BENCH_MEMORY_SIZE:-480}
 SHADOW_THREADS=${BENCH_SHADOW_THREADS:-1}
 DSM_TOL=${BENCH_DSM_TOL:-1e-3}
 EMISSION_RES=${BENCH_EMISSION_RES:-480x270}
@@ -66,11 +71,11 @@ PY=/usr/bin/python3
 REPORT="$PY $ROOT/benches/bench_report.py"
 
 case "$WHAT" in
-    load | render | shadow | emission | all) ;;
-    *) echo "usage: scripts/bench.sh [load|render|shadow|emission|all]" >&2; exit 2 ;;
+    load | memory | render | shadow | emission | all) ;;
+    *) echo "usage: scripts/bench.sh [load|memory|render|shadow|emission|all]" >&2; exit 2 ;;
 esac
 tools=(cargo "$PY" /usr/bin/time)
-[[ "$WHAT" == emission ]] || tools+=(oiiotool vdb_render)
+[[ "$WHAT" == emission || "$WHAT" == memory ]] || tools+=(oiiotool vdb_render)
 for tool in "${tools[@]}"; do
     command -v "$tool" >/dev/null || { echo "bench.sh: $tool not found" >&2; exit 2; }
 done
@@ -122,6 +127,22 @@ for line in sys.stdin:
         done
         log "sampling $kind ($SAMPLE_REPS repetitions, single thread)"
         "$exe" sample "$f" --reps "$SAMPLE_REPS" >"$OUT/sample-$kind.1.json"
+    done
+}
+
+# The large cloud's peak memory (#14 target 3): the whole process against the density
+# structure murk keeps for the render.
+bench_memory() {
+    log "building murk (cargo build --release)"
+    (cd "$ROOT" && cargo build --release --quiet)
+    local murk="$ROOT/target/release/murk" vdb="$TMP/cloud${MEMORY_SIZE}.vdb" run
+    log "writing the ${MEMORY_SIZE}³ cloud"
+    $PY "$ROOT/benches/make_cloud.py" "$vdb" --size "$MEMORY_SIZE" >&2
+    for run in $(seq "$RUNS"); do
+        log "large cloud, 480x270, murk's defaults: run $run/$RUNS"
+        TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
+            "$murk" render "$vdb" -o "$TMP/memory.exr" --res 480x270 --stats "$TMP/stats.json" --quiet
+        $REPORT run "$OUT/memory-large.$run.json" --time "$TMP/time" --murk-stats "$TMP/stats.json"
     done
 }
 
@@ -327,6 +348,7 @@ bench_emission() {
 }
 
 if [[ "$WHAT" == load || "$WHAT" == all ]]; then bench_load; fi
+if [[ "$WHAT" == load || "$WHAT" == memory || "$WHAT" == all ]]; then bench_memory; fi
 if [[ "$WHAT" == render || "$WHAT" == all ]]; then bench_render; fi
 if [[ "$WHAT" == shadow || "$WHAT" == all ]]; then bench_shadow; fi
 if [[ "$WHAT" == emission || "$WHAT" == all ]]; then bench_emission; fi
@@ -339,7 +361,7 @@ cat >"$OUT/meta.info" <<EOF
  "camera": "eye $EYE, look-at $LOOK, horizontal fov $FOV°; σa $SIGMA_A, σs $SIGMA_S per world unit; shadow step $SHADOW_STEP voxel",
  "reference": "murk --step $REF_STEP --shadows none",
  "ref_step": "$REF_STEP", "conv_step": "$CONV_STEP",
- "dsm_tolerance": "$DSM_TOL", "shadow_threads": $SHADOW_THREADS, "shadow_clouds": ["demo", "large"],
+ "memory_size": $MEMORY_SIZE, "dsm_tolerance": "$DSM_TOL", "shadow_threads": $SHADOW_THREADS, "shadow_clouds": ["demo", "large"],
  "shadow_res": {"demo": "960x540 (fixtures/cloud.vdb)", "large": "480x270 (${SHADOW_SIZE}³ generated)"},
  "vdb_cutoff_default": "$VDB_CUTOFF_DEFAULT", "vdb_cutoff_matched": "$VDB_CUTOFF_MATCHED", "vdb_cutoff_tiny": "$VDB_CUTOFF_TINY"}
 EOF

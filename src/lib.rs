@@ -15,6 +15,7 @@
 pub mod accel;
 pub mod field;
 pub mod integrate;
+pub mod mem;
 pub mod output;
 pub mod render;
 pub mod report;

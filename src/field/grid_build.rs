@@ -34,6 +34,8 @@ pub struct GridBuilder {
     lower_slots: Vec<u32>,
     leaf_origin: Vec<IVec3>,
     leaf_values: Vec<f32>,
+    /// Each leaf's range of (sanitised) values, found as it is added.
+    leaf_range: Vec<ValueRange>,
     tile_values: Vec<f32>,
     /// Bounding box (global, inclusive) of everything that is not background.
     content_min: IVec3,
@@ -140,6 +142,7 @@ impl GridBuilder {
             lower_slots,
             leaf_origin,
             leaf_values,
+            leaf_range,
             mut tile_values,
             content_min,
             content_max,
@@ -177,10 +180,6 @@ impl GridBuilder {
         };
         let tile_range =
             |t: u32| range_of(&tile_values[t as usize * channels..(t as usize + 1) * channels]);
-        let leaf_range: Vec<ValueRange> = leaf_values
-            .chunks_exact(LEAF_VOXELS * channels)
-            .map(range_of)
-            .collect();
         let slot_range = |e: u32, child: &[ValueRange]| {
             if e & CHILD != 0 {
                 child[(e & !CHILD) as usize]
@@ -349,28 +348,44 @@ impl TreeSink for GridBuilder {
         self.lower_slots[slot] = CHILD | leaf_index;
         self.leaf_origin.push(origin);
         self.stats.leaves += 1;
-        // Statistics of the raw active values, then the values themselves, sanitised in place.
+        let scalar = self.scalar;
+        let start = self.leaf_values.len();
+        self.leaf_values.extend_from_slice(values);
+        // One vectorised pass first: the values' range, and whether any needs sanitising.
+        let (raw_range, clean) = range_and_clean(values, scalar);
+        let dense = active.iter().all(|w| *w == u64::MAX);
+        // Statistics of the raw active values, summed in voxel order.
         let (mut amin, mut amax) = (IVec3::MAX, IVec3::MIN);
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
         let mut sum = [0f64; 3];
         let mut n_active = 0u64;
-        for (w, word) in active.iter().enumerate() {
-            let mut bits = *word;
-            while bits != 0 {
-                let n = w * 64 + bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                n_active += 1;
-                for (c, v) in values[n * ch..(n + 1) * ch].iter().enumerate() {
-                    if v.is_finite() {
-                        lo[c] = lo[c].min(*v);
-                        hi[c] = hi[c].max(*v);
-                        sum[c] += *v as f64;
+        if dense && clean && ch == 1 {
+            // Most of a fog volume: every voxel active, every value finite.
+            lo[0] = raw_range.min;
+            hi[0] = raw_range.max;
+            sum[0] = values.iter().fold(0.0, |s, v| s + *v as f64);
+            n_active = LEAF_VOXELS as u64;
+            amin = IVec3::ZERO;
+            amax = IVec3::splat(7);
+        } else {
+            for (w, word) in active.iter().enumerate() {
+                let mut bits = *word;
+                while bits != 0 {
+                    let n = w * 64 + bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    n_active += 1;
+                    for (c, v) in values[n * ch..(n + 1) * ch].iter().enumerate() {
+                        if v.is_finite() {
+                            lo[c] = lo[c].min(*v);
+                            hi[c] = hi[c].max(*v);
+                            sum[c] += *v as f64;
+                        }
                     }
+                    let p = IVec3::new((n >> 6) as i32, ((n >> 3) & 7) as i32, (n & 7) as i32);
+                    amin = amin.min(p);
+                    amax = amax.max(p);
                 }
-                let p = IVec3::new((n >> 6) as i32, ((n >> 3) & 7) as i32, (n & 7) as i32);
-                amin = amin.min(p);
-                amax = amax.max(p);
             }
         }
         if n_active > 0 {
@@ -385,28 +400,63 @@ impl TreeSink for GridBuilder {
             self.active_min = self.active_min.min(origin + amin);
             self.active_max = self.active_max.max(origin + amax);
         }
-        let start = self.leaf_values.len();
-        self.leaf_values.extend_from_slice(values);
-        let scalar = self.scalar;
-        let (mut nan, mut inf, mut neg) = (0u64, 0u64, 0u64);
-        for v in &mut self.leaf_values[start..] {
-            if !v.is_finite() || (scalar && *v < 0.0) {
-                if v.is_nan() {
-                    nan += 1;
-                } else if v.is_infinite() {
-                    inf += 1;
-                } else {
-                    neg += 1;
+        if clean {
+            self.leaf_range.push(raw_range);
+        } else {
+            let (mut nan, mut inf, mut neg) = (0u64, 0u64, 0u64);
+            let mut range = ValueRange::EMPTY;
+            for v in &mut self.leaf_values[start..] {
+                if !v.is_finite() || (scalar && *v < 0.0) {
+                    if v.is_nan() {
+                        nan += 1;
+                    } else if v.is_infinite() {
+                        inf += 1;
+                    } else {
+                        neg += 1;
+                    }
+                    *v = 0.0;
                 }
-                *v = 0.0;
+                range.include(*v);
             }
+            self.leaf_range.push(range);
+            self.stats.nan += nan;
+            self.stats.inf += inf;
+            self.stats.negative += neg;
         }
-        self.stats.nan += nan;
-        self.stats.inf += inf;
-        self.stats.negative += neg;
         self.grow_content(origin, 8, false);
         Ok(())
     }
+}
+
+/// The range of `values` and whether all are finite (and, if `scalar`, not negative),
+/// in lanes the compiler can vectorise (a leaf's values are most of the load's work).
+fn range_and_clean(values: &[f32], scalar: bool) -> (ValueRange, bool) {
+    const LANES: usize = 8;
+    let mut lo = [f32::INFINITY; LANES];
+    let mut hi = [f32::NEG_INFINITY; LANES];
+    let mut bad = [false; LANES];
+    let chunks = values.chunks_exact(LANES);
+    let tail = chunks.remainder();
+    for chunk in chunks {
+        for j in 0..LANES {
+            let v = chunk[j];
+            lo[j] = if v < lo[j] { v } else { lo[j] };
+            hi[j] = if v > hi[j] { v } else { hi[j] };
+            // NaN fails `<`, so it counts as bad too.
+            bad[j] |= !(v.abs() < f32::INFINITY) | (scalar & (v < 0.0));
+        }
+    }
+    let mut range = ValueRange::EMPTY;
+    let mut clean = !bad.iter().any(|b| *b);
+    for j in 0..LANES {
+        range.include(lo[j]);
+        range.include(hi[j]);
+    }
+    for v in tail {
+        range.include(*v);
+        clean &= v.is_finite() && !(scalar && *v < 0.0);
+    }
+    (range, clean)
 }
 
 impl VoxelGrid {

@@ -299,6 +299,8 @@ fn bake_at(
             settings.max_bricks.saturating_mul(16),
         )?);
     }
+    // The bake's samples are packed and freed: return them before the render.
+    crate::mem::release_freed_memory();
     let map = ShadowMap {
         charts: maps,
         select,
@@ -476,11 +478,15 @@ fn refine(
             break;
         }
         *cells += marched;
+        // The samples of the level just checked are not needed past here: free them
+        // before the next level's (a fifth of their size, at the largest) are made.
+        let next: Vec<(IVec3, f64)> = next.into_iter().map(|(k, b, _, _)| (k, b)).collect();
+        crate::mem::release_freed_memory();
         let vals = sample_level(density, chart, &keys, trial + 1, &stack_start, report);
         pending = next
             .into_iter()
             .zip(vals)
-            .map(|((k, b, _, _), v)| (k, b, v))
+            .map(|((k, b), v)| (k, b, v))
             .collect();
     }
     done

@@ -70,6 +70,9 @@ pub struct ChartMap {
 
 const NO_BRICK: u32 = u32::MAX;
 
+/// Bricks packed between two returns of freed memory.
+const RELEASE_EVERY: usize = 8192;
+
 impl ChartMap {
     /// A map from finished bricks; `None` if the table of brick positions would exceed
     /// `max_slots` entries or a brick lacks samples its form needs.
@@ -104,13 +107,18 @@ impl ChartMap {
             samples: Vec::with_capacity(held(BrickForm::Hermite)),
             linear: Vec::with_capacity(held(BrickForm::Linear)),
         };
-        for BakedBrick {
-            key,
-            level,
-            form,
-            samples,
-        } in bricks
-        {
+        for (i, baked) in bricks.into_iter().enumerate() {
+            if i % RELEASE_EVERY == RELEASE_EVERY - 1 {
+                // The bricks packed so far are freed: give their memory back, so the
+                // packed copy does not come on top of all of it.
+                crate::mem::release_freed_memory();
+            }
+            let BakedBrick {
+                key,
+                level,
+                form,
+                samples,
+            } = baked;
             let n = side(level).pow(3);
             let slot = map.slot_index(key)?;
             map.slots[slot] = map.bricks.len() as u32;

@@ -6,7 +6,7 @@ use super::guard::MAX_INDEX_COORD;
 use glam::{DMat4, IVec3};
 use openvdb::grid::{AnyGrid, Grid};
 use openvdb::math::{Coord, Vec3};
-use openvdb::tree::{Node, RootEntry};
+use openvdb::tree::{InternalNode, Node, RootEntry};
 use openvdb::types::Value;
 
 /// Receives a grid's tree. Errors are problem descriptions (the caller adds the file
@@ -33,12 +33,19 @@ pub struct DecodedValues {
 trait Channels: Value {
     const N: usize;
     fn write(&self, out: &mut [f32]);
+    /// A leaf buffer that already is f32 channels, to hand on without a copy.
+    fn as_f32(_buf: &[Self]) -> Option<&[f32]> {
+        None
+    }
 }
 
 impl Channels for f32 {
     const N: usize = 1;
     fn write(&self, out: &mut [f32]) {
         out[0] = *self;
+    }
+    fn as_f32(buf: &[f32]) -> Option<&[f32]> {
+        Some(buf)
     }
 }
 impl Channels for f64 {
@@ -62,8 +69,11 @@ impl Channels for Vec3<f64> {
     }
 }
 
+/// Hands `grid`'s tree to `sink`, consuming it: each leaf is freed once the sink has it,
+/// so the decoded tree and the sink's copy are not both whole in memory (see
+/// [`crate::mem::release_freed_memory`]).
 pub(super) fn walk(
-    grid: &AnyGrid,
+    grid: AnyGrid,
     kind: ValueKind,
     m: DMat4,
     sink: &mut dyn TreeSink,
@@ -95,10 +105,13 @@ fn origin_of(c: &Coord) -> Result<IVec3, String> {
     Ok(o)
 }
 
-fn walk_typed<T: Channels>(grid: &Grid<T>, sink: &mut dyn TreeSink) -> Result<usize, String> {
+fn walk_typed<T: Channels>(grid: Grid<T>, sink: &mut dyn TreeSink) -> Result<usize, String> {
     let n = T::N;
-    let root = grid.tree().root();
-    let bg = root.background();
+    let mut tree = grid.into_tree();
+    let root = tree.root_mut();
+    let bg = *root.background();
+    let bg = &bg;
+    let table = std::mem::take(root.table_mut());
     let mut bg_ch = vec![0.0f32; n];
     bg.write(&mut bg_ch);
     if bg_ch.iter().any(|v| !v.is_finite()) {
@@ -114,8 +127,8 @@ fn walk_typed<T: Channels>(grid: &Grid<T>, sink: &mut dyn TreeSink) -> Result<us
         v.write(&mut value);
         sink.tile(origin, size, &value, active)
     };
-    for (key, entry) in root.table() {
-        let key_origin = origin_of(key)?;
+    for (key, entry) in table {
+        let key_origin = origin_of(&key)?;
         if key_origin & IVec3::splat(4095) != IVec3::ZERO {
             return Err(format!(
                 "root entry at ({}, {}, {}) is not aligned to a 4096-voxel node",
@@ -124,14 +137,15 @@ fn walk_typed<T: Channels>(grid: &Grid<T>, sink: &mut dyn TreeSink) -> Result<us
         }
         let upper = match entry {
             RootEntry::Tile { value, active } => {
-                emit_tile(sink, key_origin, 4096, value, *active)?;
+                emit_tile(sink, key_origin, 4096, &value, active)?;
                 continue;
             }
             RootEntry::Child(upper) => upper,
         };
+        let mut upper = upper;
         for n1 in 0..32768usize {
             let origin1 = origin_of(&upper.offset_to_global_coord(n1))?;
-            let Some(lower) = upper.child(n1) else {
+            let Some(mut lower) = take_child(&mut upper, n1) else {
                 emit_tile(
                     sink,
                     origin1,
@@ -143,7 +157,7 @@ fn walk_typed<T: Channels>(grid: &Grid<T>, sink: &mut dyn TreeSink) -> Result<us
             };
             for n2 in 0..4096usize {
                 let origin2 = origin_of(&lower.offset_to_global_coord(n2))?;
-                let Some(leaf) = lower.child(n2) else {
+                let Some(leaf) = take_child(&mut lower, n2) else {
                     emit_tile(
                         sink,
                         origin2,
@@ -172,16 +186,38 @@ fn walk_typed<T: Channels>(grid: &Grid<T>, sink: &mut dyn TreeSink) -> Result<us
                 if buf.len() != 512 {
                     return Err(format!("a leaf holds {} values instead of 512", buf.len()));
                 }
-                for (i, v) in buf.iter().enumerate() {
-                    v.write(&mut leaf_values[i * n..(i + 1) * n]);
-                }
+                let values = match T::as_f32(buf) {
+                    Some(values) => values,
+                    None => {
+                        for (i, v) in buf.iter().enumerate() {
+                            v.write(&mut leaf_values[i * n..(i + 1) * n]);
+                        }
+                        &leaf_values[..]
+                    }
+                };
                 let mut mask = [0u64; 8];
                 for (m, w) in mask.iter_mut().zip(leaf.value_mask().words()) {
                     *m = *w;
                 }
-                sink.leaf(leaf_origin, &leaf_values, &mask)?;
+                sink.leaf(leaf_origin, values, &mask)?;
             }
+            // The 16³ node's leaves are freed (in the order they were read, so their
+            // memory is contiguous): give it back.
+            drop(lower);
+            crate::mem::release_freed_memory();
         }
     }
     Ok(n)
+}
+
+/// Takes the child in slot `n` out of an internal node, leaving an inactive tile.
+fn take_child<C: Node, const LOG2DIM: u32>(
+    node: &mut InternalNode<C, LOG2DIM>,
+    n: usize,
+) -> Option<Box<C>> {
+    if !node.is_child(n) {
+        return None;
+    }
+    let value = node.values()[n];
+    node.steal_child(n, value, false)
 }

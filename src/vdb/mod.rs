@@ -314,7 +314,7 @@ impl VdbFile {
                 .file
                 .read_grid(unique)
                 .map_err(|e| gerr(reader_problem(&e)))?;
-            decode::walk(&grid, info.kind, m, sink).map_err(gerr)
+            decode::walk(grid, info.kind, m, sink).map_err(gerr)
         })
     }
 }

@@ -13,6 +13,9 @@ pub(super) struct Bytes<R> {
     pub(super) what: &'static str,
 }
 
+/// Skips up to this many bytes by reading them (through the buffer), longer ones by seeking.
+const SKIP_BY_READING: u64 = 64 * 1024;
+
 impl<R: Read + Seek> Bytes<R> {
     pub(super) fn left(&self) -> u64 {
         self.len.saturating_sub(self.pos)
@@ -67,11 +70,25 @@ impl<R: Read + Seek> Bytes<R> {
 
     pub(super) fn skip(&mut self, n: u64) -> Result<(), String> {
         self.need(n)?;
-        let step =
-            i64::try_from(n).map_err(|_| "a size does not fit into a file offset".to_string())?;
-        self.r
-            .seek(SeekFrom::Current(step))
-            .map_err(|e| e.to_string())?;
+        if n <= SKIP_BY_READING {
+            // A seek would drop the BufReader's buffer and read it again: the scan skips a
+            // chunk per leaf, and seeking each time read the file several times over.
+            let read = std::io::copy(&mut (&mut self.r).take(n), &mut std::io::sink())
+                .map_err(|e| e.to_string())?;
+            if read != n {
+                return Err(format!(
+                    "{} is truncated (unexpected end of data at byte {})",
+                    self.what,
+                    self.pos + read
+                ));
+            }
+        } else {
+            let step = i64::try_from(n)
+                .map_err(|_| "a size does not fit into a file offset".to_string())?;
+            self.r
+                .seek(SeekFrom::Current(step))
+                .map_err(|e| e.to_string())?;
+        }
         self.pos += n;
         Ok(())
     }
