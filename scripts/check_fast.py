@@ -62,6 +62,12 @@ CASES = {
     "fbm96_dense_behind": ("gen:96:23", 0.08, 7.92, 1.0, (0.1, 0.2, -1.0), []),
     "fbm96_a90_below": ("gen:96:23", 0.4, 3.6, 1.0, BELOW, []),
     "fbm64_x4_a99_above": ("gen:64:11", 0.02, 1.98, 4.0, (0.0, 1.0, 0.0), []),
+    # Held out too, added after the changes above: forward-scattering phase functions
+    # (fast transports orders past the first with the similarity-reduced σs) and a
+    # chromatic medium (σ per channel; the lattice then solves each channel).
+    "fbm96_g06_behind": ("gen:96:23", 0.04, 3.96, 1.0, (0.1, 0.2, -1.0), ["--g", "0.6"]),
+    "demo_g08_x4_front": ("cloud.vdb", 0.02, 1.98, 4.0, FRONT, CLOUD_CAM + ["--g", "0.8"]),
+    "fbm64_chromatic_side": ("gen:64:11", "0.05,0.1,0.2", "2.5,1.8,1.2", 1.0, SIDE, []),
 }
 
 
