@@ -98,8 +98,9 @@ impl Illumination for WithMultiple<'_> {
         true
     }
     #[inline]
-    fn multiple_scattered(&self, light: usize, x: DVec3) -> DVec3 {
-        self.lattice.at(light, x)
+    fn multiple_scattered(&self, light: usize, x: DVec3, omega: DVec3) -> DVec3 {
+        let (_, travel) = self.direct.incident(light, x);
+        self.lattice.toward(light, x, omega, travel)
     }
 }
 

@@ -57,10 +57,11 @@ pub trait Illumination: Sync {
     fn scatters_multiply(&self) -> bool {
         false
     }
-    /// The light's in-radiance at `x` from light that has scattered one or more times
-    /// already (taken as isotropic: the in-scattered radiance is `σs·ρ` times this).
-    /// Zero unless an integrator models multiple scattering (`integrate::fast`).
-    fn multiple_scattered(&self, _light: usize, _x: DVec3) -> DVec3 {
+    /// The radiance that light which has scattered one or more times already scatters
+    /// at `x` into direction `omega` (unit), per unit `σs·ρ` (the in-scattered radiance
+    /// is `σs·ρ` times this). Zero unless an integrator models multiple scattering
+    /// (`integrate::fast`).
+    fn multiple_scattered(&self, _light: usize, _x: DVec3, _omega: DVec3) -> DVec3 {
         DVec3::ZERO
     }
 }
@@ -442,9 +443,10 @@ pub fn march(
                         scratch.per_light[l] +=
                             t_now * sigma_s_here * rho * phase * irradiance * weight;
                         if multiple {
-                            // Multiply scattered light: isotropic and taken as constant
-                            // over the segment, so its weight is the segment's own.
-                            let ms = t_now * sigma_s_here * rho * ls.multiple_scattered(l, xw) * w;
+                            // Multiply scattered light, toward the camera: taken as
+                            // constant over the segment, so its weight is the segment's own.
+                            let ms =
+                                t_now * sigma_s_here * rho * ls.multiple_scattered(l, xw, -dir) * w;
                             scratch.per_light[l] += ms;
                             scratch.indirect += ms;
                         }

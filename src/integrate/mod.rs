@@ -10,6 +10,7 @@ pub mod march;
 pub mod medium;
 pub mod ms_diffusion;
 pub mod ms_lattice;
+mod ms_orders;
 mod ms_sweep;
 pub mod optics;
 pub mod pass;
