@@ -353,9 +353,9 @@ def speed_table(cases, meta):
         for mode in ("single", "fast"):
             c = f"speed-{n}-ref-{mode}"
             if c in cases:
-                rows.append((f"{n}³, {res.get(str(n), '?')}", f"murk {meta.get('speed_reference')} --scattering {mode} "
+                rows.append((f"{n}³, {res.get(str(n), '?')}", f"{meta.get('speed_reference')}, --scattering {mode} "
                              "(the reference, 1 run)", fmt(med(cases, c, "cpu_s"), "s"), fmt(med(cases, c, "wall_s"), "s"),
-                             "", "0" if mode == "single" else "", "0", "", "", "", fmt(med(cases, c, "peak_rss_bytes"), "MiB")))
+                             "", "–", "0", "", "", "", fmt(med(cases, c, "peak_rss_bytes"), "MiB")))
     return rows
 
 
