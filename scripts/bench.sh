@@ -55,7 +55,9 @@
 # source step, voxels; its own error is ~1e-4, far below the 1e-2 measured against it),
 # BENCH_SPEED_FAST_REF (1: also a --reference in fast scattering, for the fast rows'
 # radiance error), BENCH_SPEED_REF_SUB (3, odd: the radiance references are rendered at
-# 1/3 of the size, their pixel centres every third pixel's), BENCH_KEEP=1 keeps the temporary directory (images, raw JSON).
+# 1/3 of the size, their pixel centres every third pixel's), BENCH_SPEED_REF_DIR (a
+# directory BENCH_KEEP=1 kept from an earlier speed run: its references are reused, as
+# they depend on the scene alone; ~15 of the mode's ~25 minutes), BENCH_KEEP=1 keeps the temporary directory (images, raw JSON).
 #
 # Needs: cargo, /usr/bin/time (Debian package `time`), /usr/bin/python3 with pyopenvdb and numpy (python3-openvdb), vdb_render
 # (libopenvdb-tools), oiiotool (openimageio-tools). Not part of CI: run it by hand, on a
@@ -406,13 +408,20 @@ bench_speed() {
         voxel=$($PY -c "print($SPEED_EXTENT / $n)")
         SREF=$TMP/speed-ref-$n
         mkdir -p "$SREF"
+        if [[ -n "${BENCH_SPEED_REF_DIR:-}" && -f "$BENCH_SPEED_REF_DIR/speed-ref-$n/alpha.fits" ]]; then
+            log "${n}³: references from $BENCH_SPEED_REF_DIR (not rendered again)"
+            cp "$BENCH_SPEED_REF_DIR/speed-ref-$n/"* "$SREF/"
+            cp "$BENCH_SPEED_REF_DIR"/results/speed-"$n"-ref-*.json "$OUT/" 2>/dev/null || true
+        fi
         # Alpha needs no source step (optical depth is exact per voxel crossing at any
         # step) and no light: the whole image, shadows off, never terminated.
-        log "${n}³ at $res: alpha reference, murk --shadows none --termination 0 (once)"
-        TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
-            murk_speed "$SREF/alpha.exr" "$TMP/stats.json" "$vdb" "$res" \
-            --shadows none --termination 0 --scattering single --step "$SPEED_REF_STEP"
-        $REPORT alpha "$SREF/alpha.exr" "$SREF/alpha.fits"
+        if [[ ! -f "$SREF/alpha.fits" ]]; then
+            log "${n}³ at $res: alpha reference, murk --shadows none --termination 0 (once)"
+            TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
+                murk_speed "$SREF/alpha.exr" "$TMP/stats.json" "$vdb" "$res" \
+                --shadows none --termination 0 --scattering single --step "$SPEED_REF_STEP"
+            $REPORT alpha "$SREF/alpha.exr" "$SREF/alpha.fits"
+        fi
         # Radiance: murk's --reference (exact shadow rays per segment, no termination:
         # ~100× a default render) at 1/SPEED_REF_SUB of the size, every SPEED_REF_SUB-th
         # pixel of the image, its centre.
@@ -421,6 +430,7 @@ bench_speed() {
         local modes=single
         [[ "$SPEED_FAST_REF" == 1 ]] && modes="single fast"
         for mode in $modes; do
+            [[ -f "$SREF/ref-$mode.exr" ]] && continue
             log "${n}³ at $ref_res: murk --reference --scattering $mode --step $SPEED_REF_STEP (once)"
             TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
                 murk_speed "$SREF/ref-$mode.exr" "$TMP/stats.json" "$vdb" "$ref_res" \
