@@ -5,8 +5,9 @@
     bench_report.py alpha-error REF.fits TEST.fits   # JSON: rmse, rmse_covered, max
     bench_report.py run OUT.json --time FILE [--murk-stats FILE] [--vdb-log FILE]
     bench_report.py table DIR                        # markdown table of DIR/*.json
-    bench_report.py rel-rmse REF.exr TEST.exr [LAYER]  # RMSE of TEST − REF over R,G,B
-                                                     # (or LAYER.R/G/B) ÷ the RMS of REF
+    bench_report.py rel-rmse REF.exr TEST.exr [LAYER [K]]  # RMSE of TEST − REF over R,G,B
+                                                     # (or LAYER.R/G/B; "" the beauty) ÷ the
+                                                     # RMS of REF; K: REF is TEST's size / K
 
 Every measurement is a JSON file DIR/<case>.<run>.json; `table` takes the median of
 each field over a case's runs. Needs /usr/bin/python3 with numpy, and oiiotool.
@@ -32,10 +33,13 @@ def alpha(exr, fits):
                    check=True, stdout=subprocess.DEVNULL)
 
 
-def rel_rmse(ref_exr, test_exr, layer=""):
+def rel_rmse(ref_exr, test_exr, layer="", sub=1):
     """RMSE of `test_exr` − `ref_exr` over the R, G, B channels (of `layer`, or the
     beauty), divided by the RMS of the reference's: one number for how much an image
-    changed."""
+    changed. With `sub` k > 1 (odd), the reference was rendered at 1/k of the test's
+    size with the same camera: its pixel centres are the test's pixels (k/2, k/2) of
+    every k × k block, which are compared."""
+    sub = int(sub)
     import tempfile
     prefix = f"{layer}." if layer else ""
     num = den = 0.0
@@ -47,6 +51,11 @@ def rel_rmse(ref_exr, test_exr, layer=""):
                 subprocess.run(["oiiotool", exr, "--ch", prefix + c, "--croptofull", "-d", "float", "-o", fits],
                                check=True, stdout=subprocess.DEVNULL)
                 imgs.append(read_fits(fits).astype(np.float64))
+            if sub > 1:
+                h, w = imgs[0].shape
+                imgs[1] = imgs[1][sub // 2::sub, sub // 2::sub][:h, :w]
+                if imgs[1].shape != imgs[0].shape:
+                    raise ValueError(f"{test_exr} is not {sub}× {ref_exr}'s size")
             num += float(np.sum((imgs[1] - imgs[0]) ** 2))
             den += float(np.sum(imgs[0] ** 2))
     return float(np.sqrt(num / den)) if den > 0 else float(np.sqrt(num))
@@ -67,7 +76,12 @@ def read_fits(path):
         raise ValueError(f"{path}: not a 2-D float FITS image")
     start = (end + 2879) // 2880 * 2880
     w, h = int(cards["NAXIS1"]), int(cards["NAXIS2"])
-    return np.frombuffer(data, dtype=">f4", count=w * h, offset=start).reshape(h, w)
+    # OpenImageIO 2.4's writer puts one spurious row of zeros before the image (and does
+    # not pad the data): skip it, or every row is read one too low and the top one lost.
+    if len(data) - start == (h + 1) * w * 4:
+        start += w * 4
+    # FITS rows run bottom to top; images here are top to bottom.
+    return np.flipud(np.frombuffer(data, dtype=">f4", count=w * h, offset=start).reshape(h, w))
 
 
 def alpha_error(ref_fits, test_fits):
@@ -101,6 +115,14 @@ def run_record(out, time_file, murk_stats=None, vdb_log=None, extra=None):
         rec["map_bytes"] = st.get("shadow_map_memory_bytes") or None
         rec["density_bytes"] = st.get("density_memory_bytes") or None
         rec["total_s"] = st.get("total_seconds")
+        for stage in ("load", "build", "shadows", "scatter", "render", "write"):
+            sg = st["stages"].get(stage, {})
+            if sg.get("status") == "ran":
+                rec[f"stage_{stage}_s"] = sg.get("seconds")
+        eb = st.get("error_budget")
+        if eb:
+            for k in ("step_voxels", "termination", "dsm_tolerance", "predicted_error", "pilot_seconds"):
+                rec[f"budget_{k}"] = eb.get(k)
         maps = st.get("shadow_maps") or []
         if maps:
             m = maps[0]
@@ -292,6 +314,60 @@ def shadow_table(cases, meta):
     return rows
 
 
+def speed_table(cases, meta):
+    """#14 target 1 per cloud: whole processes against vdb_render's (its defaults), the
+    alpha error of each against murk's --reference, murk's radiance error against its
+    --reference in the same scattering mode, and whether the targets hold."""
+    rows = []
+    sizes = sorted({int(c.split("-")[1]) for c in cases if c.startswith("speed-")})
+    res = dict(e.split(":") for e in meta.get("speed_clouds", "").split())
+    labels = (
+        ("vdb", "vdb_render (its defaults: step 1, shadow step 3, -cutoff 0.005)", None, None),
+        ("maxerr-single", "murk --max-error 1e-2 --scattering single (as vdb_render)", 0.10, 1e-2),
+        ("maxerr-fast", "murk --max-error 1e-2 (fast multiple scattering)", 0.10, 1e-2),
+        ("default", "murk, no flags (fast multiple scattering, step 0.5)", 0.25, None),
+    )
+    for n in sizes:
+        vdb = f"speed-{n}-vdb"
+        v_cpu, v_alpha = med(cases, vdb, "cpu_s"), med(cases, vdb, "alpha_rmse")
+        for key, label, target, max_err in labels:
+            c = f"speed-{n}-{key}"
+            if c not in cases:
+                continue
+            cpu, alpha_e = med(cases, c, "cpu_s"), med(cases, c, "alpha_rmse")
+            rad = med(cases, c, "radiance_rel_rmse")
+            r = ratio(cpu, v_cpu)
+            stages = "–"
+            if key != "vdb":
+                parts = [(s, med(cases, c, f"stage_{s}_s")) for s in ("load", "build", "shadows", "scatter", "render", "write")]
+                stages = ", ".join(f"{s} {v:.2f}" for s, v in parts if v is not None)
+            chose = "–"
+            if med(cases, c, "budget_step_voxels") is not None:
+                tol = med(cases, c, "budget_dsm_tolerance")
+                chose = (f"step {med(cases, c, 'budget_step_voxels'):.2f} vx, termination "
+                         f"{fmt(med(cases, c, 'budget_termination'))}, tolerance {fmt(tol)}; "
+                         f"pilot {fmt(med(cases, c, 'budget_pilot_seconds'), 's')}")
+            verdict = ""
+            if target is not None:
+                ok_t = r is not None and r <= target
+                ok_a = alpha_e is not None and v_alpha is not None and alpha_e <= v_alpha
+                verdict = f"≤ {target:.2f}× " + ("met" if ok_t else "**NOT met**")
+                if max_err is not None:
+                    ok_r = rad is not None and rad <= max_err
+                    verdict += (f"; alpha ≤ vdb_render's: {'yes' if ok_a else '**no**'}"
+                                f"; radiance ≤ {max_err:g}: {'yes' if ok_r else '**no**'}")
+            rows.append((f"{n}³, {res.get(str(n), '?')}", label, fmt(cpu, "s"), fmt(med(cases, c, "wall_s"), "s"),
+                         fmt(r, "x") if key != "vdb" else "1", fmt(alpha_e), fmt(rad), verdict, chose, stages,
+                         fmt(med(cases, c, "peak_rss_bytes"), "MiB")))
+        for mode in ("single", "fast"):
+            c = f"speed-{n}-ref-{mode}"
+            if c in cases:
+                rows.append((f"{n}³, {res.get(str(n), '?')}", f"{meta.get('speed_reference')}, --scattering {mode} "
+                             "(the reference, 1 run)", fmt(med(cases, c, "cpu_s"), "s"), fmt(med(cases, c, "wall_s"), "s"),
+                             "", "–", "0", "", "", "", fmt(med(cases, c, "peak_rss_bytes"), "MiB")))
+    return rows
+
+
 def print_table(header, rows):
     print("| " + " | ".join(header) + " |")
     print("|" + "---|" * len(header))
@@ -374,6 +450,15 @@ def table(d):
                      "target", "murk peak RSS", "vdb_render peak RSS", "map memory", "density memory",
                      "map / density", "target"), rows)
     print_shadow(cases, meta)
+    rows = speed_table(cases, meta)
+    if rows:
+        print(f"#14 target 1: whole processes (murk: load + bake + multiple scattering + render + write), "
+              f"{meta.get('threads')} threads, {meta.get('speed_camera')}; make_cloud.py's fBm cloud. Alpha RMSE of "
+              f"every row against murk's {meta.get('speed_reference')} --scattering single; murk's radiance relative "
+              "RMSE (R, G, B) against its reference in the same scattering mode. Stages: murk's wall seconds.")
+        print()
+        print_table(("cloud", "renderer", "CPU", "wall", "CPU ÷ vdb_render", "alpha RMSE", "radiance rel. RMSE",
+                     "target", "--max-error chose", "stages (s)", "peak RSS"), rows)
 
 
 def print_shadow(cases, meta):

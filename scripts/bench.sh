@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Benchmarks murk against OpenVDB, measured in the same run; prints a markdown table.
 #
-#   scripts/bench.sh [load|memory|render|shadow|emission|all]      (default: all)
+#   scripts/bench.sh [load|memory|render|shadow|emission|speed|all]      (default: all)
 #
 # load:   a 264³ grid (18.4 M active voxels; float and half) made at run time by
 #         benches/make_big_grid.py. murk's VdbFile::open + VoxelGrid::load against
@@ -32,6 +32,18 @@
 #         same run, at BENCH_EMISSION_RES with BENCH_EMISSION_THREADS threads, for each of
 #         BENCH_EMISSION_SCATTERING; CPU and wall seconds of the whole process and the
 #         render stage, samples, and the ratio with/without against the 1.5× target.
+# speed:  #14 target 1 as the issue states it: the fBm cloud of benches/make_cloud.py at
+#         192³ (1.8 M voxels) rendered at 960x540 and at 480³ (27.6 M) at 480x270, the
+#         same camera, σ (σa 1.92, σs 5.76 per world unit; per voxel for vdb_render) and
+#         sun for both renderers. Rows: vdb_render with its defaults (step 1, shadow step
+#         3, -cutoff 0.005); murk --max-error 1e-2 in single scattering (as vdb_render)
+#         and in its default fast mode; murk with no flags. Whole-process CPU and wall
+#         (/usr/bin/time), murk's stages; alpha RMSE of every row against murk's
+#         --reference (single scattering; exact optical depth, no termination), radiance
+#         relative RMSE of murk's rows against murk's --reference in the same scattering
+#         mode; the CPU ratio against vdb_render and the targets (≤ 0.10× with
+#         --max-error 1e-2 at equal or lower alpha error and radiance within 1e-2; ≤ 0.25×
+#         for the default).
 #
 # Knobs (environment): BENCH_RUNS (3), BENCH_THREADS (nproc), BENCH_RES (960x540),
 # BENCH_STEPS ("1 0.5": primary steps in voxels), BENCH_SHADOW_STEP (1),
@@ -41,7 +53,15 @@
 # binary to measure instead of building this tree's, e.g. an older one for "before"),
 # BENCH_SHADOW_VDB (shadow: a large cloud already made, instead of writing one),
 # BENCH_EMISSION_RES (480x270), BENCH_EMISSION_THREADS (1), BENCH_EMISSION_SCATTERING
-# ("single fast"), BENCH_KEEP=1 keeps the temporary directory (images, raw JSON).
+# ("single fast"), BENCH_SPEED_CLOUDS ("192:960x540 480:480x270": size:res),
+# BENCH_SPEED_DIR (a directory holding cloudN.vdb already made by make_cloud.py; made
+# in the temporary directory otherwise), BENCH_SPEED_REF_STEP (0.25: the --reference's
+# source step, voxels; its own error is ~1e-4, far below the 1e-2 measured against it),
+# BENCH_SPEED_FAST_REF (1: also a --reference in fast scattering, for the fast rows'
+# radiance error), BENCH_SPEED_REF_SUB (3, odd: the radiance references are rendered at
+# 1/3 of the size, their pixel centres every third pixel's), BENCH_SPEED_REF_DIR (a
+# directory BENCH_KEEP=1 kept from an earlier speed run: its references are reused, as
+# they depend on the scene alone; ~15 of the mode's ~25 minutes), BENCH_KEEP=1 keeps the temporary directory (images, raw JSON).
 #
 # Needs: cargo, /usr/bin/time (Debian package `time`), /usr/bin/python3 with pyopenvdb and numpy (python3-openvdb), vdb_render
 # (libopenvdb-tools), oiiotool (openimageio-tools). Not part of CI: run it by hand, on a
@@ -67,12 +87,16 @@ DSM_TOL=${BENCH_DSM_TOL:-1e-3}
 EMISSION_RES=${BENCH_EMISSION_RES:-480x270}
 EMISSION_THREADS=${BENCH_EMISSION_THREADS:-1}
 EMISSION_SCATTERING=${BENCH_EMISSION_SCATTERING:-"single fast"}
+SPEED_CLOUDS=${BENCH_SPEED_CLOUDS:-"192:960x540 480:480x270"}
+SPEED_REF_STEP=${BENCH_SPEED_REF_STEP:-0.25}
+SPEED_FAST_REF=${BENCH_SPEED_FAST_REF:-1}
+SPEED_REF_SUB=${BENCH_SPEED_REF_SUB:-3}
 PY=/usr/bin/python3
 REPORT="$PY $ROOT/benches/bench_report.py"
 
 case "$WHAT" in
-    load | memory | render | shadow | emission | all) ;;
-    *) echo "usage: scripts/bench.sh [load|memory|render|shadow|emission|all]" >&2; exit 2 ;;
+    load | memory | render | shadow | emission | speed | all) ;;
+    *) echo "usage: scripts/bench.sh [load|memory|render|shadow|emission|speed|all]" >&2; exit 2 ;;
 esac
 tools=(cargo "$PY" /usr/bin/time)
 [[ "$WHAT" == emission || "$WHAT" == memory ]] || tools+=(oiiotool vdb_render)
@@ -164,13 +188,14 @@ VDB_CUTOFF_TINY=1e-12
 
 vdb_sigma() { $PY -c "print($1 * $VOXEL)"; }
 
+# Pixel centres only (--antialias 1), as vdb_render samples them, in every murk row.
 murk_render() { # OUT.exr STATS.json STEP SHADOWS [extra flags]
     local out=$1 stats=$2 step=$3 shadows=$4
     shift 4
     "$MURK" render "$CLOUD" -o "$out" --res "$RES" --eye "$EYE" --look-at "$LOOK" --fov "$FOV" \
         --sigma-a "$SIGMA_A,$SIGMA_A,$SIGMA_A" --sigma-s "$SIGMA_S,$SIGMA_S,$SIGMA_S" \
         --light "sun:$SUN:1,1,1:6" --step "$step" --shadows "$shadows" --shadow-step "$SHADOW_STEP" \
-        --scattering single --float --stats "$stats" --quiet --threads "$THREADS" "$@"
+        --scattering single --float --stats "$stats" --quiet --threads "$THREADS" --antialias 1 "$@"
 }
 
 # murk choosing its own step, tolerance and termination for a relative radiance error of
@@ -180,7 +205,7 @@ murk_render_budget() {
     "$MURK" render "$CLOUD" -o "$1" --res "$RES" --eye "$EYE" --look-at "$LOOK" --fov "$FOV" \
         --sigma-a "$SIGMA_A,$SIGMA_A,$SIGMA_A" --sigma-s "$SIGMA_S,$SIGMA_S,$SIGMA_S" \
         --light "sun:$SUN:1,1,1:6" --max-error 1e-2 --shadow-step "$SHADOW_STEP" \
-        --scattering single --float --stats "$2" --quiet --threads "$THREADS"
+        --scattering single --float --stats "$2" --quiet --threads "$THREADS" --antialias 1
 }
 
 vdb_render_run() { # OUT.exr STEP CUTOFF SHADOWSTEP [VDB]
@@ -347,11 +372,130 @@ bench_emission() {
     done
 }
 
+# ------------------------------------------------------------------ E. speed
+# #14 target 1. make_cloud.py's cloud fills the world cube [-4.8, 4.8]³ at every size.
+SPEED_EYE=0,1,18
+SPEED_LOOK=0,-0.4,0
+SPEED_FOV=40
+SPEED_SIGMA_A=1.92 # per world unit; vdb_render: × the voxel size
+SPEED_SIGMA_S=5.76
+SPEED_EXTENT=9.6
+
+# murk on cloud N at RES: OUT.exr STATS.json CLOUD RES [flags]. Pixel centres only
+# (--antialias 1), as vdb_render samples them, and so that a reference rendered at 1/3
+# of the size has its pixel centres on the image's: murk's default resamples silhouette
+# pixels on a 4x4 grid (+6 % CPU on the demo cloud at 640x360).
+murk_speed() {
+    local out=$1 stats=$2 vdb=$3 res=$4
+    shift 4
+    "$MURK" render "$vdb" -o "$out" --res "$res" --eye "$SPEED_EYE" --look-at "$SPEED_LOOK" --fov "$SPEED_FOV" \
+        --sigma-a "$SPEED_SIGMA_A,$SPEED_SIGMA_A,$SPEED_SIGMA_A" --sigma-s "$SPEED_SIGMA_S,$SPEED_SIGMA_S,$SPEED_SIGMA_S" \
+        --light "sun:$SUN:1,1,1:6" --float --stats "$stats" --quiet --threads "$THREADS" --antialias 1 "$@"
+}
+
+# vdb_render with its defaults (step 1, shadow step 3, cutoff 0.005): OUT.exr CLOUD RES VOXEL
+vdb_speed() {
+    local a s
+    a=$($PY -c "print($SPEED_SIGMA_A * $4)")
+    s=$($PY -c "print($SPEED_SIGMA_S * $4)")
+    vdb_render "$2" "$1" -res "$3" -translate "$SPEED_EYE" -lookat "$SPEED_LOOK" -up 0,1,0 -fov "$SPEED_FOV" \
+        -absorb "$a,$a,$a" -scatter "$s,$s,$s" -light "$SUN,1,1,1" -cpus "$THREADS" -v
+}
+export -f murk_speed vdb_speed
+
+# Errors of IMAGE against the cloud's references, as JSON in $TMP/err.json: alpha against
+# the full-size alpha reference, radiance against REF.exr (rendered at 1/SPEED_REF_SUB of
+# the size, same camera: its pixel centres are IMAGE's), if given.
+speed_err() { # IMAGE [REF.exr]
+    $REPORT alpha "$1" "$TMP/test.fits"
+    $REPORT alpha-error "$SREF/alpha.fits" "$TMP/test.fits" >"$TMP/err.json"
+    if [[ -n "${2:-}" ]]; then
+        local e
+        e=$($REPORT rel-rmse "$2" "$1" "" "$SPEED_REF_SUB")
+        $PY -c 'import json, sys; d = json.load(open(sys.argv[1])); d["radiance_rel_rmse"] = float(sys.argv[2]); json.dump(d, open(sys.argv[1], "w"))' \
+            "$TMP/err.json" "$e"
+    fi
+}
+
+bench_speed() {
+    log "building murk (cargo build --release)"
+    (cd "$ROOT" && cargo build --release --quiet)
+    MURK="$ROOT/target/release/murk"
+    local entry n res vdb voxel run name
+    for entry in $SPEED_CLOUDS; do
+        n=${entry%%:*} res=${entry#*:}
+        vdb=${BENCH_SPEED_DIR:-$TMP}/cloud$n.vdb
+        if [[ ! -f "$vdb" ]]; then
+            log "writing the ${n}³ cloud"
+            vdb=$TMP/cloud$n.vdb
+            $PY "$ROOT/benches/make_cloud.py" "$vdb" --size "$n" >&2
+        fi
+        voxel=$($PY -c "print($SPEED_EXTENT / $n)")
+        SREF=$TMP/speed-ref-$n
+        mkdir -p "$SREF"
+        if [[ -n "${BENCH_SPEED_REF_DIR:-}" && -f "$BENCH_SPEED_REF_DIR/speed-ref-$n/alpha.fits" ]]; then
+            log "${n}³: references from $BENCH_SPEED_REF_DIR (not rendered again)"
+            cp "$BENCH_SPEED_REF_DIR/speed-ref-$n/"* "$SREF/"
+            cp "$BENCH_SPEED_REF_DIR"/results/speed-"$n"-ref-*.json "$OUT/" 2>/dev/null || true
+        fi
+        # Alpha needs no source step (optical depth is exact per voxel crossing at any
+        # step) and no light: the whole image, shadows off, never terminated.
+        if [[ ! -f "$SREF/alpha.fits" ]]; then
+            log "${n}³ at $res: alpha reference, murk --shadows none --termination 0 (once)"
+            TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
+                murk_speed "$SREF/alpha.exr" "$TMP/stats.json" "$vdb" "$res" \
+                --shadows none --termination 0 --scattering single --step "$SPEED_REF_STEP"
+            $REPORT alpha "$SREF/alpha.exr" "$SREF/alpha.fits"
+        fi
+        # Radiance: murk's --reference (exact shadow rays per segment, no termination:
+        # ~100× a default render) at 1/SPEED_REF_SUB of the size, every SPEED_REF_SUB-th
+        # pixel of the image, its centre.
+        local w=${res%x*} h=${res#*x}
+        local ref_res=$((w / SPEED_REF_SUB))x$((h / SPEED_REF_SUB))
+        local modes=single
+        [[ "$SPEED_FAST_REF" == 1 ]] && modes="single fast"
+        for mode in $modes; do
+            [[ -f "$SREF/ref-$mode.exr" ]] && continue
+            log "${n}³ at $ref_res: murk --reference --scattering $mode --step $SPEED_REF_STEP (once)"
+            TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
+                murk_speed "$SREF/ref-$mode.exr" "$TMP/stats.json" "$vdb" "$ref_res" \
+                --reference --step "$SPEED_REF_STEP" --scattering "$mode"
+            $REPORT run "$OUT/speed-$n-ref-$mode.1.json" --time "$TMP/time" --murk-stats "$TMP/stats.json"
+        done
+        for run in $(seq "$RUNS"); do
+            name="speed-$n-vdb"
+            log "${n}³ at $res: vdb_render (its defaults), run $run/$RUNS"
+            TIME_TO="$TMP/time" LOG_TO="$TMP/vdb.log" timed vdb_speed "$TMP/speed.exr" "$vdb" "$res" "$voxel"
+            speed_err "$TMP/speed.exr"
+            $REPORT run "$OUT/$name.$run.json" --time "$TMP/time" --vdb-log "$TMP/vdb.log" --extra "$TMP/err.json"
+            # case, radiance reference, murk's flags
+            local rows=("maxerr-single|single|--max-error 1e-2 --scattering single"
+                "maxerr-fast|fast|--max-error 1e-2"
+                "default|fast|")
+            local row key mode flags ref
+            for row in "${rows[@]}"; do
+                IFS='|' read -r key mode flags <<<"$row"
+                ref=$SREF/ref-$mode.exr
+                [[ -f "$ref" ]] || ref=
+                name="speed-$n-$key"
+                log "${n}³ at $res: murk ${flags:-(defaults)}, run $run/$RUNS"
+                # shellcheck disable=SC2086 # the flags are words
+                TIME_TO="$TMP/time" LOG_TO="$TMP/murk.log" timed \
+                    murk_speed "$TMP/speed.exr" "$TMP/stats.json" "$vdb" "$res" $flags
+                speed_err "$TMP/speed.exr" "$ref"
+                $REPORT run "$OUT/$name.$run.json" --time "$TMP/time" --murk-stats "$TMP/stats.json" \
+                    --extra "$TMP/err.json"
+            done
+        done
+    done
+}
+
 if [[ "$WHAT" == load || "$WHAT" == all ]]; then bench_load; fi
 if [[ "$WHAT" == load || "$WHAT" == memory || "$WHAT" == all ]]; then bench_memory; fi
 if [[ "$WHAT" == render || "$WHAT" == all ]]; then bench_render; fi
 if [[ "$WHAT" == shadow || "$WHAT" == all ]]; then bench_shadow; fi
 if [[ "$WHAT" == emission || "$WHAT" == all ]]; then bench_emission; fi
+if [[ "$WHAT" == speed || "$WHAT" == all ]]; then bench_speed; fi
 
 steps_json=$($PY -c 'import json, sys; print(json.dumps(sys.argv[1].split()))' "$STEPS")
 cat >"$OUT/meta.info" <<EOF
@@ -363,6 +507,8 @@ cat >"$OUT/meta.info" <<EOF
  "ref_step": "$REF_STEP", "conv_step": "$CONV_STEP",
  "memory_size": $MEMORY_SIZE, "dsm_tolerance": "$DSM_TOL", "shadow_threads": $SHADOW_THREADS, "shadow_clouds": ["demo", "large"],
  "shadow_res": {"demo": "960x540 (fixtures/cloud.vdb)", "large": "480x270 (${SHADOW_SIZE}³ generated)"},
+ "speed_clouds": "$SPEED_CLOUDS", "speed_camera": "eye $SPEED_EYE, look-at $SPEED_LOOK, horizontal fov $SPEED_FOV°; σa $SPEED_SIGMA_A, σs $SPEED_SIGMA_S per world unit; sun $SUN (irradiance 6)",
+ "speed_reference": "murk --reference --step $SPEED_REF_STEP at 1/$SPEED_REF_SUB of the size (the centre pixel of every $SPEED_REF_SUB×$SPEED_REF_SUB block)",
  "vdb_cutoff_default": "$VDB_CUTOFF_DEFAULT", "vdb_cutoff_matched": "$VDB_CUTOFF_MATCHED", "vdb_cutoff_tiny": "$VDB_CUTOFF_TINY"}
 EOF
 echo

@@ -387,7 +387,12 @@ impl VoxelGrid {
         let l = (e & !CHILD) as usize;
         let e = self.lower_slots[l * LOWER_SLOTS + lower_offset(g)];
         if e & CHILD == 0 {
-            return tile_cell(e, 8);
+            let origin = align(8);
+            return Cell {
+                origin: origin - o,
+                size: 8,
+                range: self.stencil_range_in_lower(self.tile_range(e), origin, l),
+            };
         }
         Cell {
             origin: align(8) - o,

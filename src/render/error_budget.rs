@@ -28,7 +28,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 /// Pixels the pilot renders (a regular lattice over the image).
-pub const PILOT_PIXELS: usize = 4096;
+pub const PILOT_PIXELS: usize = 2048;
 /// The pilot's first step, voxels: coarse, so that its error is well above the floor.
 pub const PILOT_STEP: f64 = 2.0;
 /// The finest and the coarsest step `--max-error` chooses, voxels.
