@@ -467,3 +467,87 @@ fn linear_bricks_shrink_the_map_keep_the_tolerance_and_round_trip() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The bake packs a brick that may be refined at the level checked, then replaces it (a
+/// later push at its position) or forgets it: once dropped, the map reads as if only the
+/// bricks kept had been pushed.
+#[test]
+fn replaced_and_forgotten_bricks_leave_no_trace() {
+    use glam::IVec3;
+    use murk::shadow::chart::Chart;
+    use murk::shadow::map::{BakedBrick, BrickForm, BrickSamples, ChartMap, side};
+    let chart = Chart::parallel(DVec3::Z, DVec3::ZERO, 1.0);
+    let samples = |level: u8, base: f32, full: bool| {
+        let n = side(level).pow(3);
+        let mut s = BrickSamples::zeros(n);
+        for (k, t) in s.tau.iter_mut().enumerate() {
+            *t = base + 0.01 * k as f32;
+        }
+        if full {
+            s.rho.fill(0.5);
+            s.tau_x.fill(0.1);
+            s.tau_y.fill(-0.2);
+            s.tau_xy.fill(0.01);
+            s
+        } else {
+            BrickSamples {
+                tau: s.tau,
+                ..Default::default()
+            }
+        }
+    };
+    let [a, b, c, d] = [
+        IVec3::new(0, 0, 0),
+        IVec3::new(1, 0, 0),
+        IVec3::new(0, 0, 1),
+        IVec3::new(1, 1, 1),
+    ];
+    let kept = [
+        (a, 1, BrickForm::Hermite, samples(1, 1.0, true)),
+        (b, 2, BrickForm::Linear, samples(2, 2.0, false)),
+        (c, 2, BrickForm::Hermite, samples(2, 3.0, true)),
+        (d, 0, BrickForm::Constant, samples(0, 4.0, false)),
+    ];
+    let bricks = kept
+        .iter()
+        .map(|(key, level, form, s)| BakedBrick {
+            key: *key,
+            level: *level,
+            form: *form,
+            samples: s.clone(),
+        })
+        .collect();
+    let reference = ChartMap::new(chart, bricks, 1 << 10).unwrap();
+
+    let mut map = ChartMap::empty(chart, [a, b, c, d].into_iter(), 1 << 10).unwrap();
+    map.reserve(4, 4 * 27);
+    map.push(c, 1, BrickForm::Hermite, &samples(1, 9.0, true))
+        .unwrap();
+    map.push(d, 1, BrickForm::Hermite, &samples(1, 8.0, true))
+        .unwrap();
+    let (key, level, form, s) = &kept[0];
+    map.push(*key, *level, *form, s).unwrap();
+    map.forget(d);
+    map.drop_replaced();
+    for (key, level, form, s) in &kept[1..] {
+        map.push(*key, *level, *form, s).unwrap();
+    }
+    map.drop_replaced();
+
+    assert_eq!(map.bricks.len(), 4);
+    assert_eq!(map.memory_bytes(), reference.memory_bytes());
+    assert_eq!(map.points_per_level(), reference.points_per_level());
+    assert_eq!(map.bricks_per_form(), reference.bricks_per_form());
+    for i in 0..=40 {
+        for j in 0..=40 {
+            for k in 0..=40 {
+                let q = DVec3::new(i as f64, j as f64, k as f64) * 0.4 + DVec3::splat(0.013);
+                assert_eq!(
+                    map.density_integral_at(q),
+                    reference.density_integral_at(q),
+                    "at {q}"
+                );
+            }
+        }
+    }
+}

@@ -17,35 +17,21 @@
 //!    brick stays coarser than a voxel only if, besides passing the check, the density's
 //!    range over it and over every brick above it toward the light bounds what it could
 //!    miss below the tolerance ([`unresolved_bounds`](super::level_checks::unresolved_bounds)).
-//! 5. Forms (see [`BrickForm`]): a brick kept at a level is held as τ alone, trilinear in
+//! 5. Forms (see [`BrickForm`](super::map::BrickForm)): a brick kept at a level is held as τ alone, trilinear in
 //!    16 bits, when that blend (plus its rounding) passes the same check, else with τ's
 //!    slopes for the Hermite blend; a brick below which at least `−ln(tol/2)/σ` of optical
 //!    depth lies for certain (the density's least value over the bricks above) is held as
 //!    one τ and its columns are not marched.
 
-use super::chart::Chart;
-use super::columns::sample_level;
 use super::lattice::{
     MAX_COARSENINGS, block_corners, block_edge, cells_per_column, cells_per_unit, charts_for,
     column_cells,
 };
-use super::level_checks::{channels, coarse_error, coarsen, unresolved_bounds};
-use super::map::{
-    BRICK, BakedBrick, BrickForm, BrickSamples, ChartMap, ChartSelect, LEVELS, MAX_LEVEL,
-    ShadowMap, VOXEL_LEVEL, side,
-};
+use super::map::{BRICK, ChartMap, ChartSelect, LEVELS, MAX_LEVEL, ShadowMap, VOXEL_LEVEL};
+use super::refine::refine;
 use crate::field::Field;
 use glam::{DVec3, IVec3};
 use std::collections::{BTreeMap, HashSet};
-
-/// Below a voxel, how much halving the spacing at least divides a brick's error by: the
-/// Hermite blend's error falls 7–12-fold per halving on the fixtures (it goes as the
-/// spacing³ or faster).
-const SUB_VOXEL_GAIN: f64 = 7.0;
-
-/// The share of the tolerance a brick's check may use: the check sees the error at the
-/// next level's samples only, and the error between them is larger.
-const CHECK_FRACTION: f64 = 0.5;
 
 /// Where a light is, as far as shadows care.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -153,10 +139,10 @@ pub struct BakeReport {
     /// Times the lattice was made twice coarser than the density's voxel because the
     /// bricks or columns of the finer one did not fit the budget (0: voxel lattice).
     pub lattice_coarsenings: usize,
-    /// Bricks held as τ alone in 16 bits, blended trilinearly (see [`BrickForm::Linear`]).
+    /// Bricks held as τ alone in 16 bits, blended trilinearly (see [`BrickForm::Linear`](super::map::BrickForm::Linear)).
     pub linear_bricks: usize,
     /// Bricks held as one τ: the light reaching them is below the tolerance already
-    /// (see [`BrickForm::Constant`]).
+    /// (see [`BrickForm::Constant`](super::map::BrickForm::Constant)).
     pub dark_bricks: usize,
     /// Light columns marched.
     pub columns: u64,
@@ -274,6 +260,9 @@ fn bake_at(
         keys.sort_by_key(|k| (k.x, k.y, k.z));
         marked.push(keys);
     }
+    // The blocks (192 bytes each, tens of MB on a large grid) are not needed past here.
+    drop(blocks);
+    crate::mem::release_freed_memory();
     if marked.iter().map(Vec::len).sum::<usize>() > settings.max_bricks {
         return None;
     }
@@ -292,12 +281,13 @@ fn bake_at(
     let mut maps = Vec::with_capacity(charts.len());
     let mut cells = first;
     for (chart, keys) in charts.iter().zip(&marked) {
-        let bricks = refine(density, chart, keys, settings, &mut report, &mut cells);
-        maps.push(ChartMap::new(
+        let mut map = ChartMap::empty(
             *chart,
-            bricks,
+            keys.iter().copied(),
             settings.max_bricks.saturating_mul(16),
-        )?);
+        )?;
+        refine(density, keys, settings, &mut report, &mut cells, &mut map)?;
+        maps.push(map);
     }
     // The bake's samples are packed and freed: return them before the render.
     crate::mem::release_freed_memory();
@@ -307,187 +297,4 @@ fn bake_at(
     };
     report.count(&map);
     Some((map, report))
-}
-
-/// Chooses every brick's level and form.
-fn refine(
-    density: &dyn Field,
-    chart: &Chart,
-    keys: &[IVec3],
-    settings: &BakeSettings,
-    report: &mut BakeReport,
-    cells: &mut f64,
-) -> Vec<BakedBrick> {
-    let sigmas = channels(settings.sigma_t);
-    let allowed = CHECK_FRACTION * settings.tolerance;
-    // Where each brick stack starts: density lies only inside marked bricks.
-    let mut stack_start: BTreeMap<(i32, i32), i32> = BTreeMap::new();
-    for k in keys {
-        let e = stack_start.entry((k.x, k.y)).or_insert(k.z);
-        *e = (*e).min(k.z);
-    }
-    let mut done = Vec::with_capacity(keys.len());
-    let bounds = unresolved_bounds(density, chart, keys, &sigmas);
-    // Dark bricks: at least `upstream` of ∫ρ ds lies above every point of the brick, so
-    // the light there is at most e^{−σ·upstream} ≤ `allowed` in every channel, and so is
-    // the error of reading τ = upstream anywhere in it (or below it). They are the tails
-    // of their stacks (upstream only grows downward): their columns need no marching.
-    let dark = |depth: f64| {
-        sigmas
-            .first()
-            .is_some_and(|&s| (-s * depth).exp() <= allowed)
-    };
-    let constant = |key, depth: f64| BakedBrick {
-        key,
-        level: 0,
-        form: BrickForm::Constant,
-        samples: BrickSamples {
-            tau: vec![depth as f32],
-            ..Default::default()
-        },
-    };
-    let mut lit = Vec::with_capacity(keys.len());
-    for (&key, &(unresolved, upstream)) in keys.iter().zip(&bounds) {
-        if dark(upstream.depth) {
-            done.push(constant(key, upstream.depth));
-        } else {
-            lit.push((key, unresolved, upstream));
-        }
-    }
-    let max_level = settings.max_level.max(1);
-    let mut trial: u8 = 0;
-    // Bricks still undecided: key, what coarse samples could miss there (see
-    // `unresolved_bounds`), and the samples one level finer than the level on trial.
-    let mut pending: Vec<(IVec3, f64, BrickSamples)> = {
-        let lit_keys: Vec<IVec3> = lit.iter().map(|(k, _, _)| *k).collect();
-        let vals = sample_level(density, chart, &lit_keys, 1, &stack_start, report);
-        let m = side(1);
-        let mut pending = Vec::with_capacity(lit.len());
-        for ((k, b, upstream), v) in lit.into_iter().zip(vals) {
-            // Dark from the samples: every point of the brick lies below a point of its
-            // top face on its column, where ∫ρ ds is at least the least sampled there
-            // less how much it can differ between columns.
-            let top = v.tau[..m * m]
-                .iter()
-                .fold(f64::INFINITY, |a, &t| a.min(t as f64));
-            let depth = upstream.depth.max(top - upstream.variation);
-            if dark(depth) {
-                done.push(constant(k, depth));
-            } else {
-                pending.push((k, b, v));
-            }
-        }
-        pending
-    };
-    let hermite = |key, level, samples| BakedBrick {
-        key,
-        level,
-        form: BrickForm::Hermite,
-        samples,
-    };
-    let mut held: usize = 0;
-    while !pending.is_empty() {
-        let fine_level = trial + 1;
-        let mut next = Vec::new();
-        for (key, unresolved, fine) in pending {
-            let coarse = coarsen(&fine, fine_level);
-            let error_in = |form| {
-                if sigmas.is_empty() {
-                    0.0
-                } else {
-                    coarse_error(&fine, &coarse, fine_level, chart, &sigmas, form)
-                }
-            };
-            // Coarser than a voxel, the check alone could pass over unseen density.
-            let resolved = trial >= VOXEL_LEVEL || unresolved <= allowed;
-            // Trilinear τ in 16 bits first: a sixth of the memory and a cheaper lookup.
-            // Checked where the level on trial would be kept, and at two voxels, where an
-            // unresolved brick that passes is kept one level finer (below).
-            let linear =
-                (resolved || fine_level == VOXEL_LEVEL) && error_in(BrickForm::Linear) <= allowed;
-            if linear && !resolved {
-                // Trilinear from two-voxel samples meets the one-voxel ones: one sample
-                // per voxel, which cannot step over density, trilinear too (2 bytes a
-                // sample, where Hermite at one voxel would take 12).
-                held += fine.len();
-                done.push(BakedBrick {
-                    key,
-                    level: fine_level,
-                    form: BrickForm::Linear,
-                    samples: fine,
-                });
-                continue;
-            }
-            if linear {
-                held += coarse.len();
-                done.push(BakedBrick {
-                    key,
-                    level: trial,
-                    form: BrickForm::Linear,
-                    samples: coarse,
-                });
-                continue;
-            }
-            let error = error_in(BrickForm::Hermite);
-            if error <= allowed && resolved {
-                held += coarse.len();
-                done.push(hermite(key, trial, coarse));
-            } else if error <= allowed && fine_level == VOXEL_LEVEL {
-                // Smooth at two voxels as one-voxel samples see it, and only unresolved:
-                // one sample per voxel cannot step over density, so that level is kept
-                // without checking it against half a voxel (which would sample every such
-                // brick eight times over).
-                held += fine.len();
-                done.push(hermite(key, fine_level, fine));
-            } else if fine_level >= max_level {
-                // Kept at the finest level unchecked (checking would take the level
-                // after). Below a voxel, halving the spacing divides the blend's error by
-                // SUB_VOXEL_GAIN or more: a brick likely misses only beyond that.
-                let gain = if fine_level > VOXEL_LEVEL {
-                    SUB_VOXEL_GAIN
-                } else {
-                    1.0
-                };
-                if error > gain * allowed {
-                    report.bricks_over_tolerance += 1;
-                    report.over_tolerance_error = report.over_tolerance_error.max(error / gain);
-                }
-                held += fine.len();
-                done.push(hermite(key, fine_level, fine));
-            } else {
-                next.push((key, unresolved, fine, error));
-            }
-        }
-        trial += 1;
-        let needed = next.len() * side(trial + 1).pow(3);
-        let keys: Vec<IVec3> = next.iter().map(|(k, _, _, _)| *k).collect();
-        let marched = column_cells(
-            &keys,
-            &stack_start,
-            trial + 1,
-            chart.unit * cells_per_unit(density),
-            cells_per_column(density),
-        );
-        if held + needed > settings.max_values || *cells + marched > settings.max_cells {
-            // Out of budget (samples or work): keep what there is, and say what it costs.
-            report.bricks_over_tolerance += next.len();
-            report.bricks_stopped_by_budget += next.len();
-            let worst = next.iter().map(|(_, _, _, e)| *e).fold(0.0, f64::max);
-            report.over_tolerance_error = report.over_tolerance_error.max(worst);
-            done.extend(next.into_iter().map(|(k, _, v, _)| hermite(k, trial, v)));
-            break;
-        }
-        *cells += marched;
-        // The samples of the level just checked are not needed past here: free them
-        // before the next level's (a fifth of their size, at the largest) are made.
-        let next: Vec<(IVec3, f64)> = next.into_iter().map(|(k, b, _, _)| (k, b)).collect();
-        crate::mem::release_freed_memory();
-        let vals = sample_level(density, chart, &keys, trial + 1, &stack_start, report);
-        pending = next
-            .into_iter()
-            .zip(vals)
-            .map(|((k, b), v)| (k, b, v))
-            .collect();
-    }
-    done
 }

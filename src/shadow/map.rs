@@ -77,12 +77,41 @@ impl ChartMap {
     /// A map from finished bricks; `None` if the table of brick positions would exceed
     /// `max_slots` entries or a brick lacks samples its form needs.
     pub fn new(chart: Chart, bricks: Vec<BakedBrick>, max_slots: usize) -> Option<Self> {
-        let (mut lo, mut hi) = (IVec3::MAX, IVec3::MIN);
-        for b in &bricks {
-            lo = lo.min(b.key);
-            hi = hi.max(b.key);
+        let held = |form: BrickForm| {
+            bricks
+                .iter()
+                .filter(|b| b.form == form)
+                .map(|b| side(b.level).pow(3))
+                .sum()
+        };
+        let mut map = ChartMap::empty(chart, bricks.iter().map(|b| b.key), max_slots)?;
+        map.samples.reserve_exact(held(BrickForm::Hermite));
+        map.linear.reserve_exact(held(BrickForm::Linear));
+        map.bricks.reserve_exact(bricks.len());
+        for (i, baked) in bricks.into_iter().enumerate() {
+            if i % RELEASE_EVERY == RELEASE_EVERY - 1 {
+                // The bricks packed so far are freed: give their memory back, so the
+                // packed copy does not come on top of all of it.
+                crate::mem::release_freed_memory();
+            }
+            map.push(baked.key, baked.level, baked.form, &baked.samples)?;
         }
-        let dims = if bricks.is_empty() {
+        Some(map)
+    }
+
+    /// A map with no bricks yet, whose position table covers `keys` (the bricks to be
+    /// [`push`](Self::push)ed); `None` past `max_slots` entries.
+    pub fn empty(
+        chart: Chart,
+        keys: impl Iterator<Item = IVec3>,
+        max_slots: usize,
+    ) -> Option<Self> {
+        let (mut lo, mut hi) = (IVec3::MAX, IVec3::MIN);
+        for k in keys {
+            lo = lo.min(k);
+            hi = hi.max(k);
+        }
+        let dims = if lo.cmpgt(hi).any() {
             IVec3::ZERO
         } else {
             hi - lo + IVec3::ONE
@@ -91,85 +120,136 @@ impl ChartMap {
         if n > max_slots {
             return None;
         }
-        let held = |form: BrickForm| {
-            bricks
-                .iter()
-                .filter(|b| b.form == form)
-                .map(|b| side(b.level).pow(3))
-                .sum()
-        };
-        let mut map = ChartMap {
+        Some(ChartMap {
             chart,
             lo,
             dims,
             slots: vec![NO_BRICK; n],
-            bricks: Vec::with_capacity(bricks.len()),
-            samples: Vec::with_capacity(held(BrickForm::Hermite)),
-            linear: Vec::with_capacity(held(BrickForm::Linear)),
-        };
-        for (i, baked) in bricks.into_iter().enumerate() {
-            if i % RELEASE_EVERY == RELEASE_EVERY - 1 {
-                // The bricks packed so far are freed: give their memory back, so the
-                // packed copy does not come on top of all of it.
-                crate::mem::release_freed_memory();
-            }
-            let BakedBrick {
-                key,
-                level,
-                form,
-                samples,
-            } = baked;
-            let n = side(level).pow(3);
-            let slot = map.slot_index(key)?;
-            map.slots[slot] = map.bricks.len() as u32;
-            let (offset, scales) = match form {
-                BrickForm::Hermite => {
-                    if !samples.has_len(n) {
-                        return None;
+            bricks: Vec::new(),
+            samples: Vec::new(),
+            linear: Vec::new(),
+        })
+    }
+
+    /// Packs one finished brick into the map: Hermite needs every quantity at all
+    /// `side(level)³` samples, Linear τ alone, Constant one τ (the first). `None` if the
+    /// brick lies outside the position table or lacks samples its form needs. The packing
+    /// depends on the brick alone, so the order bricks come in changes no lookup.
+    pub fn push(
+        &mut self,
+        key: IVec3,
+        level: u8,
+        form: BrickForm,
+        samples: &BrickSamples,
+    ) -> Option<()> {
+        let n = side(level).pow(3);
+        let slot = self.slot_index(key)?;
+        let (offset, scales) = match form {
+            BrickForm::Hermite => {
+                if !samples.has_len(n) {
+                    return None;
+                }
+                let offset = u32::try_from(self.samples.len()).ok()?;
+                let planes = samples.planes();
+                let scales: [f32; QUANTITIES - 1] = std::array::from_fn(|q| {
+                    let max = planes[q + 1].iter().fold(0f32, |m, v| m.max(v.abs()));
+                    if max > 0.0 && max.is_finite() {
+                        max / i16::MAX as f32
+                    } else {
+                        1.0
                     }
-                    let offset = u32::try_from(map.samples.len()).ok()?;
-                    let planes = samples.planes();
-                    let scales: [f32; QUANTITIES - 1] = std::array::from_fn(|q| {
-                        let max = planes[q + 1].iter().fold(0f32, |m, v| m.max(v.abs()));
-                        if max > 0.0 && max.is_finite() {
-                            max / i16::MAX as f32
-                        } else {
-                            1.0
-                        }
-                    });
-                    let pack = |v: f32, scale: f32| {
-                        (v / scale)
-                            .round()
-                            .clamp(-(i16::MAX as f32), i16::MAX as f32)
-                            as i16
-                    };
-                    map.samples.extend((0..n).map(|k| PackedSample {
-                        tau: planes[0][k],
-                        rest: std::array::from_fn(|q| pack(planes[q + 1][k], scales[q])),
-                    }));
-                    (offset, scales)
+                });
+                let pack = |v: f32, scale: f32| {
+                    (v / scale)
+                        .round()
+                        .clamp(-(i16::MAX as f32), i16::MAX as f32) as i16
+                };
+                self.samples.extend((0..n).map(|k| PackedSample {
+                    tau: planes[0][k],
+                    rest: std::array::from_fn(|q| pack(planes[q + 1][k], scales[q])),
+                }));
+                (offset, scales)
+            }
+            BrickForm::Linear => {
+                if samples.tau.len() != n {
+                    return None;
+                }
+                let offset = u32::try_from(self.linear.len()).ok()?;
+                let (base, step) = linear_scale(&samples.tau);
+                self.linear
+                    .extend(samples.tau.iter().map(|&t| quantise(t, base, step)));
+                (offset, [base, step, 0.0, 0.0])
+            }
+            BrickForm::Constant => (0, [*samples.tau.first()?, 0.0, 0.0, 0.0]),
+        };
+        self.slots[slot] = self.bricks.len() as u32;
+        self.bricks.push(Brick {
+            key,
+            level,
+            form,
+            offset,
+            scales,
+        });
+        Some(())
+    }
+
+    /// Room for `bricks` more bricks of up to `samples` samples in all, in either form:
+    /// an upper bound costs address space only, and the stores then never grow by
+    /// copying, which would leave the old copies' pages behind on the heap.
+    pub fn reserve(&mut self, bricks: usize, samples: usize) {
+        self.bricks.reserve_exact(bricks);
+        self.samples.reserve_exact(samples);
+        self.linear.reserve_exact(samples);
+    }
+
+    /// Takes the brick at `key` out of the position table (a lookup there then finds
+    /// none); [`drop_replaced`](Self::drop_replaced) reclaims its room.
+    pub fn forget(&mut self, key: IVec3) {
+        if let Some(slot) = self.slot_index(key) {
+            self.slots[slot] = NO_BRICK;
+        }
+    }
+
+    /// Drops the bricks a later [`push`](Self::push) at the same position replaced or
+    /// [`forget`](Self::forget) took out, and their samples, then gives back the room the stores grew beyond what they hold.
+    /// Bricks keep their order; samples move down in place.
+    pub fn drop_replaced(&mut self) {
+        let mut kept = 0usize;
+        let (mut to_samples, mut to_linear) = (0usize, 0usize);
+        for i in 0..self.bricks.len() {
+            let b = self.bricks[i];
+            let slot = self.slot_index(b.key).expect("a pushed brick has a slot");
+            if self.slots[slot] as usize != i {
+                continue;
+            }
+            let n = side(b.level).pow(3);
+            let offset = b.offset as usize;
+            let moved = match b.form {
+                BrickForm::Hermite => {
+                    self.samples.copy_within(offset..offset + n, to_samples);
+                    to_samples += n;
+                    to_samples - n
                 }
                 BrickForm::Linear => {
-                    if samples.tau.len() != n {
-                        return None;
-                    }
-                    let offset = u32::try_from(map.linear.len()).ok()?;
-                    let (base, step) = linear_scale(&samples.tau);
-                    map.linear
-                        .extend(samples.tau.iter().map(|&t| quantise(t, base, step)));
-                    (offset, [base, step, 0.0, 0.0])
+                    self.linear.copy_within(offset..offset + n, to_linear);
+                    to_linear += n;
+                    to_linear - n
                 }
-                BrickForm::Constant => (0, [*samples.tau.first()?, 0.0, 0.0, 0.0]),
+                BrickForm::Constant => offset,
             };
-            map.bricks.push(Brick {
-                key,
-                level,
-                form,
-                offset,
-                scales,
-            });
+            self.slots[slot] = kept as u32;
+            self.bricks[kept] = Brick {
+                offset: moved as u32,
+                ..b
+            };
+            kept += 1;
         }
-        Some(map)
+        self.bricks.truncate(kept);
+        self.samples.truncate(to_samples);
+        self.linear.truncate(to_linear);
+        self.bricks.shrink_to_fit();
+        self.samples.shrink_to_fit();
+        self.linear.shrink_to_fit();
     }
 
     fn slot_index(&self, key: IVec3) -> Option<usize> {

@@ -14,6 +14,7 @@ mod lattice;
 mod level_checks;
 pub mod map;
 pub mod march;
+mod refine;
 pub mod verify;
 
 pub use bake::{BakeReport, BakeSettings, LightGeometry, bake};

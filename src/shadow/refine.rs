@@ -1,0 +1,288 @@
+//! Choosing each brick's level and form (steps 3–5 of [`super::bake`]), packing every
+//! brick into the map as soon as it is decided.
+//!
+//! A level's samples are made a batch of whole brick stacks at a time
+//! ([`BATCH_SAMPLES`]), and each brick of the batch is decided and packed before the next
+//! batch is sampled: only one batch's samples are ever held in f32 (20 bytes a sample,
+//! where the map holds 12 or 2). A brick that needs the next level is packed too, at the
+//! level checked, in case the budget stops refinement there (then it is kept so, as it
+//! always was); if refinement goes on, the finer brick replaces it and
+//! [`ChartMap::drop_replaced`] reclaims its room. A stack's columns are marched through
+//! all its bricks on trial at once, as before, and the packing depends on the brick
+//! alone: the map's lookups are the same as when every brick was sampled together.
+
+use super::chart::Chart;
+use super::columns::sample_level;
+use super::lattice::{cells_per_column, cells_per_unit, column_cells};
+use super::level_checks::{Upstream, channels, coarse_error, coarsen, unresolved_bounds};
+use super::map::{BrickForm, BrickSamples, ChartMap, VOXEL_LEVEL, side};
+use super::{BakeReport, BakeSettings};
+use crate::field::Field;
+use glam::IVec3;
+use std::collections::BTreeMap;
+
+/// Below a voxel, how much halving the spacing at least divides a brick's error by: the
+/// Hermite blend's error falls 7–12-fold per halving on the fixtures (it goes as the
+/// spacing³ or faster).
+const SUB_VOXEL_GAIN: f64 = 7.0;
+
+/// The share of the tolerance a brick's check may use: the check sees the error at the
+/// next level's samples only, and the error between them is larger.
+const CHECK_FRACTION: f64 = 0.5;
+
+/// Samples made per batch (more only when one brick stack alone has more): 10 MB in
+/// f32, a few thousand bricks at the levels most bricks stop at, so the columns still
+/// spread over every thread.
+const BATCH_SAMPLES: usize = 1 << 19;
+
+/// A brick on trial: its key, what coarse samples could miss there (see
+/// `unresolved_bounds`), and at the first level what lies above it.
+type Pending = (IVec3, f64, Upstream);
+
+/// Chooses every brick's level and form, and packs each into `map`. `None` if the map
+/// refuses a brick (outside its table).
+pub(super) fn refine(
+    density: &dyn Field,
+    keys: &[IVec3],
+    settings: &BakeSettings,
+    report: &mut BakeReport,
+    cells: &mut f64,
+    map: &mut ChartMap,
+) -> Option<()> {
+    let chart: Chart = map.chart;
+    let sigmas = channels(settings.sigma_t);
+    let allowed = CHECK_FRACTION * settings.tolerance;
+    // Where each brick stack starts: density lies only inside marked bricks.
+    let mut stack_start: BTreeMap<(i32, i32), i32> = BTreeMap::new();
+    for k in keys {
+        let e = stack_start.entry((k.x, k.y)).or_insert(k.z);
+        *e = (*e).min(k.z);
+    }
+    let bounds = unresolved_bounds(density, &chart, keys, &sigmas);
+    // Dark bricks: at least `upstream` of ∫ρ ds lies above every point of the brick, so
+    // the light there is at most e^{−σ·upstream} ≤ `allowed` in every channel, and so is
+    // the error of reading τ = upstream anywhere in it (or below it). They are the tails
+    // of their stacks (upstream only grows downward): their columns need no marching.
+    let dark = |depth: f64| {
+        sigmas
+            .first()
+            .is_some_and(|&s| (-s * depth).exp() <= allowed)
+    };
+    let constant = |map: &mut ChartMap, key, depth: f64| {
+        let samples = BrickSamples {
+            tau: vec![depth as f32],
+            ..Default::default()
+        };
+        map.push(key, 0, BrickForm::Constant, &samples)
+    };
+    let mut pending: Vec<Pending> = Vec::with_capacity(keys.len());
+    for (&key, &(unresolved, upstream)) in keys.iter().zip(&bounds) {
+        if dark(upstream.depth) {
+            constant(map, key, upstream.depth)?;
+        } else {
+            pending.push((key, unresolved, upstream));
+        }
+    }
+    drop(bounds);
+    let max_level = settings.max_level.max(1);
+    let mut trial: u8 = 0;
+    let mut held: usize = 0;
+    while !pending.is_empty() {
+        let fine_level = trial + 1;
+        let m = side(fine_level);
+        // Bricks that need the next level, and their error at this one.
+        let mut next: Vec<(Pending, f64)> = Vec::new();
+        // Each brick on trial is packed once at this level, with at most m³ samples.
+        map.reserve(pending.len(), pending.len() * m * m * m);
+        for batch in stack_batches(&pending, m * m * m) {
+            let batch = &pending[batch];
+            let batch_keys: Vec<IVec3> = batch.iter().map(|p| p.0).collect();
+            let vals = sample_level(
+                density,
+                &chart,
+                &batch_keys,
+                fine_level,
+                &stack_start,
+                report,
+            );
+            for (&(key, unresolved, upstream), fine) in batch.iter().zip(vals) {
+                if trial == 0 {
+                    // Dark from the samples: every point of the brick lies below a point
+                    // of its top face on its column, where ∫ρ ds is at least the least
+                    // sampled there less how much it can differ between columns.
+                    let top = fine.tau[..m * m]
+                        .iter()
+                        .fold(f64::INFINITY, |a, &t| a.min(t as f64));
+                    let depth = upstream.depth.max(top - upstream.variation);
+                    if dark(depth) {
+                        constant(map, key, depth)?;
+                        continue;
+                    }
+                }
+                let kept = decide(
+                    &fine, fine_level, unresolved, &chart, &sigmas, allowed, max_level, report,
+                );
+                match kept {
+                    Decision::Keep {
+                        level,
+                        form,
+                        coarse,
+                    } => {
+                        let samples = if coarse {
+                            &coarsen(&fine, fine_level)
+                        } else {
+                            &fine
+                        };
+                        held += samples.len();
+                        map.push(key, level, form, samples)?;
+                    }
+                    Decision::Refine { error } => {
+                        // Held at the level checked until the budget says otherwise.
+                        map.push(key, fine_level, BrickForm::Hermite, &fine)?;
+                        next.push(((key, unresolved, upstream), error));
+                    }
+                }
+            }
+        }
+        trial += 1;
+        if next.is_empty() {
+            break;
+        }
+        let needed = next.len() * side(trial + 1).pow(3);
+        let next_keys: Vec<IVec3> = next.iter().map(|(p, _)| p.0).collect();
+        let marched = column_cells(
+            &next_keys,
+            &stack_start,
+            trial + 1,
+            chart.unit * cells_per_unit(density),
+            cells_per_column(density),
+        );
+        if held + needed > settings.max_values || *cells + marched > settings.max_cells {
+            // Out of budget (samples or work): keep what there is (packed already, at the
+            // level checked), and say what it costs.
+            report.bricks_over_tolerance += next.len();
+            report.bricks_stopped_by_budget += next.len();
+            let worst = next.iter().map(|(_, e)| *e).fold(0.0, f64::max);
+            report.over_tolerance_error = report.over_tolerance_error.max(worst);
+            break;
+        }
+        *cells += marched;
+        // The copies packed in case of that stop are not needed: give their room back
+        // before the next level's samples are made.
+        for (p, _) in &next {
+            map.forget(p.0);
+        }
+        map.drop_replaced();
+        pending = next.into_iter().map(|(p, _)| p).collect();
+        crate::mem::release_freed_memory();
+    }
+    // Bricks refined past a level they were packed at leave that copy behind.
+    map.drop_replaced();
+    Some(())
+}
+
+/// What the check at one level says about a brick.
+enum Decision {
+    /// Kept at `level` in `form`: from the level checked's samples coarsened, or from
+    /// them as they are.
+    Keep {
+        level: u8,
+        form: BrickForm,
+        coarse: bool,
+    },
+    /// Needs the next level; `error` is the Hermite error at the level on trial.
+    Refine { error: f64 },
+}
+
+/// Decides one brick on trial at `fine_level − 1` from its samples at `fine_level`.
+#[allow(clippy::too_many_arguments)]
+fn decide(
+    fine: &BrickSamples,
+    fine_level: u8,
+    unresolved: f64,
+    chart: &Chart,
+    sigmas: &[f64],
+    allowed: f64,
+    max_level: u8,
+    report: &mut BakeReport,
+) -> Decision {
+    let trial = fine_level - 1;
+    let coarse = coarsen(fine, fine_level);
+    let error_in = |form| {
+        if sigmas.is_empty() {
+            0.0
+        } else {
+            coarse_error(fine, &coarse, fine_level, chart, sigmas, form)
+        }
+    };
+    let keep = |level, form| Decision::Keep {
+        level,
+        form,
+        coarse: level == trial,
+    };
+    // Coarser than a voxel, the check alone could pass over unseen density.
+    let resolved = trial >= VOXEL_LEVEL || unresolved <= allowed;
+    // Trilinear τ in 16 bits first: a sixth of the memory and a cheaper lookup. Checked
+    // where the level on trial would be kept, and at two voxels, where an unresolved
+    // brick that passes is kept one level finer (below).
+    let linear = (resolved || fine_level == VOXEL_LEVEL) && error_in(BrickForm::Linear) <= allowed;
+    if linear && !resolved {
+        // Trilinear from two-voxel samples meets the one-voxel ones: one sample per voxel,
+        // which cannot step over density, trilinear too (2 bytes a sample, where Hermite
+        // at one voxel would take 12).
+        return keep(fine_level, BrickForm::Linear);
+    }
+    if linear {
+        return keep(trial, BrickForm::Linear);
+    }
+    let error = error_in(BrickForm::Hermite);
+    if error <= allowed && resolved {
+        keep(trial, BrickForm::Hermite)
+    } else if error <= allowed && fine_level == VOXEL_LEVEL {
+        // Smooth at two voxels as one-voxel samples see it, and only unresolved: one
+        // sample per voxel cannot step over density, so that level is kept without
+        // checking it against half a voxel (which would sample every such brick eight
+        // times over).
+        keep(fine_level, BrickForm::Hermite)
+    } else if fine_level >= max_level {
+        // Kept at the finest level unchecked (checking would take the level after).
+        // Below a voxel, halving the spacing divides the blend's error by SUB_VOXEL_GAIN
+        // or more: a brick likely misses only beyond that.
+        let gain = if fine_level > VOXEL_LEVEL {
+            SUB_VOXEL_GAIN
+        } else {
+            1.0
+        };
+        if error > gain * allowed {
+            report.bricks_over_tolerance += 1;
+            report.over_tolerance_error = report.over_tolerance_error.max(error / gain);
+        }
+        keep(fine_level, BrickForm::Hermite)
+    } else {
+        Decision::Refine { error }
+    }
+}
+
+/// `pending` (sorted by stack, as the keys are) cut into runs of whole brick stacks of
+/// about [`BATCH_SAMPLES`] samples, `per_brick` each.
+fn stack_batches(
+    pending: &[Pending],
+    per_brick: usize,
+) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+    let per_batch = (BATCH_SAMPLES / per_brick.max(1)).max(1);
+    let mut start = 0;
+    std::iter::from_fn(move || {
+        if start >= pending.len() {
+            return None;
+        }
+        let mut end = (start + per_batch).min(pending.len());
+        // Finish the stack the batch ends in.
+        let stack = |i: usize| (pending[i].0.x, pending[i].0.y);
+        while end < pending.len() && stack(end) == stack(end - 1) {
+            end += 1;
+        }
+        let batch = start..end;
+        start = end;
+        Some(batch)
+    })
+}
