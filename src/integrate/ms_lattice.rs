@@ -315,57 +315,64 @@ impl MsLattice {
                     (acc.as_vec3().to_array(), travel)
                 })
                 .collect();
-            let channels = if grey { 1 } else { 3 };
-            let mut total = vec![[0f32; MOMENTS]; grid.len];
-            let mut swept = 0;
-            let mut ratio = 0.0;
             let travel: Vec<DVec3> = first.iter().map(|(_, t)| *t).collect();
             let phase = |mu: f64| vol.phase.eval(mu).x;
-            for c in 0..channels {
-                let coeffs = Coefficients {
-                    sigma_t: sigma_t_red[c],
-                    albedo_first: sigma_s[c] / sigma_t_red[c],
-                    albedo: sigma_s_red[c] / sigma_t_red[c],
-                    h,
-                };
-                let source0: Vec<f32> = first.iter().map(|(a, _)| a[c]).collect();
-                let tint_c: Option<Vec<f32>> =
-                    tint.as_ref().map(|t| t.iter().map(|v| v[c]).collect());
+            let iteration = Iteration {
+                orders: s.orders,
+                dirs_for: &dirs_for,
+                diffusion: grown && s.diffusion_tail,
+                flux: g_mean != 0.0,
+            };
+            // A grey medium with no colour grid is one channel, scaled by the light's
+            // colour; else the three are swept together.
+            let (total, swept, ratio) = if grey {
+                let source: Vec<[f32; 1]> = first.iter().map(|(a, _)| [a[0]]).collect();
                 let solved = solve(
                     &grid,
                     &Sources {
                         rho: &rho,
-                        first: &source0,
+                        first: &source,
                         travel: &travel,
-                        tint: tint_c.as_deref(),
+                        tint: None,
                         phase: &phase,
                     },
-                    &coeffs,
-                    &Iteration {
-                        orders: s.orders,
-                        dirs_for: &dirs_for,
-                        diffusion: grown && s.diffusion_tail,
-                    },
+                    &coefficients::<1>(sigma_t_red, sigma_s, sigma_s_red, h),
+                    &iteration,
                 );
-                swept = solved.orders;
-                ratio = solved.ratio;
-                let scale = if grey {
-                    colour.as_vec3().to_array()
-                } else {
-                    [1.0; 3]
-                };
-                for (n, t) in total.iter_mut().enumerate() {
-                    for ch in 0..3 {
-                        if grey || ch == c {
-                            t[ch] = solved.j[n] * scale[ch];
-                            for k in 0..3 {
-                                t[3 + 3 * ch + k] = solved.g[n][k] * scale[ch];
-                            }
-                            t[12 + ch] = solved.j1[n] * scale[ch];
-                        }
-                    }
-                }
-            }
+                let colour = colour.as_vec3().to_array();
+                let total = (0..grid.len)
+                    .map(|n| {
+                        moments(
+                            |_| (solved.j[n][0], solved.g[n][0], solved.j1[n][0]),
+                            colour,
+                        )
+                    })
+                    .collect::<Vec<_>>();
+                (total, solved.orders, solved.ratio)
+            } else {
+                let source: Vec<[f32; 3]> = first.iter().map(|(a, _)| *a).collect();
+                let solved = solve(
+                    &grid,
+                    &Sources {
+                        rho: &rho,
+                        first: &source,
+                        travel: &travel,
+                        tint: tint.as_deref(),
+                        phase: &phase,
+                    },
+                    &coefficients::<3>(sigma_t_red, sigma_s, sigma_s_red, h),
+                    &iteration,
+                );
+                let total = (0..grid.len)
+                    .map(|n| {
+                        moments(
+                            |ch| (solved.j[n][ch], solved.g[n][ch], solved.j1[n][ch]),
+                            [1.0; 3],
+                        )
+                    })
+                    .collect::<Vec<_>>();
+                (total, solved.orders, solved.ratio)
+            };
             report.orders_swept.push(swept);
             report.tail_ratio.push(ratio);
             values.push(total);
@@ -472,6 +479,35 @@ impl MsLattice {
     pub fn memory_bytes(&self) -> usize {
         self.values.iter().map(|v| v.len() * 4 * MOMENTS).sum()
     }
+}
+
+/// The sweeps' coefficients of channels 0..C.
+fn coefficients<const C: usize>(
+    sigma_t_red: DVec3,
+    sigma_s: DVec3,
+    sigma_s_red: DVec3,
+    h: f64,
+) -> Coefficients<C> {
+    Coefficients {
+        sigma_t: std::array::from_fn(|c| sigma_t_red[c]),
+        albedo_first: std::array::from_fn(|c| sigma_s[c] / sigma_t_red[c]),
+        albedo: std::array::from_fn(|c| sigma_s_red[c] / sigma_t_red[c]),
+        h,
+    }
+}
+
+/// A node's stored moments from channel `ch`'s `(J, G, J₁)`, each scaled by `scale[ch]`.
+fn moments(at: impl Fn(usize) -> (f32, [f32; 3], f32), scale: [f32; 3]) -> [f32; MOMENTS] {
+    let mut t = [0f32; MOMENTS];
+    for ch in 0..3 {
+        let (j, g, j1) = at(ch);
+        t[ch] = j * scale[ch];
+        for k in 0..3 {
+            t[3 + 3 * ch + k] = g[k] * scale[ch];
+        }
+        t[12 + ch] = j1 * scale[ch];
+    }
+    t
 }
 
 /// Henyey–Greenstein with mean cosine `g` at `cos θ = mu`, times 4π (its mean over the

@@ -34,40 +34,41 @@ const TAIL_OWN_WEIGHT: f64 = 0.5;
 /// most 1/(1−r) times its first term).
 const MAX_TAIL_RATIO: f64 = 0.995;
 
-/// One channel's coefficients for the sweeps.
-pub(super) struct Coefficients {
+/// The channels' coefficients for the sweeps.
+pub(super) struct Coefficients<const C: usize> {
     /// Reduced extinction per unit density.
-    pub sigma_t: f64,
+    pub sigma_t: [f64; C],
     /// σs/σt* for the first scattering (true phase) and σs*/σt* afterwards.
-    pub albedo_first: f64,
-    pub albedo: f64,
+    pub albedo_first: [f64; C],
+    pub albedo: [f64; C],
     pub h: f64,
 }
 
-/// What one light's channel needs besides the lattice.
-pub(super) struct Sources<'a> {
+/// What one light's channels need besides the lattice.
+pub(super) struct Sources<'a, const C: usize> {
     /// Mean density per node.
     pub rho: &'a [f32],
     /// First scattering's source per node (mean of `ρ·E·T` over the cell).
-    pub first: &'a [f32],
+    pub first: &'a [[f32; C]],
     /// The light's travel direction per node.
     pub travel: &'a [DVec3],
-    /// Per node, the colour grid's tint of this channel.
-    pub tint: Option<&'a [f32]>,
+    /// Per node, the colour grid's tint.
+    pub tint: Option<&'a [[f32; C]]>,
     /// The phase function, `p(cos θ)` between the light's travel and the scattered
     /// direction (grey part).
     pub phase: &'a (dyn Fn(f64) -> f64 + Sync),
 }
 
-/// The orders' sum on the lattice.
-pub(super) struct Solved {
+/// The orders' sum on the lattice, per channel.
+pub(super) struct Solved<const C: usize> {
     /// `J_1` per node: the once-scattered light's mean radiance.
-    pub j1: Vec<f32>,
+    pub j1: Vec<[f32; C]>,
     /// `Σ_{k≥2} J_k` per node (tail included).
-    pub j: Vec<f32>,
-    /// `Σ_{k≥2} G_k` per node (tail included), `|G| ≤ J`.
-    pub g: Vec<[f32; 3]>,
+    pub j: Vec<[f32; C]>,
+    /// `Σ_{k≥2} G_k` per node and channel (tail included), `|G| ≤ J`.
+    pub g: Vec<[[f32; 3]; C]>,
     pub orders: u32,
+    /// The tail's ratio between orders, the largest over the channels.
     pub ratio: f64,
 }
 
@@ -77,29 +78,54 @@ pub(super) struct Iteration<'a> {
     pub dirs_for: &'a (dyn Fn(u32) -> Vec<DVec3> + Sync),
     /// The orders after the last swept one as a diffusion solve, else geometric.
     pub diffusion: bool,
+    /// Whether the flux `G` is wanted (a phase function that is not isotropic; with an
+    /// isotropic one it scatters nothing and stays zero).
+    pub flux: bool,
 }
 
-/// Source iteration for one light and channel.
-pub(super) fn solve(grid: &Grid, src: &Sources, c: &Coefficients, it: &Iteration) -> Solved {
+/// One task's buffers over the lattice, kept from order to order.
+struct GroupBuffers<const C: usize> {
+    acc: Vec<[f32; C]>,
+    acc_g: Vec<[[f32; 3]; C]>,
+    radiance: Vec<[f32; C]>,
+    source: Vec<[f32; C]>,
+}
+
+/// Source iteration for one light, all `C` channels in each sweep.
+pub(super) fn solve<const C: usize>(
+    grid: &Grid,
+    src: &Sources<C>,
+    c: &Coefficients<C>,
+    it: &Iteration,
+) -> Solved<C> {
     let rho = src.rho;
     let mut out = Solved {
-        j1: vec![0f32; grid.len],
-        j: vec![0f32; grid.len],
-        g: vec![[0f32; 3]; grid.len],
+        j1: vec![[0f32; C]; grid.len],
+        j: vec![[0f32; C]; grid.len],
+        g: vec![[[0f32; 3]; C]; grid.len],
         orders: 0,
         ratio: 0.0,
     };
-    if it.orders == 0 || src.first.iter().all(|v| *v <= 0.0) {
+    if it.orders == 0 || src.first.iter().flatten().all(|v| *v <= 0.0) {
         return out;
     }
     // J per node of the order being scattered (ρ·J for the first, from the map).
-    let mut rho_j: Vec<f32> = src.first.to_vec();
+    let mut rho_j: Vec<[f32; C]> = src.first.to_vec();
     let uniform_travel = src.travel.windows(2).all(|w| w[0] == w[1]);
-    let weight = |v: &[f32]| -> f64 { v.iter().zip(rho).map(|(a, r)| *a as f64 * *r as f64).sum() };
-    let (mut prev, mut total, mut ratio) = (0.0, 0.0, 0.0);
-    let mut last = vec![0f32; grid.len];
-    let mut last_g = vec![[0f32; 3]; grid.len];
-    let mut before = vec![0f32; grid.len];
+    let weight = |v: &[[f32; C]]| -> [f64; C] {
+        let mut w = [0f64; C];
+        for (a, r) in v.iter().zip(rho) {
+            for ch in 0..C {
+                w[ch] += a[ch] as f64 * *r as f64;
+            }
+        }
+        w
+    };
+    let (mut prev, mut total, mut ratio) = ([0f64; C], [0f64; C], [0f64; C]);
+    let mut last = vec![[0f32; C]; grid.len];
+    let mut last_g = vec![[[0f32; 3]; C]; grid.len];
+    let mut before = vec![[0f32; C]; grid.len];
+    let mut buffers: Vec<GroupBuffers<C>> = Vec::new();
     for order in 0..it.orders {
         let dirs = (it.dirs_for)(order);
         let first = order == 0;
@@ -116,7 +142,7 @@ pub(super) fn solve(grid: &Grid, src: &Sources, c: &Coefficients, it: &Iteration
                 .par_iter()
                 .zip(&rho_j)
                 .map(|(t, r)| {
-                    if *r > 0.0 {
+                    if r.iter().any(|v| *v > 0.0) {
                         phase_norm(src.phase, *t, &dirs)
                     } else {
                         1.0
@@ -125,127 +151,191 @@ pub(super) fn solve(grid: &Grid, src: &Sources, c: &Coefficients, it: &Iteration
                 .collect()
         };
         let albedo = if first { c.albedo_first } else { c.albedo };
-        let groups: Vec<(Vec<f32>, Vec<[f32; 3]>)> = dirs
-            .par_chunks(DIRECTION_GROUP)
-            .map(|group| {
-                let mut acc = vec![0f32; grid.len];
-                let mut acc_g = vec![[0f32; 3]; grid.len];
-                let mut radiance = vec![0f32; grid.len];
-                let mut s = vec![0f32; grid.len];
+        let n_groups = dirs.len().div_ceil(DIRECTION_GROUP);
+        while buffers.len() < n_groups {
+            buffers.push(GroupBuffers {
+                acc: vec![[0f32; C]; grid.len],
+                acc_g: if it.flux {
+                    vec![[[0f32; 3]; C]; grid.len]
+                } else {
+                    Vec::new()
+                },
+                radiance: vec![[0f32; C]; grid.len],
+                source: vec![[0f32; C]; grid.len],
+            });
+        }
+        buffers[..n_groups]
+            .par_iter_mut()
+            .zip(dirs.par_chunks(DIRECTION_GROUP))
+            .for_each(|(buf, group)| {
+                let GroupBuffers {
+                    acc,
+                    acc_g,
+                    radiance,
+                    source: s,
+                } = buf;
+                acc.iter_mut().for_each(|v| *v = [0.0; C]);
+                acc_g.iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
                 for d in group {
                     // The source for this direction: isotropic after the first order,
                     // the true phase toward d for the first.
                     if first {
-                        if uniform_travel {
-                            let p = (src.phase)(src.travel[0].dot(*d)) as f32 * norm[0];
-                            s.iter_mut().zip(&rho_j).for_each(|(s, v)| *s = v * p);
-                        } else {
-                            for n in 0..grid.len {
-                                s[n] = if rho_j[n] > 0.0 {
-                                    rho_j[n] * (src.phase)(src.travel[n].dot(*d)) as f32 * norm[n]
-                                } else {
-                                    0.0
-                                };
-                            }
+                        let p_at = |n: usize| {
+                            (src.phase)(src.travel[n].dot(*d)) as f32
+                                * norm[if uniform_travel { 0 } else { n }]
+                        };
+                        let p0 = if uniform_travel { p_at(0) } else { 0.0 };
+                        for (n, (s, v)) in s.iter_mut().zip(&rho_j).enumerate() {
+                            let p = if uniform_travel {
+                                p0
+                            } else if v.iter().any(|x| *x > 0.0) {
+                                p_at(n)
+                            } else {
+                                0.0
+                            };
+                            *s = v.map(|x| x * p);
                         }
                     } else {
                         s.copy_from_slice(&rho_j);
                     }
-                    sweep(grid, rho, &s, *d, c.sigma_t, albedo, c.h, &mut radiance);
+                    sweep(grid, rho, s, *d, c.sigma_t, albedo, c.h, radiance);
+                    for (a, r) in acc.iter_mut().zip(radiance.iter()) {
+                        for ch in 0..C {
+                            a[ch] += r[ch];
+                        }
+                    }
                     let df = d.as_vec3().to_array();
-                    for ((a, ag), r) in acc.iter_mut().zip(acc_g.iter_mut()).zip(&radiance) {
-                        *a += *r;
-                        for (g, dk) in ag.iter_mut().zip(df) {
-                            *g += *r * dk;
+                    for (ag, r) in acc_g.iter_mut().zip(radiance.iter()) {
+                        for ch in 0..C {
+                            for (g, dk) in ag[ch].iter_mut().zip(df) {
+                                *g += r[ch] * dk;
+                            }
                         }
                     }
                 }
-                (acc, acc_g)
-            })
-            .collect();
+            });
         // Means over directions (in a fixed order of groups).
         let inv = 1.0 / dirs.len() as f32;
         std::mem::swap(&mut before, &mut last);
-        last.iter_mut().for_each(|v| *v = 0.0);
-        last_g.iter_mut().for_each(|v| *v = [0.0; 3]);
-        for (a, ag) in &groups {
-            last.iter_mut().zip(a).for_each(|(l, v)| *l += *v);
-            for (l, v) in last_g.iter_mut().zip(ag) {
-                for k in 0..3 {
-                    l[k] += v[k];
+        last.iter_mut().for_each(|v| *v = [0.0; C]);
+        last_g.iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
+        for buf in &buffers[..n_groups] {
+            for (l, v) in last.iter_mut().zip(&buf.acc) {
+                for ch in 0..C {
+                    l[ch] += v[ch];
+                }
+            }
+            for (l, v) in last_g.iter_mut().zip(&buf.acc_g) {
+                for ch in 0..C {
+                    for k in 0..3 {
+                        l[ch][k] += v[ch][k];
+                    }
                 }
             }
         }
-        last.iter_mut().for_each(|v| *v *= inv);
-        last_g.iter_mut().flatten().for_each(|v| *v *= inv);
+        last.iter_mut().flatten().for_each(|v| *v *= inv);
+        last_g
+            .iter_mut()
+            .flatten()
+            .flatten()
+            .for_each(|v| *v *= inv);
         out.orders += 1;
         if first {
             out.j1.copy_from_slice(&last);
         } else {
-            out.j.iter_mut().zip(&last).for_each(|(s, v)| *s += *v);
-            add(&mut out.g, &last_g, 1.0);
+            add(&mut out.j, &last, 1.0);
+            add_flux(&mut out.g, &last_g, [1.0; C]);
         }
         let w = weight(&last);
-        total += w;
-        if !first && prev > 0.0 {
-            ratio = (w / prev).clamp(0.0, MAX_TAIL_RATIO);
+        let mut converged = true;
+        for ch in 0..C {
+            total[ch] += w[ch];
+            if !first && prev[ch] > 0.0 {
+                ratio[ch] = (w[ch] / prev[ch]).clamp(0.0, MAX_TAIL_RATIO);
+            }
+            prev[ch] = w[ch];
+            converged &= w[ch] <= CONVERGED * total[ch];
         }
-        prev = w;
-        if w <= CONVERGED * total {
-            ratio = 0.0;
+        if converged {
+            ratio = [0.0; C];
             break;
         }
         // The next order scatters this one (ρ·J at each node, tinted by the colour grid
         // there: each scattering event carries its tint).
-        rho_j
-            .iter_mut()
-            .zip(last.iter().zip(rho))
-            .for_each(|(o, (j, r))| *o = j * r);
-        if let Some(t) = src.tint {
-            rho_j.iter_mut().zip(t).for_each(|(o, t)| *o *= t);
+        for (n, (o, j)) in rho_j.iter_mut().zip(&last).enumerate() {
+            let t = src.tint.map_or([1.0; C], |t| t[n]);
+            for ch in 0..C {
+                o[ch] = j[ch] * rho[n] * t[ch];
+            }
         }
     }
-    out.ratio = ratio;
-    if ratio > 0.0 && it.diffusion {
-        let (tail, _) = super::ms_diffusion::diffusion_tail(
-            grid.dims,
-            rho,
-            &last,
-            src.tint,
-            &super::ms_diffusion::DiffusionCoefficients {
-                sigma_t: c.sigma_t,
-                albedo: c.albedo,
-                h: c.h,
-            },
-        );
-        // Its flux by Fick's law: G = −∇T/(3σt*·ρ).
-        let g = fick_flux(grid, rho, &tail, c.sigma_t, c.h);
-        out.j.iter_mut().zip(&tail).for_each(|(s, t)| *s += *t);
-        add(&mut out.g, &g, 1.0);
-    } else if ratio > 0.0 {
+    out.ratio = ratio.iter().fold(0.0, |m, r| r.max(m));
+    if it.diffusion {
+        for ch in (0..C).filter(|ch| ratio[*ch] > 0.0) {
+            let last_c: Vec<f32> = last.iter().map(|v| v[ch]).collect();
+            let tint_c: Option<Vec<f32>> = src.tint.map(|t| t.iter().map(|v| v[ch]).collect());
+            let (tail, _) = super::ms_diffusion::diffusion_tail(
+                grid.dims,
+                rho,
+                &last_c,
+                tint_c.as_deref(),
+                &super::ms_diffusion::DiffusionCoefficients {
+                    sigma_t: c.sigma_t[ch],
+                    albedo: c.albedo[ch],
+                    h: c.h,
+                },
+            );
+            // Its flux by Fick's law: G = −∇T/(3σt*·ρ).
+            let g = if it.flux {
+                fick_flux(grid, rho, &tail, c.sigma_t[ch], c.h)
+            } else {
+                vec![[0.0; 3]; grid.len]
+            };
+            for ((j, gs), (t, gt)) in out
+                .j
+                .iter_mut()
+                .zip(out.g.iter_mut())
+                .zip(tail.iter().zip(&g))
+            {
+                j[ch] += t;
+                for (a, b) in gs[ch].iter_mut().zip(gt) {
+                    *a += b;
+                }
+            }
+        }
+    } else if ratio.iter().any(|r| *r > 0.0) {
         // Each node's tail blends two geometric extrapolations of its last order: with
         // the global ratio, and with the node's own ratio (never above the global one).
         // Its flux is the last order's, scaled alike.
         for (n, (v, b)) in last.iter().zip(&before).enumerate() {
-            let own = if *b > 0.0 {
-                (*v as f64 / *b as f64).clamp(0.0, ratio)
-            } else {
-                ratio
-            };
-            let tail = ((1.0 - TAIL_OWN_WEIGHT) * ratio / (1.0 - ratio)
-                + TAIL_OWN_WEIGHT * own / (1.0 - own)) as f32;
-            out.j[n] += *v * tail;
-            for (o, l) in out.g[n].iter_mut().zip(&last_g[n]) {
-                *o += l * tail;
+            let mut factor = [0f32; C];
+            for ch in 0..C {
+                let r = ratio[ch];
+                if r <= 0.0 {
+                    continue;
+                }
+                let own = if b[ch] > 0.0 {
+                    (v[ch] as f64 / b[ch] as f64).clamp(0.0, r)
+                } else {
+                    r
+                };
+                factor[ch] = ((1.0 - TAIL_OWN_WEIGHT) * r / (1.0 - r)
+                    + TAIL_OWN_WEIGHT * own / (1.0 - own)) as f32;
+                out.j[n][ch] += v[ch] * factor[ch];
             }
+            let mut one = [[[0f32; 3]; C]];
+            one[0] = last_g[n];
+            add_flux(std::slice::from_mut(&mut out.g[n]), &one, factor);
         }
     }
     // |⟨L·d⟩| ≤ ⟨L⟩ for any radiance: the lattice's and Fick's estimates are held to it.
-    for (g, j) in out.g.iter_mut().zip(&out.j) {
-        let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-        if len > *j && len > 0.0 {
-            let s = j.max(0.0) / len;
-            g.iter_mut().for_each(|v| *v *= s);
+    for (gs, j) in out.g.iter_mut().zip(&out.j) {
+        for (g, j) in gs.iter_mut().zip(j) {
+            let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+            if len > *j && len > 0.0 {
+                let s = j.max(0.0) / len;
+                g.iter_mut().for_each(|v| *v *= s);
+            }
         }
     }
     out
@@ -259,10 +349,20 @@ fn phase_norm(phase: &(dyn Fn(f64) -> f64 + Sync), t: DVec3, dirs: &[DVec3]) -> 
     if m > 0.0 { (1.0 / m) as f32 } else { 1.0 }
 }
 
-fn add(sum: &mut [[f32; 3]], v: &[[f32; 3]], scale: f32) {
+fn add<const C: usize>(sum: &mut [[f32; C]], v: &[[f32; C]], scale: f32) {
     for (s, v) in sum.iter_mut().zip(v) {
-        for k in 0..3 {
-            s[k] += v[k] * scale;
+        for ch in 0..C {
+            s[ch] += v[ch] * scale;
+        }
+    }
+}
+
+fn add_flux<const C: usize>(sum: &mut [[[f32; 3]; C]], v: &[[[f32; 3]; C]], scale: [f32; C]) {
+    for (s, v) in sum.iter_mut().zip(v) {
+        for ch in 0..C {
+            for k in 0..3 {
+                s[ch][k] += v[ch][k] * scale[ch];
+            }
         }
     }
 }

@@ -26,7 +26,8 @@ impl Grid {
 }
 
 /// One direction's upwind sweep: `radiance[n]` = L(node n, d) given the source `ρ·J`
-/// per node (`rho_j`).
+/// per node (`rho_j`), for `C` channels at once (a chromatic medium's, or a colour
+/// grid's: the lattice's geometry and densities are read once for all of them).
 ///
 /// The characteristic from a node goes back one node along `d`'s dominant axis `a`, so
 /// its foot lies within one node of the node's own column on the other two axes: the
@@ -34,15 +35,15 @@ impl Grid {
 /// loop over a row's interior needs no bounds checks (the lattice's cost is these
 /// sweeps: `orders × directions × nodes` of them).
 #[allow(clippy::too_many_arguments)]
-pub(super) fn sweep(
+pub(super) fn sweep<const C: usize>(
     grid: &Grid,
     rho: &[f32],
-    rho_j: &[f32],
+    rho_j: &[[f32; C]],
     d: DVec3,
-    sigma_t: f64,
-    albedo: f64,
+    sigma_t: [f64; C],
+    albedo: [f64; C],
     h: f64,
-    radiance: &mut [f32],
+    radiance: &mut [[f32; C]],
 ) {
     let da = d.abs();
     let a = if da.x >= da.y && da.x >= da.z {
@@ -74,9 +75,10 @@ pub(super) fn sweep(
     let (nb, nc) = (dims[b] as isize, dims[cax] as isize);
     let forward = dv[a] > 0.0;
     let node = Node {
-        sigma_step: (sigma_t * step) as f32,
-        albedo: albedo as f32,
+        sigma_step: sigma_t.map(|s| (s * step) as f32),
+        albedo: albedo.map(|a| a as f32),
     };
+    let zero = [0f32; C];
     // Rows (along b) whose four upstream nodes are all in range: ib + fb ≥ 0 and
     // ib + fb + 1 < nb.
     let ib_lo = (-fb).clamp(0, nb) as usize;
@@ -98,7 +100,7 @@ pub(super) fn sweep(
             for ic in 0..dims[cax] {
                 for ib in 0..dims[b] {
                     let n = plane + ib * st[b] + ic * st[cax];
-                    radiance[n] = node.radiance(0.0, 0.0, 0.0, rho[n], rho_j[n]);
+                    radiance[n] = node.radiance(&zero, 0.0, &zero, rho[n], &rho_j[n]);
                 }
             }
             continue;
@@ -107,18 +109,20 @@ pub(super) fn sweep(
         for ic in 0..dims[cax] {
             let jc = ic as isize + fc;
             let row = plane + ic * st[cax];
-            // The upstream value at (jb, jc) and (jb, jc + 1) .. with bounds checks.
-            let checked = |ib: usize, radiance: &[f32]| -> (f32, f32, f32) {
-                let (mut l, mut r, mut rj) = (0.0f32, 0.0f32, 0.0f32);
+            // The upstream values at the foot, with bounds checks.
+            let checked = |ib: usize, radiance: &[[f32; C]]| -> ([f32; C], f32, [f32; C]) {
+                let (mut l, mut r, mut rj) = ([0f32; C], 0.0f32, [0f32; C]);
                 for (k, wk) in w.iter().enumerate() {
                     let (jb, jc) = (ib as isize + fb + (k & 1) as isize, jc + (k >> 1) as isize);
                     if *wk == 0.0 || jb < 0 || jc < 0 || jb >= nb || jc >= nc {
                         continue;
                     }
                     let m = up_plane + jb as usize * st[b] + jc as usize * st[cax];
-                    l += wk * radiance[m];
                     r += wk * rho[m];
-                    rj += wk * rho_j[m];
+                    for ch in 0..C {
+                        l[ch] += wk * radiance[m][ch];
+                        rj[ch] += wk * rho_j[m][ch];
+                    }
                 }
                 (l, r, rj)
             };
@@ -126,14 +130,14 @@ pub(super) fn sweep(
                 for ib in 0..dims[b] {
                     let n = row + ib * st[b];
                     let (l, r, rj) = checked(ib, radiance);
-                    radiance[n] = node.radiance(l, r, rj, rho[n], rho_j[n]);
+                    radiance[n] = node.radiance(&l, r, &rj, rho[n], &rho_j[n]);
                 }
                 continue;
             }
             for ib in (0..ib_lo).chain(ib_hi..dims[b]) {
                 let n = row + ib * st[b];
                 let (l, r, rj) = checked(ib, radiance);
-                radiance[n] = node.radiance(l, r, rj, rho[n], rho_j[n]);
+                radiance[n] = node.radiance(&l, r, &rj, rho[n], &rho_j[n]);
             }
             // The row's interior: the four upstream nodes m, m + sb, m + sc, m + sb + sc.
             let (sb, sc) = (st[b], st[cax]);
@@ -142,54 +146,67 @@ pub(super) fn sweep(
                 let n = row + ib * sb;
                 let m = up_row + (ib as isize + fb) as usize * sb;
                 let taps = [m, m + sb, m + sc, m + sb + sc];
-                let (mut l, mut r, mut rj) = (0.0f32, 0.0f32, 0.0f32);
+                let (mut l, mut r, mut rj) = ([0f32; C], 0.0f32, [0f32; C]);
                 for (t, wk) in taps.iter().zip(&w) {
-                    l += wk * radiance[*t];
                     r += wk * rho[*t];
-                    rj += wk * rho_j[*t];
+                    for ch in 0..C {
+                        l[ch] += wk * radiance[*t][ch];
+                        rj[ch] += wk * rho_j[*t][ch];
+                    }
                 }
-                radiance[n] = node.radiance(l, r, rj, rho[n], rho_j[n]);
+                radiance[n] = node.radiance(&l, r, &rj, rho[n], &rho_j[n]);
             }
         }
     }
 }
 
-/// One node's update along its characteristic.
-struct Node {
-    sigma_step: f32,
-    albedo: f32,
+/// One node's update along its characteristic, per channel.
+struct Node<const C: usize> {
+    sigma_step: [f32; C],
+    albedo: [f32; C],
 }
 
-impl Node {
+impl<const C: usize> Node<C> {
     /// L at a node from the upstream radiance `l_up`, density `r_up` and source `rj_up`
     /// (bilinear at the characteristic's foot) and the node's own density and source:
     /// density the mean of the two ends, the source linear along the step.
     #[inline(always)]
-    fn radiance(&self, l_up: f32, r_up: f32, rj_up: f32, r_here: f32, rj_here: f32) -> f32 {
+    fn radiance(
+        &self,
+        l_up: &[f32; C],
+        r_up: f32,
+        rj_up: &[f32; C],
+        r_here: f32,
+        rj_here: &[f32; C],
+    ) -> [f32; C] {
         let rho_mean = 0.5 * (r_here + r_up);
         if rho_mean <= 0.0 {
-            return l_up;
+            return *l_up;
         }
-        let tau = self.sigma_step * rho_mean;
-        let j_up = if r_up > 0.0 { rj_up / r_up } else { 0.0 };
-        let (j_here, j_up) = match (r_here > 0.0, r_up > 0.0) {
-            (true, true) => (rj_here / r_here, j_up),
-            (true, false) => (rj_here / r_here, rj_here / r_here),
-            (false, _) => (j_up, j_up),
-        };
-        let e = (-tau).exp();
-        // 1 − e^{−τ} and P = (1 − e^{−τ} − τ·e^{−τ})/τ, by their series where τ is small.
-        let (one_minus, p) = if tau < 1e-2 {
-            (
-                tau * (1.0 - 0.5 * tau * (1.0 - tau / 3.0)),
-                tau * (0.5 - tau * (1.0 / 3.0 - tau / 8.0)),
-            )
-        } else {
-            let om = 1.0 - e;
-            (om, (om - tau * e) / tau)
-        };
-        let l = l_up * e + self.albedo * (j_here * (one_minus - p) + j_up * p);
-        l.max(0.0)
+        let mut out = [0f32; C];
+        for ch in 0..C {
+            let tau = self.sigma_step[ch] * rho_mean;
+            let j_up = if r_up > 0.0 { rj_up[ch] / r_up } else { 0.0 };
+            let (j_here, j_up) = match (r_here > 0.0, r_up > 0.0) {
+                (true, true) => (rj_here[ch] / r_here, j_up),
+                (true, false) => (rj_here[ch] / r_here, rj_here[ch] / r_here),
+                (false, _) => (j_up, j_up),
+            };
+            let e = (-tau).exp();
+            // 1 − e^{−τ} and P = (1 − e^{−τ} − τ·e^{−τ})/τ, by their series where τ is small.
+            let (one_minus, p) = if tau < 1e-2 {
+                (
+                    tau * (1.0 - 0.5 * tau * (1.0 - tau / 3.0)),
+                    tau * (0.5 - tau * (1.0 / 3.0 - tau / 8.0)),
+                )
+            } else {
+                let om = 1.0 - e;
+                (om, (om - tau * e) / tau)
+            };
+            let l = l_up[ch] * e + self.albedo[ch] * (j_here * (one_minus - p) + j_up * p);
+            out[ch] = l.max(0.0);
+        }
+        out
     }
 }
 
@@ -347,7 +364,10 @@ mod tests {
             let (mut fast, mut slow) = (vec![0f32; g.len], vec![0f32; g.len]);
             // From light (τ of a step ≪ 1, the series) to thick (τ ≫ 1).
             for sigma in [0.001, 0.5, 30.0] {
-                sweep(&g, &rho, &rj, d, sigma, 0.9, 0.7, &mut fast);
+                let rj1: Vec<[f32; 1]> = rj.iter().map(|v| [*v]).collect();
+                let mut fast1 = vec![[0f32; 1]; g.len];
+                sweep(&g, &rho, &rj1, d, [sigma], [0.9], 0.7, &mut fast1);
+                fast.iter_mut().zip(&fast1).for_each(|(f, v)| *f = v[0]);
                 sweep_checked(&g, &rho, &rj, d, sigma, 0.9, 0.7, &mut slow);
                 let scale = slow.iter().fold(0f32, |m, v| m.max(*v));
                 assert!(scale > 0.0, "direction {t}: nothing swept");
@@ -363,17 +383,37 @@ mod tests {
     }
 
     #[test]
+    fn three_channels_swept_together_are_each_swept_alone() {
+        let (g, rho, rj) = lattice();
+        let d = DVec3::new(-0.4, 0.3, 0.87).normalize();
+        let (sigma, albedo) = ([0.2, 3.0, 40.0], [0.99, 0.5, 0.9]);
+        // Each channel's source a different multiple of the lumpy one.
+        let rj3: Vec<[f32; 3]> = rj.iter().map(|v| [*v, 2.0 * v, 0.5 * v]).collect();
+        let mut l3 = vec![[0f32; 3]; g.len];
+        sweep(&g, &rho, &rj3, d, sigma, albedo, 0.7, &mut l3);
+        for ch in 0..3 {
+            let rj1: Vec<[f32; 1]> = rj3.iter().map(|v| [v[ch]]).collect();
+            let mut l1 = vec![[0f32; 1]; g.len];
+            sweep(&g, &rho, &rj1, d, [sigma[ch]], [albedo[ch]], 0.7, &mut l1);
+            for (a, b) in l3.iter().zip(&l1) {
+                assert_eq!(a[ch], b[0], "channel {ch}");
+            }
+            assert!(l1.iter().any(|v| v[0] > 0.0), "channel {ch}: nothing swept");
+        }
+    }
+
+    #[test]
     fn an_axis_sweep_through_a_uniform_medium_is_the_closed_form() {
         // Along +x through a uniform medium with a uniform J: L = ω·J·(1 − e^{−σρ·(x + h/2)}),
         // x the distance from the first plane (whose step back into the empty outside
         // holds density on its half, the mean of the two ends).
         let g = Grid::new([12, 3, 3]);
         let rho = vec![2.0f32; g.len];
-        let rj = vec![2.0 * 1.5; g.len];
-        let mut l = vec![0f32; g.len];
+        let rj = vec![[2.0 * 1.5; 1]; g.len];
+        let mut l = vec![[0f32; 1]; g.len];
         let (sigma, albedo, h) = (0.4, 0.8, 0.5);
-        sweep(&g, &rho, &rj, DVec3::X, sigma, albedo, h, &mut l);
-        for (n, got) in l.iter().enumerate() {
+        sweep(&g, &rho, &rj, DVec3::X, [sigma], [albedo], h, &mut l);
+        for (n, [got]) in l.iter().enumerate() {
             let x = (g.coords(n)[0] as f64 + 0.5) * h;
             let want = albedo * 1.5 * (1.0 - (-sigma * 2.0 * x).exp());
             assert!(
