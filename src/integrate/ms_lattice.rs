@@ -78,6 +78,10 @@ const MIN_GROWN_ORDERS: u32 = 10;
 const MAX_GROWN_ALBEDO: f64 = 0.998;
 /// Directions per order of a grown lattice.
 const GROWN_DIRECTIONS: usize = 20;
+/// Largest `max p × 4π / directions` of a phase function whose forward peak the
+/// lattice's directions are taken to resolve (see `ms_orders::DiscretePhase`).
+const PEAK_RESOLVED: f64 = 4.0;
+
 /// Floats per node and light: see [`MsLattice`]'s `values`.
 const MOMENTS: usize = 15;
 
@@ -317,6 +321,12 @@ impl MsLattice {
                 .collect();
             let travel: Vec<DVec3> = first.iter().map(|(_, t)| *t).collect();
             let phase = |mu: f64| vol.phase.eval(mu).x;
+            // The phase's peak is resolved where it carries no more than a few times what
+            // one direction's share of the sphere does: Henyey–Greenstein up to g ≈ 0.85
+            // at 20 directions, never a water drop's diffraction peak.
+            let peak_resolved = vol.phase.max_value() * 4.0 * std::f64::consts::PI
+                / s.directions.max(1) as f64
+                <= PEAK_RESOLVED;
             let iteration = Iteration {
                 orders: s.orders,
                 dirs_for: &dirs_for,
@@ -335,6 +345,7 @@ impl MsLattice {
                         travel: &travel,
                         tint: None,
                         phase: &phase,
+                        peak_resolved,
                     },
                     &coefficients::<1>(sigma_t_red, sigma_s, sigma_s_red, h),
                     &iteration,
@@ -359,6 +370,7 @@ impl MsLattice {
                         travel: &travel,
                         tint: tint.as_deref(),
                         phase: &phase,
+                        peak_resolved,
                     },
                     &coefficients::<3>(sigma_t_red, sigma_s, sigma_s_red, h),
                     &iteration,
