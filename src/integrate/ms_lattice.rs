@@ -337,53 +337,29 @@ impl MsLattice {
             // colour; else the three are swept together.
             let (total, swept, ratio) = if grey {
                 let source: Vec<[f32; 1]> = first.iter().map(|(a, _)| [a[0]]).collect();
-                let solved = solve(
-                    &grid,
-                    &Sources {
-                        rho: &rho,
-                        first: &source,
-                        travel: &travel,
-                        tint: None,
-                        phase: &phase,
-                        peak_resolved,
-                    },
-                    &coefficients::<1>(sigma_t_red, sigma_s, sigma_s_red, h),
-                    &iteration,
-                );
+                let sources = Sources {
+                    rho: &rho,
+                    first: &source,
+                    travel: &travel,
+                    tint: None,
+                    phase: &phase,
+                    peak_resolved,
+                };
+                let coeffs = coefficients::<1>(sigma_t_red, sigma_s, sigma_s_red, h);
                 let colour = colour.as_vec3().to_array();
-                let total = (0..grid.len)
-                    .map(|n| {
-                        moments(
-                            |_| (solved.j[n][0], solved.g[n][0], solved.j1[n][0]),
-                            colour,
-                        )
-                    })
-                    .collect::<Vec<_>>();
-                (total, solved.orders, solved.ratio)
+                solve_moments(&grid, &sources, &coeffs, &iteration, colour)
             } else {
                 let source: Vec<[f32; 3]> = first.iter().map(|(a, _)| *a).collect();
-                let solved = solve(
-                    &grid,
-                    &Sources {
-                        rho: &rho,
-                        first: &source,
-                        travel: &travel,
-                        tint: tint.as_deref(),
-                        phase: &phase,
-                        peak_resolved,
-                    },
-                    &coefficients::<3>(sigma_t_red, sigma_s, sigma_s_red, h),
-                    &iteration,
-                );
-                let total = (0..grid.len)
-                    .map(|n| {
-                        moments(
-                            |ch| (solved.j[n][ch], solved.g[n][ch], solved.j1[n][ch]),
-                            [1.0; 3],
-                        )
-                    })
-                    .collect::<Vec<_>>();
-                (total, solved.orders, solved.ratio)
+                let sources = Sources {
+                    rho: &rho,
+                    first: &source,
+                    travel: &travel,
+                    tint: tint.as_deref(),
+                    phase: &phase,
+                    peak_resolved,
+                };
+                let coeffs = coefficients::<3>(sigma_t_red, sigma_s, sigma_s_red, h);
+                solve_moments(&grid, &sources, &coeffs, &iteration, [1.0; 3])
             };
             report.orders_swept.push(swept);
             report.tail_ratio.push(ratio);
@@ -508,18 +484,32 @@ fn coefficients<const C: usize>(
     }
 }
 
-/// A node's stored moments from channel `ch`'s `(J, G, J₁)`, each scaled by `scale[ch]`.
-fn moments(at: impl Fn(usize) -> (f32, [f32; 3], f32), scale: [f32; 3]) -> [f32; MOMENTS] {
-    let mut t = [0f32; MOMENTS];
-    for ch in 0..3 {
-        let (j, g, j1) = at(ch);
-        t[ch] = j * scale[ch];
-        for k in 0..3 {
-            t[3 + 3 * ch + k] = g[k] * scale[ch];
-        }
-        t[12 + ch] = j1 * scale[ch];
-    }
-    t
+/// Solves `C` channels and stores each node's moments for red, green and blue: channel
+/// `ch` of `C` = 3, or the one channel of `C` = 1 for all three; each scaled by
+/// `scale[rgb]`. Returns them, the orders swept and the tail's ratio.
+fn solve_moments<const C: usize>(
+    grid: &Grid,
+    sources: &Sources<C>,
+    coeffs: &Coefficients<C>,
+    iteration: &Iteration,
+    scale: [f32; 3],
+) -> (Vec<[f32; MOMENTS]>, u32, f64) {
+    let solved = solve(grid, sources, coeffs, iteration);
+    let total = (0..grid.len)
+        .map(|n| {
+            let mut t = [0f32; MOMENTS];
+            for (rgb, sc) in scale.iter().enumerate() {
+                let ch = rgb.min(C - 1);
+                t[rgb] = solved.j[n][ch] * sc;
+                for k in 0..3 {
+                    t[3 + 3 * rgb + k] = solved.g[n][ch][k] * sc;
+                }
+                t[12 + rgb] = solved.j1[n][ch] * sc;
+            }
+            t
+        })
+        .collect();
+    (total, solved.orders, solved.ratio)
 }
 
 /// Henyey–Greenstein with mean cosine `g` at `cos θ = mu`, times 4π (its mean over the
