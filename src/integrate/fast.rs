@@ -3,15 +3,17 @@
 //! Single scattering stays exact, as [`SingleScattering`] computes it (ray march, deep
 //! shadow map). The light scattered two or more times comes from a coarse lattice solved
 //! once per light before the render ([`MsLattice`]: discrete-ordinates source iteration
-//! seeded by the shadow map) and read by the same march as an isotropic in-radiance
-//! `J(x)`, so each march segment adds `σs·ρ·J` beside its single-scattered term. The
-//! march's cost grows by one trilinear lookup per segment and light; the lattice costs
-//! `orders × directions × nodes` stencil updates.
+//! seeded by the shadow map), which keeps per node the once-scattered light's mean
+//! radiance and the later orders' mean and flux; the same march reads them and adds, per
+//! segment, `σs·ρ` times what they scatter toward the camera ([`MsLattice::toward`])
+//! beside its single-scattered term. The march's cost grows by one trilinear lookup per
+//! segment and light; the lattice costs `orders × directions × nodes` stencil updates.
 //!
 //! It assumes the multiply scattered radiance is smooth on the lattice's scale (a few
-//! voxels), isotropic where it is gathered toward the camera, and that an anisotropic
-//! phase function's effect past the first scattering is its mean cosine (similarity);
-//! a colour grid tints what is gathered but not what the lattice transports.
+//! voxels), that light scattered twice or more is broad in angle (its flux carries what
+//! a phase function does with it), and that an anisotropic phase function's effect on
+//! transport past the first scattering is its mean cosine (similarity). A colour grid
+//! tints every scattering event, so the lattice then solves the three channels.
 
 use super::ground::Ground;
 use super::integrator::{CameraSample, Integrator, SampleRng};
