@@ -249,7 +249,7 @@ pub(super) fn solve<const C: usize>(
         if first {
             out.j1.copy_from_slice(&last);
         } else {
-            add(&mut out.j, &last, 1.0);
+            add(&mut out.j, &last);
             add_flux(&mut out.g, &last_g, [1.0; C]);
         }
         let w = weight(&last);
@@ -329,9 +329,11 @@ pub(super) fn solve<const C: usize>(
                     + TAIL_OWN_WEIGHT * own / (1.0 - own)) as f32;
                 out.j[n][ch] += v[ch] * factor[ch];
             }
-            let mut one = [[[0f32; 3]; C]];
-            one[0] = last_g[n];
-            add_flux(std::slice::from_mut(&mut out.g[n]), &one, factor);
+            add_flux(
+                std::slice::from_mut(&mut out.g[n]),
+                std::slice::from_ref(&last_g[n]),
+                factor,
+            );
         }
     }
     // |⟨L·d⟩| ≤ ⟨L⟩ for any radiance: the lattice's and Fick's estimates are held to it.
@@ -395,10 +397,10 @@ impl DiscretePhase {
     }
 }
 
-fn add<const C: usize>(sum: &mut [[f32; C]], v: &[[f32; C]], scale: f32) {
+fn add<const C: usize>(sum: &mut [[f32; C]], v: &[[f32; C]]) {
     for (s, v) in sum.iter_mut().zip(v) {
         for ch in 0..C {
-            s[ch] += v[ch] * scale;
+            s[ch] += v[ch];
         }
     }
 }

@@ -81,9 +81,9 @@ impl<I: Integrator> PixelJob<'_, I> {
 /// The alpha difference to a neighbour above which a pixel is an edge (0.05 resampled
 /// 3 % of the demo cloud's pixels at 640×360, its fBm detail, for +77 % CPU; 0.1 0.2 %
 /// for +6 %; on dense clouds' silhouettes at 80×45 0.05, 0.1 and 0.2 found the same
-/// pixels). Alpha is what decides because the march integrates optical depth exactly: it does not move with
-/// the step, the shadow tolerance or the scattering mode, so the same pixels are
-/// resampled in a render and in its `--reference`.
+/// pixels). Alpha is what decides because the march integrates optical depth exactly:
+/// it does not move with the step, the shadow tolerance or the scattering mode, so the
+/// same pixels are resampled in a render and in its `--reference`.
 pub const EDGE_ALPHA: f32 = 0.1;
 
 /// Renders every pixel of the job's rows.
@@ -167,7 +167,7 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
     // Pass 1: the centres (or the job's samples), 16×16 tiles in parallel, into one
     // row-major buffer of rows c0..c1.
     let tiles_x = w.div_ceil(TILE);
-    let tiles = tiles_x * c1.saturating_sub(c0).div_ceil(TILE);
+    let tiles = job.tiles();
     let results: Vec<(usize, Vec<f32>)> = (0..tiles)
         .into_par_iter()
         .map_init(

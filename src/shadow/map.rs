@@ -218,7 +218,10 @@ impl ChartMap {
         let (mut to_samples, mut to_linear) = (0usize, 0usize);
         for i in 0..self.bricks.len() {
             let b = self.bricks[i];
-            let slot = self.slot_index(b.key).expect("a pushed brick has a slot");
+            // `push` refuses a brick without a slot, so every brick has one.
+            let Some(slot) = self.slot_index(b.key) else {
+                continue;
+            };
             if self.slots[slot] as usize != i {
                 continue;
             }
