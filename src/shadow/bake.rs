@@ -17,6 +17,9 @@
 //!    brick stays coarser than a voxel only if, besides passing the check, the density's
 //!    range over it and over every brick above it toward the light bounds what it could
 //!    miss below the tolerance ([`unresolved_bounds`](super::level_checks::unresolved_bounds)).
+//!    A brick that bound does not clear is refined whatever its samples say until they
+//!    are a voxel apart, so after its first level (which can find it dark) it goes
+//!    straight to that one: the levels between are not marched for it.
 //! 5. Forms (see [`BrickForm`](super::map::BrickForm)): a brick kept at a level is held as τ alone, trilinear in
 //!    16 bits, when that blend (plus its rounding) passes the same check, else with τ's
 //!    slopes for the Hermite blend; a brick below which at least `−ln(tol/2)/σ` of optical

@@ -85,8 +85,14 @@ pub(super) fn refine(
     }
     drop(bounds);
     let max_level = settings.max_level.max(1);
+    // The first level on trial at which an unresolved brick can be kept (its samples one
+    // voxel apart, or the finest level's): before it, `decide` refines it whatever it
+    // sees, so only its first level (for the dark check) is sampled before this one.
+    let decisive = max_level.min(VOXEL_LEVEL) - 1;
+    let mut deferred: Vec<(Pending, f64)> = Vec::new();
     let mut trial: u8 = 0;
-    let mut held: usize = 0;
+    // Samples kept, and reserved for the deferred bricks' samples.
+    let (mut held, mut reserved) = (0usize, 0usize);
     while !pending.is_empty() {
         let fine_level = trial + 1;
         let m = side(fine_level);
@@ -145,32 +151,73 @@ pub(super) fn refine(
             }
         }
         trial += 1;
-        if next.is_empty() {
-            break;
+        // Bricks that go on at the next level, and those deferred to `decisive`.
+        let mut skip: Vec<(Pending, f64)> = Vec::new();
+        if trial < decisive {
+            // Unresolved bricks refine at every level before `decisive` whatever their
+            // samples say: those levels are not sampled for them.
+            let (s, n): (Vec<_>, Vec<_>) = next.into_iter().partition(|(p, _)| p.1 > allowed);
+            (skip, next) = (s, n);
         }
-        let needed = next.len() * side(trial + 1).pow(3);
-        let next_keys: Vec<IVec3> = next.iter().map(|(p, _)| p.0).collect();
-        let marched = column_cells(
-            &next_keys,
-            &stack_start,
-            trial + 1,
-            chart.unit * cells_per_unit(density),
-            cells_per_column(density),
-        );
-        if held + needed > settings.max_values || *cells + marched > settings.max_cells {
+        let cost = |bricks: &[(Pending, f64)], level: u8| {
+            let keys: Vec<IVec3> = bricks.iter().map(|(p, _)| p.0).collect();
+            let cells = column_cells(
+                &keys,
+                &stack_start,
+                level,
+                chart.unit * cells_per_unit(density),
+                cells_per_column(density),
+            );
+            (bricks.len() * side(level).pow(3), cells)
+        };
+        let (skip_values, skip_cells) = cost(&skip, decisive + 1);
+        let (needed, marched) = cost(&next, trial + 1);
+        if !skip.is_empty()
+            && held + reserved + needed + skip_values <= settings.max_values
+            && *cells + marched + skip_cells <= settings.max_cells
+        {
+            // Their level `decisive + 1` samples are paid for now; their copies packed at
+            // the level checked are not needed.
+            reserved += skip_values;
+            *cells += skip_cells;
+            for (p, _) in &skip {
+                map.forget(p.0);
+            }
+            deferred.append(&mut skip);
+        } else {
+            // Not affordable at once: level by level, as the others.
+            next.append(&mut skip);
+        }
+        let (needed, marched) = cost(&next, trial + 1);
+        if held + reserved + needed > settings.max_values || *cells + marched > settings.max_cells {
             // Out of budget (samples or work): keep what there is (packed already, at the
             // level checked), and say what it costs.
             report.bricks_over_tolerance += next.len();
             report.bricks_stopped_by_budget += next.len();
             let worst = next.iter().map(|(_, e)| *e).fold(0.0, f64::max);
             report.over_tolerance_error = report.over_tolerance_error.max(worst);
-            break;
+            next.clear();
+        } else {
+            *cells += marched;
         }
-        *cells += marched;
         // The copies packed in case of that stop are not needed: give their room back
         // before the next level's samples are made.
         for (p, _) in &next {
             map.forget(p.0);
+        }
+        if trial == decisive {
+            // The deferred bricks join here, their budget already counted.
+            reserved = 0;
+            next.append(&mut deferred);
+        }
+        if next.is_empty() && deferred.is_empty() {
+            break;
+        }
+        if next.is_empty() {
+            // Nothing left before `decisive`: go straight to it.
+            trial = decisive;
+            reserved = 0;
+            next.append(&mut deferred);
         }
         map.drop_replaced();
         pending = next.into_iter().map(|(p, _)| p).collect();
