@@ -205,16 +205,12 @@ pub(super) fn refine(
         for (p, _) in &next {
             map.forget(p.0);
         }
-        if trial == decisive {
-            // The deferred bricks join here, their budget already counted.
-            reserved = 0;
-            next.append(&mut deferred);
-        }
         if next.is_empty() && deferred.is_empty() {
             break;
         }
-        if next.is_empty() {
-            // Nothing left before `decisive`: go straight to it.
+        if trial == decisive || next.is_empty() {
+            // The deferred bricks join at `decisive` (their budget counted already), at
+            // once if no brick is left before it.
             trial = decisive;
             reserved = 0;
             next.append(&mut deferred);
