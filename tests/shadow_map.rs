@@ -412,6 +412,35 @@ fn a_budget_that_stops_refinement_is_reported_with_the_error_to_expect() {
     assert_eq!(stats(default.clone()).shortfall(TOL), None, "{default:?}");
 }
 
+/// The finest level is a cap too: where one sample per voxel still misses a dense
+/// medium's tolerance (σt 32 per unit on the fixtures' voxels), the bricks kept there
+/// unchecked are counted, and the error named for them is their two-voxel error over
+/// the measured gain of one more halving — about what marched rays find there, not the
+/// two-voxel error itself, which was 5–15× what they find.
+#[test]
+fn bricks_kept_at_one_voxel_over_the_tolerance_name_the_error_to_expect() {
+    let light = LightGeometry::Sun {
+        travel: -DVec3::new(0.6, 1.0, 0.5).normalize(),
+    };
+    let (tol, sigma) = (5e-3, DVec3::splat(32.0));
+    for name in ["cloud.vdb", "houdini_pyro.vdb", "blender_smoke.vdb"] {
+        let g = fixture(name);
+        let (map, report) = bake(&g, light, &BakeSettings::new(tol, sigma));
+        assert_eq!(report.bricks_stopped_by_budget, 0, "{name}: {report:?}");
+        assert!(report.bricks_over_tolerance > 0, "{name}: {report:?}");
+        let r = murk::shadow::verify(&map, &g, light, sigma, tol, 10_000, 5);
+        assert!(
+            r.max_error > tol,
+            "{name}: over the tolerance indeed: {r:?}"
+        );
+        let named = report.over_tolerance_error;
+        assert!(
+            r.max_error <= 2.0 * named && named <= 5.0 * r.max_error,
+            "{name}: named {named:e} against {r:?}"
+        );
+    }
+}
+
 /// Compact bricks (#14): the demo cloud under the default sun: its smooth bricks hold τ alone, trilinear in 16 bits. The map is smaller than
 /// with every brick Hermite, still meets the tolerance against marched rays, and the
 /// cache gives the same map back. (Its bricks are never dark: the density's least value
