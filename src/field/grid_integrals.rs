@@ -126,40 +126,34 @@ impl Iterator for CellWalk<'_> {
     }
 }
 
-/// Gradient (local index units) of the trilinear blend of corners `v` at `t` ∈ [0, 1]³;
-/// `v[k]` is corner `(k>>2 & 1, k>>1 & 1, k & 1)`.
-fn trilinear_gradient(v: &[f32; 8], t: DVec3) -> DVec3 {
-    let v = v.map(|x| x as f64);
+/// The trilinear blend of corners `v` (`v[k]` is corner `(k>>2 & 1, k>>1 & 1, k & 1)`)
+/// at `t` ∈ [0, 1]³ (local index units): its value, gradient and the Hessian's off-diagonal terms `[∂xy, ∂xz, ∂yz]` (its
+/// diagonal is 0), from one set of lerps along z.
+#[inline]
+fn trilinear_jet(v: &[f64; 8], t: DVec3) -> (f64, DVec3, [f64; 3]) {
     let lerp = |a: f64, b: f64, s: f64| a + (b - a) * s;
-    // Bilinear blend of c[(s << 1) | u] at (s, u).
-    let bilin = |c: [f64; 4], s: f64, u: f64| lerp(lerp(c[0], c[1], u), lerp(c[2], c[3], u), s);
-    DVec3::new(
-        bilin(
-            [v[4] - v[0], v[5] - v[1], v[6] - v[2], v[7] - v[3]],
-            t.y,
-            t.z,
-        ),
-        bilin(
-            [v[2] - v[0], v[3] - v[1], v[6] - v[4], v[7] - v[5]],
-            t.x,
-            t.z,
-        ),
-        bilin(
-            [v[1] - v[0], v[3] - v[2], v[5] - v[4], v[7] - v[6]],
-            t.x,
-            t.y,
-        ),
-    )
-}
-
-/// `aᵀ H b` for the Hessian H of the trilinear blend of `v` at `t` (its diagonal is 0).
-fn trilinear_mixed(v: &[f32; 8], t: DVec3, a: DVec3, b: DVec3) -> f64 {
-    let v = v.map(|x| x as f64);
-    let lerp = |p: f64, q: f64, s: f64| p + (q - p) * s;
-    let hxy = lerp(v[6] - v[4] - v[2] + v[0], v[7] - v[5] - v[3] + v[1], t.z);
-    let hxz = lerp(v[5] - v[4] - v[1] + v[0], v[7] - v[6] - v[3] + v[2], t.y);
-    let hyz = lerp(v[3] - v[2] - v[1] + v[0], v[7] - v[6] - v[5] + v[4], t.x);
-    hxy * (a.x * b.y + a.y * b.x) + hxz * (a.x * b.z + a.z * b.x) + hyz * (a.y * b.z + a.z * b.y)
+    // Along z at each (x, y) edge, index (x << 1) | y: the values and their z-slopes.
+    let z = [
+        lerp(v[0], v[1], t.z),
+        lerp(v[2], v[3], t.z),
+        lerp(v[4], v[5], t.z),
+        lerp(v[6], v[7], t.z),
+    ];
+    let dz = [v[1] - v[0], v[3] - v[2], v[5] - v[4], v[7] - v[6]];
+    let (y0, y1) = (lerp(z[0], z[1], t.y), lerp(z[2], z[3], t.y));
+    let (dz0, dz1) = (lerp(dz[0], dz[1], t.y), lerp(dz[2], dz[3], t.y));
+    let value = lerp(y0, y1, t.x);
+    let gradient = DVec3::new(
+        y1 - y0,
+        lerp(z[1] - z[0], z[3] - z[2], t.x),
+        lerp(dz0, dz1, t.x),
+    );
+    let mixed = [
+        (z[3] - z[2]) - (z[1] - z[0]),
+        dz1 - dz0,
+        lerp(dz[1] - dz[0], dz[3] - dz[2], t.x),
+    ];
+    (value, gradient, mixed)
 }
 
 impl VoxelGrid {
@@ -287,20 +281,20 @@ impl VoxelGrid {
             k += 1;
         }
         // The previous cell's corners, for the gradient's jump at a face.
-        let mut prev: Option<(IVec3, [f32; 8])> = None;
+        let mut prev: Option<(IVec3, [f64; 8])> = None;
         for (cell, ta, tb, entered) in walk {
             let mid = ray.at(0.5 * (ta + tb));
             let corners = match self.stencil_in(cell, mid - cell.as_dvec3(), 0, &mut cache) {
                 Stencil::Constant(v) => [v; 8],
                 Stencil::Corners(v, _) => v,
             };
+            let wide = corners.map(f64::from);
             if entered.iter().any(|e| *e) {
                 let pe = ray.at(ta);
                 let (a, b) = (side.a.at(ta), side.b.at(ta));
-                let g_new = trilinear_gradient(&corners, pe - cell.as_dvec3());
-                let g_old = prev.map_or(DVec3::ZERO, |(c, v)| {
-                    trilinear_gradient(&v, pe - c.as_dvec3())
-                });
+                let g_new = trilinear_jet(&wide, pe - cell.as_dvec3()).1;
+                let g_old =
+                    prev.map_or(DVec3::ZERO, |(c, v)| trilinear_jet(&v, pe - c.as_dvec3()).1);
                 for axis in 0..3 {
                     if entered[axis] && d[axis] != 0.0 {
                         acc[3] += (g_new[axis] - g_old[axis]) * a[axis] * b[axis] / d[axis].abs();
@@ -320,13 +314,15 @@ impl VoxelGrid {
                     let half = 0.5 * (w - u);
                     for tn in [tm - off, tm + off] {
                         let t = ray.at(tn) - cell.as_dvec3();
-                        let g = trilinear_gradient(&corners, t);
+                        let (f, g, [hxy, hxz, hyz]) = trilinear_jet(&wide, t);
                         let (a, b) = (side.a.at(tn), side.b.at(tn));
-                        acc[0] += half * trilinear_f64(&corners, t);
+                        let mixed = hxy * (a.x * b.y + a.y * b.x)
+                            + hxz * (a.x * b.z + a.z * b.x)
+                            + hyz * (a.y * b.z + a.z * b.y);
+                        acc[0] += half * f;
                         acc[1] += half * g.dot(a);
                         acc[2] += half * g.dot(b);
-                        acc[3] +=
-                            half * (trilinear_mixed(&corners, t, a, b) + g.dot(side.c.at(tn)));
+                        acc[3] += half * (mixed + g.dot(side.c.at(tn)));
                     }
                 }
                 u = w;
@@ -337,7 +333,7 @@ impl VoxelGrid {
                     break;
                 }
             }
-            prev = Some((cell, corners));
+            prev = Some((cell, wide));
         }
         while k < targets.len() {
             out.push(acc);
@@ -398,6 +394,40 @@ mod tests {
                 assert_eq!(v.to_bits(), want.to_bits(), "t {t}: {v} against {want}");
             }
             assert!(out.iter().any(|&v| v > 0.0) && out.contains(&0.0));
+        }
+    }
+
+    /// The jet's value is the blend's, and its gradient and mixed second derivatives
+    /// are the blend's central differences (exact for a trilinear function, whose
+    /// second differences along one axis vanish), at random corners and points.
+    #[test]
+    fn trilinear_jet_matches_differences_of_the_blend() {
+        let mut rng = SplitMix64(5);
+        let f = |v: &[f64; 8], t: DVec3| trilinear_f64(&v.map(|x| x as f32), t);
+        for _ in 0..200 {
+            let v: [f64; 8] = std::array::from_fn(|_| (rng.next_f64() * 4.0 - 2.0) as f32 as f64);
+            let t = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64());
+            let (value, g, [hxy, hxz, hyz]) = trilinear_jet(&v, t);
+            assert!((value - f(&v, t)).abs() < 1e-12);
+            let h = 1e-3;
+            let e = [DVec3::X, DVec3::Y, DVec3::Z];
+            for (axis, de) in e.iter().enumerate() {
+                let d = (f(&v, t + *de * h) - f(&v, t - *de * h)) / (2.0 * h);
+                assert!(
+                    (g[axis] - d).abs() < 1e-9,
+                    "axis {axis}: {} against {d}",
+                    g[axis]
+                );
+            }
+            let mixed = |a: DVec3, b: DVec3| {
+                (f(&v, t + (a + b) * h) - f(&v, t + (a - b) * h) - f(&v, t + (b - a) * h)
+                    + f(&v, t - (a + b) * h))
+                    / (4.0 * h * h)
+            };
+            for (got, (a, b)) in [hxy, hxz, hyz].into_iter().zip([(0, 1), (0, 2), (1, 2)]) {
+                let want = mixed(e[a], e[b]);
+                assert!((got - want).abs() < 1e-6, "{a}{b}: {got} against {want}");
+            }
         }
     }
 
