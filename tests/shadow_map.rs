@@ -412,6 +412,45 @@ fn a_budget_that_stops_refinement_is_reported_with_the_error_to_expect() {
     assert_eq!(stats(default.clone()).shortfall(TOL), None, "{default:?}");
 }
 
+/// `--threads N` holds for the whole render, not the pixel loop alone: the shadow bake,
+/// the multiple-scattering lattice and the pixel loop each see N worker threads
+/// (recorded by a progress sink as each stage starts), for N = 1 and 3 on a 2-core
+/// machine alike; and the image is the same for both.
+#[test]
+fn every_stage_keeps_to_the_thread_count() {
+    struct Threads(std::sync::Mutex<Vec<(String, usize)>>);
+    impl murk::scene::progress::Progress for Threads {
+        fn start(&self, what: &str, _total: u64, _unit: &str) {
+            let n = rayon::current_num_threads();
+            self.0.lock().unwrap().push((what.to_owned(), n));
+        }
+    }
+    let mut frames = Vec::new();
+    for n in [1, 3] {
+        let o = RenderOptions {
+            output: Some(std::env::temp_dir().join("murk-unused.exr")),
+            res: Some("32x18".into()),
+            threads: Some(n),
+            quiet: true,
+            ..Default::default()
+        };
+        let plan = RenderPlan::new(&o, fixture_path("cloud.vdb")).unwrap();
+        let seen = Threads(Default::default());
+        frames.push(murk::render::render_image_with(&plan, &seen).unwrap().frame);
+        let seen = seen.0.into_inner().unwrap();
+        let stages: Vec<&str> = seen.iter().map(|(w, _)| w.as_str()).collect();
+        assert!(
+            stages.contains(&"baking shadow maps") && stages.contains(&"rendering"),
+            "{seen:?}"
+        );
+        assert!(seen.iter().all(|&(_, t)| t == n), "--threads {n}: {seen:?}");
+    }
+    assert!(
+        frames[0] == frames[1],
+        "the image depends on the thread count"
+    );
+}
+
 /// The finest level is a cap too: where one sample per voxel still misses a dense
 /// medium's tolerance (σt 32 per unit on the fixtures' voxels), the bricks kept there
 /// unchecked are counted, and the error named for them is their two-voxel error over

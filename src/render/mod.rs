@@ -54,8 +54,33 @@ pub fn run(plan: &RenderPlan, progress: &dyn Progress) -> Result<RenderStats> {
     )
 }
 
+/// Runs `work` on the plan's threads (`--threads`; all cores when not given): every
+/// stage in it — load, shadow bake, lattice, pixel loop, write — then keeps to them.
+fn on_plan_threads<T: Send>(
+    plan: &RenderPlan,
+    work: impl FnOnce() -> Result<T> + Send,
+) -> Result<T> {
+    match plan.sampling.threads {
+        None => work(),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .context("starting worker threads")?
+            .install(work),
+    }
+}
+
 /// [`run`] for one frame (or piece of one) of a sequence, reusing what `reuse` kept.
 pub fn run_frame(
+    plan: &RenderPlan,
+    progress: &dyn Progress,
+    reuse: &mut FrameReuse,
+    job: FrameJob,
+) -> Result<RenderStats> {
+    on_plan_threads(plan, || run_frame_here(plan, progress, reuse, job))
+}
+
+fn run_frame_here(
     plan: &RenderPlan,
     progress: &dyn Progress,
     reuse: &mut FrameReuse,
@@ -67,7 +92,7 @@ pub fn run_frame(
         frame,
         mut exr,
         stats: mut st,
-    } = render_image_frame(plan, progress, reuse, job)?;
+    } = render_image_frame_here(plan, progress, reuse, job)?;
     let t = Instant::now();
     exr.render_time_seconds = Some(start.elapsed().as_secs_f64());
     st.scene
@@ -127,6 +152,15 @@ pub fn render_image_with(plan: &RenderPlan, progress: &dyn Progress) -> Result<R
 
 /// [`render_image_with`] for one frame or piece of a sequence, reusing what `reuse` kept.
 pub fn render_image_frame(
+    plan: &RenderPlan,
+    progress: &dyn Progress,
+    reuse: &mut FrameReuse,
+    job: FrameJob,
+) -> Result<RenderedImage> {
+    on_plan_threads(plan, || render_image_frame_here(plan, progress, reuse, job))
+}
+
+fn render_image_frame_here(
     plan: &RenderPlan,
     progress: &dyn Progress,
     reuse: &mut FrameReuse,
@@ -330,11 +364,8 @@ fn render_frame<I: Integrator>(
         antialias: plan.sampling.antialias,
     };
     progress.start("rendering", job.tiles() as u64, "tiles");
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(plan.sampling.threads.unwrap_or(0))
-        .build()
-        .context("starting worker threads")?;
-    let passes = pool.install(|| pixels::render_pixels(&job, progress));
+    // On the plan's threads: the caller runs inside `on_plan_threads`.
+    let passes = pixels::render_pixels(&job, progress);
     progress.finish();
     let render_seconds = t.elapsed().as_secs_f64();
     st.rays = passes.rays;
@@ -346,6 +377,10 @@ fn render_frame<I: Integrator>(
 /// `murk bake-shadows`: bakes the deep shadow map of every light of `plan` over its
 /// density grid and writes them to `plan.outputs.path` (a `.vdb`), for `--shadow-cache`.
 pub fn bake_shadow_file(plan: &RenderPlan, progress: &dyn Progress) -> Result<RenderStats> {
+    on_plan_threads(plan, || bake_shadow_file_here(plan, progress))
+}
+
+fn bake_shadow_file_here(plan: &RenderPlan, progress: &dyn Progress) -> Result<RenderStats> {
     let start = Instant::now();
     check_output_dirs(plan)?;
     if !plan
