@@ -127,8 +127,9 @@ impl Iterator for CellWalk<'_> {
 }
 
 /// The trilinear blend of corners `v` (`v[k]` is corner `(k>>2 & 1, k>>1 & 1, k & 1)`)
-/// at `t` ∈ [0, 1]³ (local index units): its value, gradient and the Hessian's off-diagonal terms `[∂xy, ∂xz, ∂yz]` (its
-/// diagonal is 0), from one set of lerps along z.
+/// at `t` ∈ [0, 1]³ (local index units): its value, gradient and the Hessian's
+/// off-diagonal terms `[∂xy, ∂xz, ∂yz]` (its diagonal is 0), from one set of lerps
+/// along z.
 #[inline]
 fn trilinear_jet(v: &[f64; 8], t: DVec3) -> (f64, DVec3, [f64; 3]) {
     let lerp = |a: f64, b: f64, s: f64| a + (b - a) * s;
