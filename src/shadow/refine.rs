@@ -178,25 +178,26 @@ pub(super) fn refine(
             );
             (bricks.len() * side(level).pow(3), cells)
         };
-        let (skip_values, skip_cells) = cost(&skip, decisive + 1);
-        let (needed, marched) = cost(&next, trial + 1);
-        if !skip.is_empty()
-            && held + reserved + needed + skip_values <= settings.max_values
-            && *cells + marched + skip_cells <= settings.max_cells
-        {
-            // Their level `decisive + 1` samples are paid for now; their copies packed at
-            // the level checked are not needed.
-            reserved += skip_values;
-            *cells += skip_cells;
-            for (p, _) in &skip {
-                map.forget(p.0);
+        let (mut needed, mut marched) = cost(&next, trial + 1);
+        if !skip.is_empty() {
+            let (skip_values, skip_cells) = cost(&skip, decisive + 1);
+            if held + reserved + needed + skip_values <= settings.max_values
+                && *cells + marched + skip_cells <= settings.max_cells
+            {
+                // Their level `decisive + 1` samples are paid for now; their copies packed
+                // at the level checked are not needed.
+                reserved += skip_values;
+                *cells += skip_cells;
+                for (p, _) in &skip {
+                    map.forget(p.0);
+                }
+                deferred.append(&mut skip);
+            } else {
+                // Not affordable at once: level by level, as the others.
+                next.append(&mut skip);
+                (needed, marched) = cost(&next, trial + 1);
             }
-            deferred.append(&mut skip);
-        } else {
-            // Not affordable at once: level by level, as the others.
-            next.append(&mut skip);
         }
-        let (needed, marched) = cost(&next, trial + 1);
         if held + reserved + needed > settings.max_values || *cells + marched > settings.max_cells {
             // Out of budget (samples or work): keep what there is (packed already, at the
             // level checked), and say what it costs.
