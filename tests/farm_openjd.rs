@@ -4,38 +4,15 @@
 
 mod common;
 use common::frames::*;
+use common::tools;
 
 use std::fs;
-use std::path::PathBuf;
 use std::process::Command;
-
-fn openjd() -> Option<PathBuf> {
-    let candidates = [
-        std::env::var_os("MURK_OPENJD").map(PathBuf::from),
-        Some(PathBuf::from("/opt/murk-venv/bin/openjd")),
-    ];
-    candidates
-        .into_iter()
-        .flatten()
-        .find(|p| p.is_file())
-        .or_else(|| {
-            Command::new("openjd")
-                .arg("--help")
-                .output()
-                .ok()
-                .filter(|o| o.status.success())
-                .map(|_| PathBuf::from("openjd"))
-        })
-}
 
 #[test]
 fn the_openjd_job_runs_and_its_frames_equal_direct_renders() {
-    let Some(openjd) = openjd() else {
-        eprintln!(
-            "SKIPPED: openjd (openjd-cli from PyPI) not found in MURK_OPENJD, /opt/murk-venv/bin or PATH; .ci/run installs it"
-        );
-        return;
-    };
+    need!(tools::IDIFF, tools::OPENJD);
+    let openjd = tools::program(&tools::OPENJD);
     for tiles in ["1", "3"] {
         let dir = scratch(&format!("openjd-{tiles}"));
         // The job lives at the project's root, above the cache and the renders.
