@@ -57,7 +57,7 @@ fn full_channel(path: &Path, name: &str) -> Vec<f32> {
 fn blender_sees(exr: &Path, dir: &Path, name: &str) -> (serde_json::Value, Vec<f32>) {
     let json = dir.join(format!("{name}.json"));
     let alpha = dir.join(format!("{name}_alpha.exr"));
-    let out = Command::new("blender")
+    let out = tools::command(&tools::BLENDER)
         .args(["-b", "--factory-startup", "-noaudio", "--python"])
         .arg(root().join("scripts/blender_compositor.py"))
         .arg("--")

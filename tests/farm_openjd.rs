@@ -7,12 +7,10 @@ use common::frames::*;
 use common::tools;
 
 use std::fs;
-use std::process::Command;
 
 #[test]
 fn the_openjd_job_runs_and_its_frames_equal_direct_renders() {
     need!(tools::IDIFF, tools::OPENJD);
-    let openjd = tools::program(&tools::OPENJD);
     for tiles in ["1", "3"] {
         let dir = scratch(&format!("openjd-{tiles}"));
         // The job lives at the project's root, above the cache and the renders.
@@ -42,7 +40,7 @@ fn the_openjd_job_runs_and_its_frames_equal_direct_renders() {
         assert_eq!(steps[1]["dependencies"][0]["dependsOn"], "Render");
         let run = |args: &[&str]| {
             // From elsewhere: the defaults are relative to the template's folder.
-            let out = Command::new(&openjd)
+            let out = tools::command(&tools::OPENJD)
                 .current_dir(std::env::temp_dir())
                 .args(args)
                 .output()

@@ -6,8 +6,6 @@
 mod common;
 use common::tools;
 
-use std::process::Command;
-
 #[test]
 fn fixtures_match_a_fresh_openvdb_run() {
     need!(
@@ -17,7 +15,7 @@ fn fixtures_match_a_fresh_openvdb_run() {
         tools::PYPI_REFERENCES
     );
     let root = env!("CARGO_MANIFEST_DIR");
-    let out = Command::new("/usr/bin/python3")
+    let out = tools::command(&tools::PYOPENVDB)
         .arg(format!("{root}/scripts/make_fixtures.py"))
         .arg("--check")
         .arg(format!("{root}/fixtures"))

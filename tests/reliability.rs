@@ -517,7 +517,7 @@ fn pyopenvdb_write(path: &Path, script: &str) {
     let full = format!(
         "import pyopenvdb as vdb, numpy as np, sys\n{script}\nvdb.write(sys.argv[1], grids=[g])\n"
     );
-    let o = Command::new("/usr/bin/python3")
+    let o = tools::command(&tools::PYOPENVDB)
         .args(["-c", &full, s(path)])
         .output()
         .expect("/usr/bin/python3 with pyopenvdb (Debian package python3-openvdb) is required");

@@ -286,7 +286,7 @@ fn shadow_cache_round_trips_and_refuses_a_mismatch() {
         }
     }
     // OpenVDB reads it.
-    let out = std::process::Command::new("vdb_print")
+    let out = tools::command(&tools::VDB_PRINT)
         .arg(&path)
         .output()
         .expect("vdb_print (Debian package libopenvdb-tools) is required");
@@ -316,7 +316,7 @@ fn shadow_cache_round_trips_and_refuses_a_mismatch() {
         path.to_str().unwrap(),
         old.to_str().unwrap()
     );
-    let py = std::process::Command::new("/usr/bin/python3")
+    let py = tools::command(&tools::PYOPENVDB)
         .args(["-c", &script])
         .status()
         .expect("/usr/bin/python3 with pyopenvdb (Debian package python3-openvdb) is required");

@@ -8,18 +8,14 @@ pub mod march;
 pub mod tools;
 
 use std::path::Path;
-use std::process::Command;
 
-/// Runs an external tool; a failure fails the test, and so does a missing tool (the
-/// test should have said `need!` for it first).
+/// Runs an external tool, which the test asked for with `need!` (`tools`); a failure
+/// fails the test.
 pub fn tool(tool: &str, args: &[&str], package: &str) -> String {
-    let out = Command::new(tool).args(args).output().unwrap_or_else(|e| {
-        panic!(
-            "cannot run `{tool}` ({e}), from the Debian package `{package}`: start the test \
-             with `need!(tools::...)` for it (tests/common/tools.rs) so that it is skipped \
-             where the tool is missing"
-        )
-    });
+    let out = tools::command_named(tool)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run `{tool}` (Debian package `{package}`): {e}"));
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(
         out.status.success(),

@@ -6,7 +6,12 @@
 //! notes the skip for the run's count (`tests/zz_skipped_tools.rs`, the last binary cargo
 //! runs, prints it) and returns from the test. Under `MURK_REQUIRE_TOOLS=1` (set by
 //! `.ci/run`) a missing tool fails the test instead, so CI skips nothing.
+//!
+//! The tools are run through `command` (or `common::tool`), which fails a test that did
+//! not ask for its tool with `need!`: a test that forgets it fails where the tool is
+//! installed, in CI, and not only on a machine without it.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -93,11 +98,29 @@ macro_rules! need {
     };
 }
 
+const ALL: [&Tool; 9] = [
+    &EXRHEADER,
+    &OIIOTOOL,
+    &IDIFF,
+    &VDB_PRINT,
+    &VDB_TOOL,
+    &BLENDER,
+    &PYOPENVDB,
+    &PYPI_REFERENCES,
+    &OPENJD,
+];
+
+thread_local! {
+    /// The tools the running test asked for (libtest runs each test on its own thread).
+    static NEEDED: RefCell<Vec<&'static str>> = const { RefCell::new(Vec::new()) };
+}
+
 /// True where every tool is there; otherwise the skip (or, under
 /// `MURK_REQUIRE_TOOLS=1`, the failure) that `need!` describes.
 pub fn present(tools: &[&Tool]) -> bool {
     let missing: Vec<&&Tool> = tools.iter().filter(|t| found(t).is_none()).collect();
     if missing.is_empty() {
+        NEEDED.with(|n| n.borrow_mut().extend(tools.iter().map(|t| t.name)));
         return true;
     }
     let needs = missing
@@ -116,9 +139,26 @@ pub fn present(tools: &[&Tool]) -> bool {
     false
 }
 
-/// The program to run for `tool`: its path where one was found, else its name.
-pub fn program(tool: &Tool) -> PathBuf {
-    found(tool).unwrap_or_else(|| PathBuf::from(tool.name))
+/// A command that runs `tool` (for a Python module, its interpreter). Fails the test
+/// unless it began with `need!` for the tool.
+pub fn command(tool: &Tool) -> Command {
+    assert!(
+        NEEDED.with(|n| n.borrow().contains(&tool.name)),
+        "{} runs {} without asking for it: start the test with `need!(tools::...)` \
+         (tests/common/tools.rs) so that it is skipped where the tool is missing",
+        test_name(),
+        tool.name
+    );
+    Command::new(found(tool).unwrap_or_else(|| PathBuf::from(tool.name)))
+}
+
+/// `command` for a tool given by the name of its executable, e.g. `"exrheader"`.
+pub fn command_named(exe: &str) -> Command {
+    let tool = ALL
+        .iter()
+        .find(|t| matches!(t.probe, Probe::OnPath(e) if e == exe))
+        .unwrap_or_else(|| panic!("`{exe}` is not a tool of tests/common/tools.rs: add it"));
+    command(tool)
 }
 
 /// Where the tool is, looked up once per test binary.
