@@ -261,3 +261,40 @@ fn farm_refuses_what_it_cannot_express() {
     }
     assert!(!dir.join("job.yaml").exists());
 }
+
+/// The Bake step is there only when `murk bake-shadows` makes the map each piece would
+/// bake: not for an environment light (bake-shadows refuses one), marched shadows or a
+/// tolerance the render chooses.
+#[test]
+fn a_shared_bake_only_where_bake_shadows_makes_the_pieces_map() {
+    let dir = scratch("farm-bake");
+    std::os::unix::fs::symlink(seq(""), dir.join("cache")).unwrap();
+    let cases: [(&[&str], bool); 5] = [
+        (&[], true),
+        (&["--light", "point:0.3,1.5,0.5"], true),
+        (&["--light", "env:1,1,1", "--scattering", "path"], false),
+        (&["--shadows", "march"], false),
+        (&["--max-error", "1e-2"], false),
+    ];
+    for (extra, bake) in cases {
+        let mut args = vec![
+            "farm",
+            "openjd",
+            "cache/fluid_####.vdb",
+            "--frames",
+            "1-2",
+            "--tiles",
+            "2",
+            "-o",
+            "render/fluid_####.exr",
+            "--job",
+            "job.yaml",
+        ];
+        args.extend(extra);
+        ok(&dir, &args);
+        let job: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(dir.join("job.yaml")).unwrap()).unwrap();
+        let first = job["steps"][0]["name"].as_str().unwrap().to_string();
+        assert_eq!(first == "Bake", bake, "{extra:?}: {first}");
+    }
+}

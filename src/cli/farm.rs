@@ -315,9 +315,11 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
     }
     // A bake shared by a frame's pieces must be the bake each would make: not when the
     // render chooses the tolerance (--max-error) or flags bake-shadows lacks decide
-    // the lights (--up-axis), nor without a deep shadow map to bake.
+    // the lights (--up-axis), nor without a deep shadow map to bake, nor with an
+    // environment light (bake-shadows, with no --scattering path, refuses one).
     let share_bake = plan.shadows.mode == ShadowMode::Dsm
         && !plan.lights.is_empty()
+        && plan.transport.environment.is_none()
         && merged.shadow_cache.is_none()
         && merged.max_error.is_none()
         && merged.up_axis.is_none();
