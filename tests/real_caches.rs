@@ -190,6 +190,27 @@ fn default_sun_of_a_z_up_cache_is_turned_with_its_shadows() {
             "{c}: default {a} is the Y-up sun's {c_y}"
         );
     }
+    // A shadow cache baked for the cache turns its default sun the same way: the render
+    // that reads it (a farm's shared bake) finds its light and the same image.
+    let baked = dir.join("sun.vdb").display().to_string();
+    let o = murk(&["bake-shadows", &input, "-o", &baked, "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (cached, st, _) = render(&dir, &input, "c", &["--shadow-cache", &baked]);
+    assert!(
+        st["shadow_maps"][0]["source"]
+            .as_str()
+            .unwrap()
+            .starts_with("cache"),
+        "{st:#}"
+    );
+    let cached = read(&cached);
+    for c in ["scatter.R", "scatter.G", "scatter.B"] {
+        let (a, b) = (d.sum(c), cached.sum(c));
+        assert!(
+            (a - b).abs() <= 1e-6 * a,
+            "{c}: baked {a}, from the cache {b}"
+        );
+    }
     let help = String::from_utf8_lossy(&murk(&["render", "--help"]).stdout).into_owned();
     assert!(help.contains("0,0,1 for a Z-up cache"), "{help}");
 }
@@ -320,6 +341,8 @@ fn a_chosen_shadow_tolerance_missed_says_what_holds_it_and_that_works() {
 fn a_smoke_sequence_renders_framed_on_the_union_of_its_frames() {
     let dir = scratch("seq");
     let pattern = cache("smoke_seq/smoke_####.vdb");
+    // Into a folder that does not exist yet, as a new user would.
+    let dir = dir.join("new");
     let out = dir.join("smoke_####.exr").display().to_string();
     let preview = dir.join("smoke_####.png").display().to_string();
     let res = format!("{W}x{H}");
