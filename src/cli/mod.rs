@@ -210,10 +210,13 @@ fn stitch(
 ) -> anyhow::Result<()> {
     let at = |p: &std::path::Path| match frame {
         Some(f) => murk::render::sequence::frame_path(p, f),
-        None => p.to_path_buf(),
+        None => Ok(p.to_path_buf()),
     };
-    let pieces: Vec<PathBuf> = pieces.iter().map(|p| at(p)).collect();
-    let output = at(output);
+    let pieces: Vec<PathBuf> = pieces
+        .iter()
+        .map(|p| at(p))
+        .collect::<anyhow::Result<_>>()?;
+    let output = at(output)?;
     let (w, h, n) = murk::output::stitch::stitch(&pieces, &output)?;
     if !quiet {
         eprintln!("murk: wrote {} ({w}x{h}, {n} pieces)", output.display());

@@ -55,6 +55,15 @@ pub(super) fn step_voxels(v: Option<f64>, default: f64, what: &str) -> Result<f6
     Ok(v)
 }
 
+pub(super) fn finite(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
+    let v = v.unwrap_or(default);
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{what} must be a finite number, not {v}"))
+    }
+}
+
 pub(super) fn non_negative(v: Option<f64>, default: f64, what: &str) -> Result<f64, String> {
     let v = v.unwrap_or(default);
     if v >= 0.0 && v.is_finite() {

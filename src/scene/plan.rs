@@ -16,7 +16,8 @@ use glam::DVec3;
 use std::path::PathBuf;
 
 use super::flag_values::{
-    colour, drop_radius, non_negative, positive, resolution, step_voxels, up_axis_choice, z_empty,
+    colour, drop_radius, finite, non_negative, positive, resolution, step_voxels, up_axis_choice,
+    z_empty,
 };
 
 /// How light transmittance is found.
@@ -454,10 +455,11 @@ impl RenderPlan {
                     defaults::TEMPERATURE_SCALE,
                     "--temperature-scale",
                 )?,
-                temperature_offset: o
-                    .temperature_offset
-                    .filter(|v| v.is_finite())
-                    .unwrap_or(defaults::TEMPERATURE_OFFSET),
+                temperature_offset: finite(
+                    o.temperature_offset,
+                    defaults::TEMPERATURE_OFFSET,
+                    "--temperature-offset",
+                )?,
                 blackbody_intensity: non_negative(
                     o.blackbody_intensity,
                     defaults::BLACKBODY_INTENSITY,
