@@ -48,18 +48,14 @@ pub fn options_for(input: &Path, options: RenderOptions) -> Result<(RenderOption
 }
 
 /// The plan of a render or bake: options from the flags over a scene file, if given.
-fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> {
-    let (options, vdb) = options_for(input, options)?;
+fn plan_for(input: &Path, flags: RenderOptions) -> Result<(RenderPlan, bool)> {
+    let (options, vdb) = options_for(input, flags.clone())?;
     let quiet = options.quiet;
     let scene = scene_of(input, &vdb);
     let plan = RenderPlan::new(&options, vdb)
-        .map_err(|e| e.to_string())
-        .and_then(|p| {
-            super::guard::check_plan(&p, scene)
-                .map_err(|e| e.to_string())
-                .map(|_| p)
-        })
-        .map_err(|e| anyhow!(scene.map_or(e.clone(), |s| super::guard::in_scene(s, &e))))?;
+        .map_err(|e| anyhow!(super::guard::plan_error_text(&e, &flags, scene)))?;
+    super::guard::check_plan(&plan, scene)
+        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
     Ok((plan, quiet))
 }
 
