@@ -82,6 +82,15 @@ fn plan_for(input: &Path, flags: RenderOptions) -> Result<(RenderPlan, bool)> {
     Ok((plan, quiet))
 }
 
+/// The plan of a render: as [`plan_for`], and its outputs named for what murk writes
+/// (after the checks that outputs replace no input, which say more).
+fn render_plan_for(input: &Path, flags: RenderOptions) -> Result<(RenderPlan, bool)> {
+    let (merged, _) = options_for(input, flags.clone())?;
+    let planned = plan_for(input, flags)?;
+    check_output_names(&merged)?;
+    Ok(planned)
+}
+
 /// The scene file, if `input` is one (the .vdb it names is then another path).
 fn scene_of<'a>(input: &'a Path, vdb: &Path) -> Option<&'a Path> {
     (vdb != input).then_some(input)
@@ -101,7 +110,6 @@ pub fn run_sequence_or_frame(
         .transpose()
         .map_err(|e| anyhow!(e))?;
     let (merged, vdb) = options_for(input, options.clone())?;
-    check_output_names(&merged)?;
     let spec = merged.frames.clone();
     let probe = RenderPlan::new(&merged, vdb.clone());
     let is_sequence = spec.is_some()
@@ -112,7 +120,7 @@ pub fn run_sequence_or_frame(
         if piece.is_none() && !sequence.skip_existing {
             return run(input, options).map(|_| true);
         }
-        let (plan, quiet) = plan_for(input, options)?;
+        let (plan, quiet) = render_plan_for(input, options)?;
         if sequence.skip_existing && frame_is_done(&plan) {
             if !quiet {
                 eprintln!("murk: {} exists: skipped", plan.outputs.path.display());
@@ -141,7 +149,7 @@ pub fn run_sequence_or_frame(
         }
         return Ok(true);
     }
-    let (plan, quiet) = plan_for(input, options)?;
+    let (plan, quiet) = render_plan_for(input, options)?;
     let scene = scene_of(input, &plan.input).map(Path::to_path_buf);
     let paths = FramePaths::of(&plan);
     let frames = choose_frames(&paths, &plan, spec.as_deref())?;
@@ -223,7 +231,7 @@ pub fn run_sequence_or_frame(
 }
 
 pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
-    let (plan, quiet) = plan_for(input, options)?;
+    let (plan, quiet) = render_plan_for(input, options)?;
     let scene = scene_of(input, &plan.input);
     let stats = render(&plan, &super::progress::Bars::new(quiet))
         .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
