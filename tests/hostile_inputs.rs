@@ -330,7 +330,8 @@ fn temperature_offset_must_be_finite() {
             "--temperature-offset",
             v,
         ];
-        refused(&dir, &args, "--temperature-offset must be a finite number");
+        let err = refused(&dir, &args, "must be a finite number");
+        assert!(err.contains("--temperature-offset"), "{err}");
     }
     let _ = fs::remove_dir_all(&dir);
 }
