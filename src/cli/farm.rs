@@ -7,6 +7,7 @@
 use super::args::RenderArgs;
 use anyhow::{Result, anyhow};
 use clap::{Args, Subcommand};
+use murk::output::guard::Role;
 use murk::render::RenderPlan;
 use murk::render::sequence::{FramePaths, choose_frames};
 use serde_json::{Value, json};
@@ -169,6 +170,8 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
             "--stats and --preview describe a whole render: give them without --tiles"
         ));
     }
+    let scene = (plan.input != input).then_some(input);
+    check_job(&plan, &paths, &frames, scene, tiles, job)?;
     let job_dir = match job.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -258,4 +261,30 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
         );
     }
     Ok(())
+}
+
+/// The renders' outputs must not replace their inputs (as `murk render` would refuse on
+/// the farm), and the job must replace none of the files the job reads or writes: any
+/// frame's input, shadow cache, output, preview, stats or piece, or the scene.
+fn check_job(
+    plan: &RenderPlan,
+    paths: &FramePaths,
+    frames: &[i64],
+    scene: Option<&Path>,
+    tiles: usize,
+    job: &Path,
+) -> Result<()> {
+    super::guard::check_sequence(plan, paths, frames, scene)?;
+    let mut files = Vec::new();
+    for &f in frames {
+        let p = paths.plan(plan, f);
+        files.extend(super::guard::plan_inputs(&p, scene, Some(f)));
+        files.extend(super::guard::plan_outputs(&p, Some(f)));
+        for t in 1..=tiles {
+            let mut piece = p.outputs.path.clone().into_os_string();
+            piece.push(format!(".piece{t}of{tiles}.exr"));
+            files.push(Role::new(piece, format!("frame {f}'s piece {t}")));
+        }
+    }
+    super::guard::check_outputs(&files, &[Role::new(job, "the job (--job)")])
 }

@@ -214,6 +214,12 @@ fn stitch(
     };
     let pieces: Vec<PathBuf> = pieces.iter().map(|p| at(p)).collect();
     let output = at(output);
+    let inputs: Vec<murk::output::guard::Role> = pieces
+        .iter()
+        .map(|p| murk::output::guard::Role::new(p, "a piece"))
+        .collect();
+    let whole = murk::output::guard::Role::new(&output, "the output (-o)");
+    guard::check_outputs(&inputs, &[whole])?;
     let (w, h, n) = murk::output::stitch::stitch(&pieces, &output)?;
     if !quiet {
         eprintln!("murk: wrote {} ({w}x{h}, {n} pieces)", output.display());

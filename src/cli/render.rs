@@ -125,6 +125,7 @@ pub fn run_sequence_or_frame(
     let scene = scene_of(input, &plan.input).map(Path::to_path_buf);
     let paths = FramePaths::of(&plan);
     let frames = choose_frames(&paths, &plan, spec.as_deref())?;
+    super::guard::check_sequence(&plan, &paths, &frames, scene.as_deref())?;
     let bars = super::progress::Bars::new(quiet);
     let check = |p: &RenderPlan| super::guard::check_plan(p, scene.as_deref());
     let mut report = |frame: i64, p: &RenderPlan, outcome: &FrameOutcome| {
