@@ -341,14 +341,13 @@ pub fn read(
             ..Default::default()
         };
         let mut chart_maps = Vec::with_capacity(charts);
-        for ci in 0..charts {
+        for (ci, &chart) in expected.iter().enumerate() {
             let name = grid_name(light.name(), ci, "bricks");
             let meta = &grids
                 .iter()
                 .find(|(n, _)| *n == name)
                 .ok_or_else(|| bad(format!("lacks grid {name}")))?
                 .1;
-            let chart = expected[ci];
             report.lattice_step = chart.unit;
             // Every chart's grids carry the whole map's counts: read them once.
             if ci == 0 {
