@@ -103,3 +103,38 @@ fn altered_shadow_cache_metadata_is_refused() {
         refused(&d, &args, needle);
     }
 }
+
+/// Names read from a cache are escaped and cut in errors: a light name of 650 bytes of
+/// control characters, written by pyopenvdb, prints as 40 characters and its length.
+#[test]
+fn binary_names_in_a_cache_are_escaped_and_cut() {
+    let d = scratch("shadow-binary");
+    let script = "import pyopenvdb as vdb, numpy as np, sys\n\
+        g = vdb.FloatGrid()\n\
+        g.name = 'dsm_x_c0_bricks'\n\
+        g.copyFromArray(np.ones((2, 2, 2), dtype=np.float32))\n\
+        g['murk:light'] = ''.join(chr(1 + i % 30) for i in range(650))\n\
+        vdb.write(sys.argv[1], grids=[g])\n";
+    let cache = d.join("odd.vdb");
+    let o = std::process::Command::new("/usr/bin/python3")
+        .args(["-c", script, cache.to_str().unwrap()])
+        .output()
+        .expect("/usr/bin/python3 with pyopenvdb (Debian package python3-openvdb) is required");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let c = cloud();
+    let args = [
+        "render",
+        c.as_str(),
+        "-o",
+        "o.exr",
+        "--res",
+        "8x6",
+        "--shadow-cache",
+        "odd.vdb",
+    ];
+    refused(&d, &args, "has no shadow map for light sun0");
+    let err = String::from_utf8_lossy(&murk(&d, &args).stderr).into_owned();
+    assert!(err.contains("bytes)"), "{err}");
+    assert!(err.len() < 400, "{} bytes: {err}", err.len());
+    assert!(!err.chars().any(|c| c.is_control() && c != '\n'), "{err:?}");
+}

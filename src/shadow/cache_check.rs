@@ -7,7 +7,7 @@ use super::bake::{BakeSettings, LightGeometry, bake_charts};
 use super::chart::{Chart, ChartKind};
 use super::lattice::MAX_COARSENINGS;
 use crate::field::Field;
-use crate::vdb::guard::printable;
+use crate::vdb::guard::short_text;
 use glam::DVec3;
 use std::collections::BTreeMap;
 
@@ -44,13 +44,7 @@ const BAKE_AGAIN: &str = "bake again with murk bake-shadows";
 /// Text from the file as an error shows it: control characters escaped, at most 40
 /// characters (a name of hundreds of bytes of binary would fill the terminal).
 pub(super) fn shown(s: &str) -> String {
-    let p = printable(s);
-    if p.chars().count() <= 40 {
-        p
-    } else {
-        let head: String = p.chars().take(40).collect();
-        format!("{head}… ({} bytes)", s.len())
-    }
+    short_text(s)
 }
 
 fn value(v: Option<&String>) -> String {
