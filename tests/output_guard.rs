@@ -51,41 +51,45 @@ fn two_frames(d: &Path) -> Vec<u8> {
 fn farm_openjd_job_never_replaces_an_input_or_output_frame() {
     let d = dir("farm");
     let original = two_frames(&d);
-    let job = |j: &str| {
+    let job = |j: &str, tiles: &str| {
         vec![
             "farm",
             "openjd",
             "fluid_####.vdb",
             "--frames",
             "1-2",
+            "--tiles",
+            tiles,
             "-o",
             "o_####.exr",
             "--job",
+            j,
         ]
         .into_iter()
         .map(String::from)
-        .chain([j.to_string()])
         .collect::<Vec<_>>()
     };
-    let run = |j: &str, needle: &str| {
-        let args = job(j);
+    let in_pieces = |j: &str, tiles: &str, needle: &str| {
+        let args = job(j, tiles);
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
         refused(&d, &args, needle);
     };
+    let run = |j: &str, needle: &str| in_pieces(j, "1", needle);
     run(
         "fluid_0001.vdb",
         "the job (--job) would overwrite frame 1's input",
     );
     run("./fluid_0002.vdb", "frame 2's input");
     run("o_0002.exr", "frame 2's output (-o)");
-    run("o_0001.exr.piece1of1.exr", "frame 1's piece 1");
+    in_pieces("o_0001.exr.piece2of2.exr", "2", "frame 1's piece 2");
+    in_pieces("o_0002.exr.shadows.vdb", "2", "frame 2's shadow maps");
     fifo(&d.join("job.fifo"));
     run("job.fifo", "not a regular file");
     let ro = read_only_folder(&d);
     run(&format!("{}/job.yaml", ro.display()), "is read-only");
     assert_eq!(fs::read(d.join("fluid_0001.vdb")).unwrap(), original);
     assert!(is_fifo(&d.join("job.fifo")));
-    let args = job("job.yaml");
+    let args = job("job.yaml", "1");
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     ok(&d, &args);
 }

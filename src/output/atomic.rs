@@ -66,7 +66,7 @@ fn remove_stale_temporaries(path: &Path) {
 /// truncate or recreate it). On success the temporary file is renamed over
 /// `path`, replacing any existing file; on any error (from `write` or from the
 /// rename) the temporary file is removed and an existing target is left
-/// untouched. No fsync is done.
+/// untouched. The target's folder is made if missing. No fsync is done.
 ///
 /// First the target passes [`check_target`](super::guard::check_target): a device,
 /// FIFO, symbolic link, folder, read-only file or folder, or an input the command
@@ -81,6 +81,7 @@ where
 {
     let temp = temp_path_for(path)?;
     super::guard::check_target(path)?;
+    super::make_folder(path)?;
     remove_stale_temporaries(path);
     if let Err(source) = fs::File::create(&temp) {
         return Err(OutputError::CreateTemp {
@@ -259,10 +260,22 @@ mod tests {
     }
 
     #[test]
-    fn missing_directory_names_the_path() {
-        let target = Path::new("/nonexistent-murk-dir/x/out.png");
-        let r: Result<(), OutputError> = write_atomically(target, |_| Ok(()));
+    fn missing_folders_are_made_and_a_folder_that_cannot_be_names_the_path() {
+        let dir = scratch_dir("folders");
+        let target = dir.join("seqA/b/out.png");
+        let r: Result<(), OutputError> = write_atomically(&target, |tmp| {
+            fs::write(tmp, "new").map_err(|source| OutputError::Io {
+                path: tmp.into(),
+                source,
+            })
+        });
+        r.unwrap();
+        assert_eq!(fs::read_to_string(&target).unwrap(), "new");
+        // Under a file no folder can be made, even as root.
+        let target = dir.join("seqA/b/out.png/x/out.png");
+        let r: Result<(), OutputError> = write_atomically(&target, |_| Ok(()));
         let msg = r.unwrap_err().to_string();
-        assert!(msg.contains("/nonexistent-murk-dir/x/out.png"), "{msg}");
+        assert!(msg.contains(&target.display().to_string()), "{msg}");
+        fs::remove_dir_all(&dir).unwrap();
     }
 }

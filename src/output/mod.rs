@@ -9,6 +9,7 @@ mod error;
 mod exr;
 mod frame;
 pub mod guard;
+mod place;
 mod preview;
 pub mod stitch;
 
@@ -20,6 +21,7 @@ pub use exr::{
     half_overflow_notes, overflowing_layers, write_exr,
 };
 pub use frame::{Channel, Frame, PixelRect, is_depth_channel, names};
+pub use place::{make_folder, prepare as prepare_place};
 pub use preview::{
     Background, CHECKER_GREYS, CHECKER_SIZE, PreviewOptions, srgb_encode, to_u8, write_preview,
 };

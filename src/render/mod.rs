@@ -26,7 +26,7 @@ use crate::scene::roles::load_fields;
 use anyhow::{Context, Result, anyhow};
 use piece::Piece;
 use stats::{RenderStats, Stage};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// A rendered image, not yet written: its channels, the EXR header it will carry, and
@@ -469,28 +469,22 @@ fn write_stats(path: &Path, st: &RenderStats) -> Result<()> {
     })
 }
 
-/// Fails before any work if an output's directory does not exist.
+/// Before any work: makes every output's folder if missing and checks it writable.
 fn check_output_dirs(plan: &RenderPlan) -> Result<()> {
-    let outputs = [
+    for path in output_paths(plan) {
+        crate::output::prepare_place(path)?;
+    }
+    Ok(())
+}
+
+/// The files a render of `plan` writes (not `--stats -`, standard output).
+pub fn output_paths(plan: &RenderPlan) -> impl Iterator<Item = &Path> {
+    [
         Some(&plan.outputs.path),
         plan.outputs.preview.as_ref().map(|p| &p.0),
         plan.outputs.stats.as_ref().filter(|p| p.as_os_str() != "-"),
-    ];
-    for path in outputs.into_iter().flatten() {
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        if !dir.is_dir() {
-            return Err(anyhow!(
-                "{}: cannot write there: the directory {} does not exist",
-                path.display(),
-                dir.display()
-            ));
-        }
-        if path.is_dir() {
-            return Err(anyhow!("{}: is a directory", path.display()));
-        }
-    }
-    Ok(())
+    ]
+    .into_iter()
+    .flatten()
+    .map(PathBuf::as_path)
 }
