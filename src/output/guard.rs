@@ -105,17 +105,12 @@ pub fn check_replaceable(path: &Path) -> Result<(), OutputError> {
         }
     }
     let dir = folder(path);
-    // A folder that does not exist yet is for the caller to create (or to refuse).
+    // A folder that does not exist yet is made by the writer (and one that cannot be,
+    // under a file, is said by it).
     let Ok(meta) = std::fs::metadata(&dir) else {
         return Ok(());
     };
-    if !meta.is_dir() {
-        return Err(refused(
-            path,
-            format!("cannot write there: {} is not a folder", dir.display()),
-        ));
-    }
-    if meta.permissions().readonly() || !writable(&dir) {
+    if meta.is_dir() && (meta.permissions().readonly() || !writable(&dir)) {
         return Err(refused(
             path,
             format!(
