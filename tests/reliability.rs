@@ -94,6 +94,16 @@ fn default_render_of_root_tiles_finishes() {
         &["render", s(&fixture("tiles.vdb")), "-o", s(&out), "--quiet"],
     );
     ok(&o);
+    // The budget stops the map short, and says so; the error it names is a
+    // transmittance's, at most 1 (it once said "about 1.9e29").
+    let err = stderr(&o);
+    let named = err
+        .split("errors up to about ")
+        .nth(1)
+        .and_then(|t| t.split([' ', ';']).next())
+        .and_then(|v| v.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("no error named in: {err}"));
+    assert!(named > 0.0 && named <= 1.0, "{err}");
     let header = common::exrheader(&out);
     assert!(
         header.contains("scatter") || header.contains("R, "),
