@@ -123,21 +123,24 @@ fn outputs_that_would_clobber_are_refused() {
     let out = dir.join("out.exr");
     let i = s(&input);
     let o = s(&out);
-    // -o is the input, also spelled differently.
+    // --stats is the input, also spelled differently (-o must name an EXR).
     let other_spelling = format!("{}/./c.vdb", dir.display());
     for target in [i, other_spelling.as_str()] {
         refused(
-            &murk(&["render", i, "-o", target]),
+            &murk(&["render", i, "-o", o, "--stats", target]),
             &["would overwrite the input"],
         );
     }
     // --stats or --preview equal to -o or to the input.
+    let linked_png = dir.join("c.png");
+    std::fs::hard_link(&input, &linked_png).unwrap();
     refused(
         &murk(&["render", i, "-o", o, "--stats", o]),
         &["the stats file would overwrite the output"],
     );
     refused(
-        &murk(&["render", i, "-o", o, "--preview", i]),
+        // A hard link of the input named as a preview: the same file.
+        &murk(&["render", i, "-o", o, "--preview", s(&linked_png)]),
         &["the preview would overwrite the input"],
     );
     // A scene file as an output.
