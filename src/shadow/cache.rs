@@ -257,7 +257,7 @@ pub fn write(
         format!("murk {}", env!("CARGO_PKG_VERSION")),
     )];
     crate::output::write_atomically(path, |tmp| {
-        write_float_grids(tmp, &grids, &file_meta).map_err(|e| anyhow!("{}: {e}", path.display()))
+        write_float_grids(tmp, &grids, &file_meta).map_err(|e| anyhow!(e.at(path)))
     })
 }
 
