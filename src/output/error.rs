@@ -54,6 +54,15 @@ pub enum OutputError {
         reason: String,
     },
 
+    /// The target is not one murk may replace (see [`check_target`](super::guard::check_target)).
+    #[error("{}: {reason}", path.display())]
+    Refused {
+        /// The target file.
+        path: PathBuf,
+        /// Why not.
+        reason: String,
+    },
+
     /// The temporary file next to the target could not be created.
     #[error(
         "cannot write {}: cannot create temporary file {}: {source}",

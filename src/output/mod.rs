@@ -8,6 +8,7 @@ pub mod colorspace;
 mod error;
 mod exr;
 mod frame;
+pub mod guard;
 mod place;
 mod preview;
 pub mod stitch;

@@ -19,6 +19,7 @@
 //! the density grid it was baked from (`murk:density_hash`).
 
 use super::BakeReport;
+use super::cache_check::{GridMeta, check_bake_charts, check_consistent, shown};
 use super::chart::{Chart, ChartKind, LateralBlend};
 use super::map::{
     BRICK, BakedBrick, BrickForm, BrickSamples, ChartMap, ChartSelect, LEVELS, ShadowMap, side,
@@ -31,9 +32,6 @@ use anyhow::{Result, anyhow};
 use glam::{DMat4, DVec3, IVec3};
 use std::collections::BTreeMap;
 use std::path::Path;
-
-/// A grid's metadata, name → text.
-type GridMeta = BTreeMap<String, String>;
 
 fn vec_text(v: DVec3) -> String {
     format!("{:?},{:?},{:?}", v.x, v.y, v.z)
@@ -259,7 +257,7 @@ pub fn write(
         format!("murk {}", env!("CARGO_PKG_VERSION")),
     )];
     crate::output::write_atomically(path, |tmp| {
-        write_float_grids(tmp, &grids, &file_meta).map_err(|e| anyhow!("{}: {e}", path.display()))
+        write_float_grids(tmp, &grids, &file_meta).map_err(|e| anyhow!(e.at(path)))
     })
 }
 
@@ -296,9 +294,10 @@ pub fn read(
             bad(format!(
                 "has no shadow map for light {} (it has maps for: {}); bake again with murk bake-shadows",
                 light.name(),
-                by_light.keys().cloned().collect::<Vec<_>>().join(", ")
+                by_light.keys().map(|k| shown(k)).collect::<Vec<_>>().join(", ")
             ))
         })?;
+        check_consistent(light.name(), grids).map_err(bad)?;
         let meta = &grids[0].1;
         let get = |k: &str| {
             meta.get(k)
@@ -324,21 +323,31 @@ pub fn read(
             .and_then(|(_, n)| n.parse().ok())
             .filter(|n| (1..=6).contains(n))
             .ok_or_else(|| bad("bad murk:chart".into()))?;
+        let mut expected = Vec::with_capacity(charts);
+        for ci in 0..charts {
+            let name = grid_name(light.name(), ci, "bricks");
+            let (_, m) = grids
+                .iter()
+                .find(|(n, _)| *n == name)
+                .ok_or_else(|| bad(format!("lacks grid {name}")))?;
+            expected.push(
+                chart_from(m).ok_or_else(|| bad(format!("grid {name}: bad chart metadata")))?,
+            );
+        }
+        check_bake_charts(density, light.geometry(), light.name(), meta, &expected).map_err(bad)?;
         let mut report = BakeReport {
             charts,
             points_per_level: vec![0; LEVELS],
             ..Default::default()
         };
         let mut chart_maps = Vec::with_capacity(charts);
-        for ci in 0..charts {
+        for (ci, &chart) in expected.iter().enumerate() {
             let name = grid_name(light.name(), ci, "bricks");
             let meta = &grids
                 .iter()
                 .find(|(n, _)| *n == name)
                 .ok_or_else(|| bad(format!("lacks grid {name}")))?
                 .1;
-            let chart =
-                chart_from(meta).ok_or_else(|| bad(format!("grid {name}: bad chart metadata")))?;
             report.lattice_step = chart.unit;
             // Every chart's grids carry the whole map's counts: read them once.
             if ci == 0 {
@@ -484,6 +493,17 @@ pub fn read(
             select,
         };
         report.count(&map);
+        if report.bricks_over_tolerance > report.bricks
+            || report.bricks_stopped_by_budget > report.bricks_over_tolerance
+        {
+            return Err(bad(format!(
+                "the map of light {} says {} of its {} bricks are over the tolerance ({} stopped by the budget): not what a bake writes; bake again with murk bake-shadows",
+                light.name(),
+                report.bricks_over_tolerance,
+                report.bricks,
+                report.bricks_stopped_by_budget
+            )));
+        }
         out.push((map, report));
     }
     Ok(out)

@@ -8,6 +8,7 @@
 pub mod bake;
 pub mod brick;
 pub mod cache;
+mod cache_check;
 pub mod chart;
 pub mod columns;
 mod lattice;

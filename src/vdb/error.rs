@@ -32,8 +32,29 @@ impl VdbError {
     pub fn grid(path: impl Into<PathBuf>, grid: &str, problem: impl Into<String>) -> Self {
         VdbError::Grid {
             path: path.into(),
-            grid: grid.to_string(),
+            grid: super::guard::short_text(grid),
             problem: problem.into(),
+        }
+    }
+
+    /// The same error about another path: a file written under a temporary name and
+    /// renamed is named as the output the user asked for.
+    pub fn at(self, shown: impl Into<PathBuf>) -> Self {
+        let path = shown.into();
+        match self {
+            VdbError::File { problem, .. } => VdbError::File { path, problem },
+            VdbError::Grid { grid, problem, .. } => VdbError::Grid {
+                path,
+                grid,
+                problem,
+            },
+            VdbError::NoSuchGrid {
+                grid, available, ..
+            } => VdbError::NoSuchGrid {
+                path,
+                grid,
+                available,
+            },
         }
     }
 }
