@@ -14,6 +14,7 @@
 
 pub mod accel;
 pub mod field;
+pub mod files;
 pub mod integrate;
 pub mod mem;
 pub mod output;

@@ -111,3 +111,15 @@ pub enum OutputError {
         source: image::ImageError,
     },
 }
+
+impl From<crate::files::FileError> for OutputError {
+    fn from(e: crate::files::FileError) -> Self {
+        use crate::files::FileError as F;
+        match e {
+            F::Invalid { path, reason } => OutputError::Invalid { path, reason },
+            F::CreateTemp { path, temp, source } => OutputError::CreateTemp { path, temp, source },
+            F::Rename { path, temp, source } => OutputError::Rename { path, temp, source },
+            F::Io { path, source } => OutputError::Io { path, source },
+        }
+    }
+}

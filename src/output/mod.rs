@@ -1,9 +1,10 @@
 //! Output: the rendered [`Frame`] (named float channels, Nuke-style layer
 //! names), written as one single-part scanline OpenEXR file ([`write_exr`]),
 //! as an 8-bit sRGB PNG preview ([`write_preview`]), always replacing the
-//! target atomically ([`write_atomically`], also for other writers).
+//! target atomically ([`write_atomically`], which lives in [`crate::files`] so that every
+//! stage may write files through it).
 
-mod atomic;
+pub mod attr;
 pub mod colorspace;
 mod error;
 mod exr;
@@ -11,7 +12,7 @@ mod frame;
 mod preview;
 pub mod stitch;
 
-pub use atomic::write_atomically;
+pub use crate::files::write_atomically;
 pub use colorspace::ColorSpace;
 pub use error::OutputError;
 pub use exr::{

@@ -4,23 +4,8 @@
 
 use std::ops::Range;
 
-/// The header attributes of a piece (and of a frame of a sequence).
-pub mod attr {
-    /// `I/N`: the I-th of N pieces.
-    pub const TILE: &str = "murk/tile";
-    /// `Y0-Y1`: the rows of the piece, Y1 excluded.
-    pub const TILE_ROWS: &str = "murk/tileRows";
-    /// The frame number, when the render is a frame of a sequence.
-    pub const FRAME: &str = "murk/frame";
-    /// `half` or `float`: how colour was asked to be stored (`--float`), for the stitch.
-    pub const STORAGE: &str = "murk/storage";
-    /// How the piece wrote what the stitch must write the same way: the colour space its
-    /// colour is already in (`--colorspace`), the depth where nothing is (`--z-empty`),
-    /// and whether the data window is cropped (`--crop-data-window`: `true`/`false`).
-    pub const COLORSPACE: &str = "murk/colorspace";
-    pub const Z_EMPTY: &str = "murk/zEmpty";
-    pub const CROP: &str = "murk/cropDataWindow";
-}
+/// The header attributes of a piece, which `murk stitch` reads back.
+pub use crate::output::attr;
 
 /// The I-th (from 1) of N bands of rows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

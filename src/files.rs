@@ -1,18 +1,72 @@
-//! Atomic file replacement: write a temporary file next to the target, then
-//! rename it over the target, so readers never see a half-written file.
+//! Writing files: atomic file replacement (write a temporary file next to the target, then
+//! rename it over the target, so readers never see a half-written file).
+//!
+//! This module sits below every stage of the pipeline: the EXR writer, the shadow cache,
+//! the water-drop table cache and the reports all write through it. It imports no other
+//! module of the crate.
 
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::OutputError;
+/// What can go wrong while writing a file; every variant names the target file.
+#[derive(Debug, thiserror::Error)]
+pub enum FileError {
+    /// The path cannot be written (it names no file, ...).
+    #[error("cannot write {}: {reason}", path.display())]
+    Invalid {
+        /// The target file.
+        path: PathBuf,
+        /// The problem.
+        reason: String,
+    },
+
+    /// The temporary file next to the target could not be created.
+    #[error(
+        "cannot write {}: cannot create temporary file {}: {source}",
+        path.display(),
+        temp.display()
+    )]
+    CreateTemp {
+        /// The target file.
+        path: PathBuf,
+        /// The temporary file.
+        temp: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+
+    /// The finished temporary file could not be renamed over the target.
+    #[error(
+        "cannot write {}: cannot rename temporary file {} over it: {source}",
+        path.display(),
+        temp.display()
+    )]
+    Rename {
+        /// The target file.
+        path: PathBuf,
+        /// The temporary file.
+        temp: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+
+    /// Any other I/O error while writing the file.
+    #[error("cannot write {}: {source}", path.display())]
+    Io {
+        /// The target file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
 
 static COUNTER: AtomicU64 = AtomicU64::new(0);
 
 /// The temporary file used for writing `path`: `.<name>.tmp-<pid>-<n>` in the
 /// same directory (so the final rename stays on one file system).
-fn temp_path_for(path: &Path) -> Result<PathBuf, OutputError> {
-    let name = path.file_name().ok_or_else(|| OutputError::Invalid {
+fn temp_path_for(path: &Path) -> Result<PathBuf, FileError> {
+    let name = path.file_name().ok_or_else(|| FileError::Invalid {
         path: path.to_owned(),
         reason: "the path does not name a file".to_owned(),
     })?;
@@ -68,17 +122,18 @@ fn remove_stale_temporaries(path: &Path) {
 /// rename) the temporary file is removed and an existing target is left
 /// untouched. No fsync is done.
 ///
-/// Errors produced here are [`OutputError`]s naming `path`; `write`'s own
-/// error type only needs `From<OutputError>` (so `OutputError` itself works).
+/// Errors produced here are [`FileError`]s naming `path`; `write`'s own
+/// error type only needs `From<FileError>` (so `FileError` itself works, and so does
+/// `OutputError`).
 pub fn write_atomically<T, E, F>(path: &Path, write: F) -> Result<T, E>
 where
     F: FnOnce(&Path) -> Result<T, E>,
-    E: From<OutputError>,
+    E: From<FileError>,
 {
     let temp = temp_path_for(path)?;
     remove_stale_temporaries(path);
     if let Err(source) = fs::File::create(&temp) {
-        return Err(OutputError::CreateTemp {
+        return Err(FileError::CreateTemp {
             path: path.to_owned(),
             temp,
             source,
@@ -94,7 +149,7 @@ where
     };
     if let Err(source) = fs::rename(&temp, path) {
         let _ = fs::remove_file(&temp);
-        return Err(OutputError::Rename {
+        return Err(FileError::Rename {
             path: path.to_owned(),
             temp,
             source,
@@ -145,8 +200,8 @@ mod tests {
         for f in [&stale, &live, &other, &odd] {
             fs::write(f, "partial").unwrap();
         }
-        let r: Result<(), OutputError> = write_atomically(&target, |tmp| {
-            fs::write(tmp, "new").map_err(|source| OutputError::Io {
+        let r: Result<(), FileError> = write_atomically(&target, |tmp| {
+            fs::write(tmp, "new").map_err(|source| FileError::Io {
                 path: tmp.into(),
                 source,
             })
@@ -169,8 +224,8 @@ mod tests {
         let dir = scratch_dir("ok");
         let target = dir.join("f.txt");
         fs::write(&target, "old").unwrap();
-        let r: Result<u32, OutputError> = write_atomically(&target, |tmp| {
-            fs::write(tmp, "new").map_err(|source| OutputError::Io {
+        let r: Result<u32, FileError> = write_atomically(&target, |tmp| {
+            fs::write(tmp, "new").map_err(|source| FileError::Io {
                 path: tmp.into(),
                 source,
             })?;
@@ -187,9 +242,9 @@ mod tests {
         let dir = scratch_dir("fail");
         let target = dir.join("f.txt");
         fs::write(&target, "old").unwrap();
-        let r: Result<(), OutputError> = write_atomically(&target, |tmp| {
+        let r: Result<(), FileError> = write_atomically(&target, |tmp| {
             fs::write(tmp, "partial").unwrap();
-            Err(OutputError::Invalid {
+            Err(FileError::Invalid {
                 path: target.clone(),
                 reason: "boom".into(),
             })
@@ -206,7 +261,7 @@ mod tests {
         let target = dir.join("sub");
         fs::create_dir(&target).unwrap();
         fs::write(target.join("keep"), "x").unwrap();
-        let r: Result<(), OutputError> = write_atomically(&target, |_| Ok(()));
+        let r: Result<(), FileError> = write_atomically(&target, |_| Ok(()));
         let msg = r.unwrap_err().to_string();
         assert!(msg.contains(&target.display().to_string()), "{msg}");
         assert_eq!(entries(&dir), vec!["sub"]);
@@ -216,7 +271,7 @@ mod tests {
     #[test]
     fn missing_directory_names_the_path() {
         let target = Path::new("/nonexistent-murk-dir/x/out.png");
-        let r: Result<(), OutputError> = write_atomically(target, |_| Ok(()));
+        let r: Result<(), FileError> = write_atomically(target, |_| Ok(()));
         let msg = r.unwrap_err().to_string();
         assert!(msg.contains("/nonexistent-murk-dir/x/out.png"), "{msg}");
     }
