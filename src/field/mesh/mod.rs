@@ -22,6 +22,7 @@ pub mod bvh;
 pub mod geometry;
 pub mod interp;
 pub mod lattice;
+pub mod line;
 pub mod walk;
 
 use super::{Cell, Field, IndexBox, IndexRay, IndexToWorld, Quadrature, ValueRange};
