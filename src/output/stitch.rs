@@ -2,14 +2,63 @@
 //! the EXR the one-piece render writes (the same pixels, channels, storage and data
 //! window). Pieces of different frames or sizes, a piece twice or missing: refused.
 
+use super::OutputError;
+use super::attr;
 use super::exr::{ExrCompression, ExrOptions, write_exr};
 use super::frame::{Frame, is_depth_channel};
-use crate::render::piece::attr;
-use anyhow::{Result, anyhow};
 use exr::meta::attribute::AttributeValue;
 use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+
+/// Why pieces could not be stitched; every variant names the piece (or pieces) at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum StitchError {
+    /// `murk stitch` was given no pieces.
+    #[error("no pieces to stitch")]
+    NoPieces,
+    /// A piece cannot be read, is not a piece, or does not fit the others.
+    #[error("{}: {problem}", path.display())]
+    Piece {
+        /// The piece at fault.
+        path: PathBuf,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// Two pieces claim the same place in the frame.
+    #[error("{} and {}: both are piece {index}/{count}", first.display(), second.display())]
+    Twice {
+        /// One piece.
+        first: PathBuf,
+        /// The other.
+        second: PathBuf,
+        /// The place both claim.
+        index: usize,
+        /// How many pieces the frame has.
+        count: usize,
+    },
+    /// The pieces leave rows of the frame out.
+    #[error("the pieces cover rows 0-{covered} of {height}")]
+    Rows {
+        /// The first row not covered.
+        covered: usize,
+        /// The frame's height.
+        height: usize,
+    },
+    /// The stitched frame could not be built or written.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+type Result<T> = std::result::Result<T, StitchError>;
+
+/// The error for a piece at `path`.
+fn bad(path: &Path, problem: impl Into<String>) -> StitchError {
+    StitchError::Piece {
+        path: path.to_owned(),
+        problem: problem.into(),
+    }
+}
 
 /// One piece as read.
 struct Piece {
@@ -30,12 +79,11 @@ struct Piece {
 }
 
 fn read_piece(path: &Path) -> Result<Piece> {
-    let name = path.display();
-    let image = read_all_flat_layers_from_file(path).map_err(|e| anyhow!("{name}: {e}"))?;
+    let image = read_all_flat_layers_from_file(path).map_err(|e| bad(path, e.to_string()))?;
     let [layer] = &image.layer_data[..] else {
-        return Err(anyhow!(
-            "{name}: not a murk piece (it has {} parts)",
-            image.layer_data.len()
+        return Err(bad(
+            path,
+            format!("not a murk piece (it has {} parts)", image.layer_data.len()),
         ));
     };
     let mut strings = HashMap::new();
@@ -51,17 +99,20 @@ fn read_piece(path: &Path) -> Result<Piece> {
     }
     let get = |key: &str| {
         strings.get(key).ok_or_else(|| {
-            anyhow!("{name}: not a piece of a `murk render --tile` (no {key} in its header)")
+            bad(
+                path,
+                format!("not a piece of a `murk render --tile` (no {key} in its header)"),
+            )
         })
     };
     let (index, count) = get(attr::TILE)?
         .split_once('/')
         .and_then(|(i, n)| Some((i.parse().ok()?, n.parse().ok()?)))
-        .ok_or_else(|| anyhow!("{name}: a malformed {} attribute", attr::TILE))?;
+        .ok_or_else(|| bad(path, format!("a malformed {} attribute", attr::TILE)))?;
     let rows = get(attr::TILE_ROWS)?
         .split_once('-')
         .and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)))
-        .ok_or_else(|| anyhow!("{name}: a malformed {} attribute", attr::TILE_ROWS))?;
+        .ok_or_else(|| bad(path, format!("a malformed {} attribute", attr::TILE_ROWS)))?;
     let display = image.attributes.display_window;
     let size = (display.size.0, display.size.1);
     let pos = layer.attributes.layer_position;
@@ -76,7 +127,7 @@ fn read_piece(path: &Path) -> Result<Piece> {
         window.0.saturating_add(window.2) <= size.0 && window.1.saturating_add(window.3) <= size.1,
     );
     if !(1..=count).contains(&index) || !rows_ok || !window_ok {
-        return Err(anyhow!("{name}: its piece attributes do not fit its image"));
+        return Err(bad(path, "its piece attributes do not fit its image"));
     }
     let channels = layer
         .channel_data
@@ -120,7 +171,7 @@ fn attribute<T: std::str::FromStr>(piece: &Piece, name: &str) -> Result<Option<T
         .get(name)
         .map(|v| {
             v.parse()
-                .map_err(|_| anyhow!("{}: a malformed {name} attribute", piece.path.display()))
+                .map_err(|_| bad(&piece.path, format!("a malformed {name} attribute")))
         })
         .transpose()
 }
@@ -137,28 +188,34 @@ fn same(pieces: &[Piece]) -> Result<()> {
     };
     let names = |p: &Piece| p.channels.iter().map(|c| c.0.clone()).collect::<Vec<_>>();
     for p in &pieces[1..] {
-        let (a, b) = (first.path.display(), p.path.display());
+        let a = first.path.display();
+        let b = &p.path;
         if frame_of(p) != frame_of(first) {
-            return Err(anyhow!(
-                "{b}: a piece of another frame ({}) than {a} ({})",
-                frame_of(p),
-                frame_of(first)
+            return Err(bad(
+                b,
+                format!(
+                    "a piece of another frame ({}) than {a} ({})",
+                    frame_of(p),
+                    frame_of(first)
+                ),
             ));
         }
         if p.size != first.size {
-            return Err(anyhow!(
-                "{b}: {}x{}, but {a} is {}x{}: pieces of different sizes",
-                p.size.0,
-                p.size.1,
-                first.size.0,
-                first.size.1
+            return Err(bad(
+                b,
+                format!(
+                    "{}x{}, but {a} is {}x{}: pieces of different sizes",
+                    p.size.0, p.size.1, first.size.0, first.size.1
+                ),
             ));
         }
         if p.count != first.count {
-            return Err(anyhow!(
-                "{b}: a piece of {} but {a} is a piece of {}",
-                p.count,
-                first.count
+            return Err(bad(
+                b,
+                format!(
+                    "a piece of {} but {a} is a piece of {}",
+                    p.count, first.count
+                ),
             ));
         }
         if names(p) != names(first)
@@ -166,7 +223,7 @@ fn same(pieces: &[Piece]) -> Result<()> {
                 .iter()
                 .any(|a| p.strings.get(*a) != first.strings.get(*a))
         {
-            return Err(anyhow!("{b}: its channels are not those of {a}"));
+            return Err(bad(b, format!("its channels are not those of {a}")));
         }
     }
     Ok(())
@@ -176,7 +233,7 @@ fn same(pieces: &[Piece]) -> Result<()> {
 /// to `out`. Returns the frame's size and the number of pieces.
 pub fn stitch(pieces: &[PathBuf], out: &Path) -> Result<(usize, usize, usize)> {
     if pieces.is_empty() {
-        return Err(anyhow!("no pieces to stitch"));
+        return Err(StitchError::NoPieces);
     }
     let mut read: Vec<Piece> = pieces
         .iter()
@@ -187,12 +244,12 @@ pub fn stitch(pieces: &[PathBuf], out: &Path) -> Result<(usize, usize, usize)> {
     let count = read[0].count;
     for w in read.windows(2) {
         if w[0].index == w[1].index {
-            return Err(anyhow!(
-                "{} and {}: both are piece {}/{count}",
-                w[0].path.display(),
-                w[1].path.display(),
-                w[0].index
-            ));
+            return Err(StitchError::Twice {
+                first: w[0].path.clone(),
+                second: w[1].path.clone(),
+                index: w[0].index,
+                count,
+            });
         }
     }
     let have: Vec<usize> = read.iter().map(|p| p.index).collect();
@@ -201,28 +258,34 @@ pub fn stitch(pieces: &[PathBuf], out: &Path) -> Result<(usize, usize, usize)> {
         .map(|i| format!("{i}/{count}"))
         .collect();
     if !missing.is_empty() {
-        return Err(anyhow!(
-            "{}: missing piece{} {} of the frame",
-            read[0].path.display(),
-            if missing.len() > 1 { "s" } else { "" },
-            missing.join(", ")
+        return Err(bad(
+            &read[0].path,
+            format!(
+                "missing piece{} {} of the frame",
+                if missing.len() > 1 { "s" } else { "" },
+                missing.join(", ")
+            ),
         ));
     }
     let mut next_row = 0;
     for p in &read {
         if p.rows.0 != next_row {
-            return Err(anyhow!(
-                "{}: its rows {}-{} do not follow the previous piece's (row {next_row})",
-                p.path.display(),
-                p.rows.0,
-                p.rows.1
+            return Err(bad(
+                &p.path,
+                format!(
+                    "its rows {}-{} do not follow the previous piece's (row {next_row})",
+                    p.rows.0, p.rows.1
+                ),
             ));
         }
         next_row = p.rows.1;
     }
     let (w, h) = read[0].size;
     if next_row != h {
-        return Err(anyhow!("the pieces cover rows 0-{next_row} of {h}"));
+        return Err(StitchError::Rows {
+            covered: next_row,
+            height: h,
+        });
     }
     let mut frame = Frame::new(w, h);
     for (c, (name, _, _)) in read[0].channels.iter().enumerate() {

@@ -19,6 +19,7 @@
 //! the density grid it was baked from (`murk:density_hash`).
 
 use super::BakeReport;
+pub use super::cache_error::CacheError;
 use super::chart::{Chart, ChartKind, LateralBlend};
 use super::map::{
     BRICK, BakedBrick, BrickForm, BrickSamples, ChartMap, ChartSelect, LEVELS, ShadowMap, side,
@@ -27,10 +28,11 @@ use super::map::{
 use super::{CachedLight, ShadowMapStats};
 use crate::field::{Field, VoxelGrid};
 use crate::vdb::{FloatGridOut, VdbFile, write_float_grids};
-use anyhow::{Result, anyhow};
 use glam::{DMat4, DVec3, IVec3};
 use std::collections::BTreeMap;
 use std::path::Path;
+
+type Result<T> = std::result::Result<T, CacheError>;
 
 /// A grid's metadata, name → text.
 type GridMeta = BTreeMap<String, String>;
@@ -258,8 +260,11 @@ pub fn write(
         "creator".to_string(),
         format!("murk {}", env!("CARGO_PKG_VERSION")),
     )];
-    crate::output::write_atomically(path, |tmp| {
-        write_float_grids(tmp, &grids, &file_meta).map_err(|e| anyhow!("{}: {e}", path.display()))
+    crate::files::write_atomically(path, |tmp| {
+        write_float_grids(tmp, &grids, &file_meta).map_err(|source| CacheError::Encode {
+            path: path.to_owned(),
+            source,
+        })
     })
 }
 
@@ -273,7 +278,10 @@ pub fn read(
     lights: &[impl CachedLight],
 ) -> Result<Vec<(ShadowMap, BakeReport)>> {
     let file = VdbFile::open(path)?;
-    let bad = |what: String| anyhow!("{}: {what}", path.display());
+    let bad = |problem: String| CacheError::Unusable {
+        path: path.to_owned(),
+        problem,
+    };
     // light name → grid name → metadata
     let mut by_light: BTreeMap<String, Vec<(String, GridMeta)>> = BTreeMap::new();
     for g in file.grids() {
