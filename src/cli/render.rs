@@ -107,7 +107,7 @@ pub fn run_sequence_or_frame(
             &mut FrameReuse::default(),
             job,
         )
-        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
+        .map_err(|e| super::guard::name_scene(e.into(), scene, &plan.input))?;
         print_warnings(&stats.scene.warnings);
         if !quiet {
             eprintln!(
@@ -127,7 +127,7 @@ pub fn run_sequence_or_frame(
     let frames = choose_frames(&paths, &plan, spec.as_deref())?;
     let bars = super::progress::Bars::new(quiet);
     let check = |p: &RenderPlan| super::guard::check_plan(p, scene.as_deref());
-    let mut report = |frame: i64, p: &RenderPlan, outcome: &FrameOutcome| {
+    let mut report = |frame: i64, p: &RenderPlan, outcome: &FrameOutcome<anyhow::Error>| {
         let mut lines = Vec::new();
         match outcome {
             FrameOutcome::Failed(e) => lines.push(format!(
@@ -204,7 +204,7 @@ pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
     let (plan, quiet) = plan_for(input, options)?;
     let scene = scene_of(input, &plan.input);
     let stats = render(&plan, &super::progress::Bars::new(quiet))
-        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
+        .map_err(|e| super::guard::name_scene(e.into(), scene, &plan.input))?;
     print_warnings(&stats.scene.warnings);
     if !quiet {
         eprintln!(
@@ -226,7 +226,7 @@ pub fn bake(input: &Path, options: RenderOptions) -> Result<()> {
     let (plan, quiet) = plan_for(input, options)?;
     let scene = scene_of(input, &plan.input);
     let stats = bake_shadow_file(&plan, &super::progress::Bars::new(quiet))
-        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
+        .map_err(|e| super::guard::name_scene(e.into(), scene, &plan.input))?;
     print_warnings(&stats.scene.warnings);
     if !quiet {
         for m in &stats.scene.shadow_maps {

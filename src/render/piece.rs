@@ -7,6 +7,16 @@ use std::ops::Range;
 /// The header attributes of a piece, which `murk stitch` reads back.
 pub use crate::output::attr;
 
+/// A `--tile I/N` that names no piece of the frame.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("--tile {value}: {problem}")]
+pub struct PieceError {
+    /// The flag's value, as given.
+    pub value: String,
+    /// What is wrong with it.
+    pub problem: String,
+}
+
 /// The I-th (from 1) of N bands of rows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Piece {
@@ -19,8 +29,11 @@ pub const MAX_PIECES: usize = 65_536;
 
 impl Piece {
     /// Parses `I/N` (1 ≤ I ≤ N).
-    pub fn parse(s: &str) -> Result<Piece, String> {
-        let bad = |why: &str| format!("--tile {s}: {why}");
+    pub fn parse(s: &str) -> Result<Piece, PieceError> {
+        let bad = |why: &str| PieceError {
+            value: s.to_string(),
+            problem: why.to_string(),
+        };
         let (i, n) = s
             .split_once('/')
             .ok_or_else(|| bad("expected I/N, the I-th of N pieces (e.g. 2/4)"))?;
@@ -45,12 +58,12 @@ impl Piece {
     }
 
     /// Refuses more pieces than rows (a piece would be empty).
-    pub fn check(&self, height: usize) -> Result<(), String> {
+    pub fn check(&self, height: usize) -> Result<(), PieceError> {
         if self.count > height {
-            return Err(format!(
-                "--tile {}/{}: more pieces than the image's {height} rows",
-                self.index, self.count
-            ));
+            return Err(PieceError {
+                value: self.to_string(),
+                problem: format!("more pieces than the image's {height} rows"),
+            });
         }
         Ok(())
     }
@@ -86,7 +99,7 @@ mod tests {
     fn bad_pieces() {
         for bad in ["0/3", "4/3", "1/0", "3", "a/b", "-1/3"] {
             assert!(
-                Piece::parse(bad).unwrap_err().starts_with("--tile"),
+                Piece::parse(bad).unwrap_err().to_string().starts_with("--tile"),
                 "{bad}"
             );
         }

@@ -4,6 +4,7 @@
 //! the next ([`FrameReuse`]), a failing frame reported and the others still written,
 //! frames already written left alone with `--skip-existing`.
 
+use super::RenderError;
 use super::piece::Piece;
 use super::stats::RenderStats;
 use super::{FrameJob, run_frame};
@@ -11,7 +12,6 @@ use crate::scene::RenderPlan;
 use crate::scene::frames::{FramePattern, parse_frames};
 use crate::scene::progress::{Progress, Silent};
 use crate::scene::reuse::FrameReuse;
-use anyhow::{Result, anyhow};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -79,28 +79,28 @@ pub fn choose_frames(
     paths: &FramePaths,
     plan: &RenderPlan,
     spec: Option<&str>,
-) -> Result<Vec<i64>> {
+) -> Result<Vec<i64>, RenderError> {
     let frames = match spec {
-        Some(s) => parse_frames(s).map_err(|e| anyhow!(e))?,
+        Some(s) => parse_frames(s).map_err(RenderError::Flag)?,
         None if paths.input.is_pattern() => paths
             .input
             .existing_frames(&plan.input)
-            .map_err(|e| anyhow!(e))?,
+            .map_err(RenderError::Frames)?,
         None => {
-            return Err(anyhow!(
-                "{}: a frame pattern in the outputs needs --frames (or a pattern in the input)",
-                plan.outputs.path.display()
+            return Err(RenderError::output_path(
+                &plan.outputs.path,
+                "a frame pattern in the outputs needs --frames (or a pattern in the input)",
             ));
         }
     };
     if frames.len() > 1 {
         for (p, flag) in paths.outputs() {
             if !p.is_pattern() {
-                return Err(anyhow!(
+                return Err(RenderError::Flag(format!(
                     "{flag} {}: {} frames would all be written to this one file; put a frame pattern (####) in it",
                     p.path(0).display(),
                     frames.len()
-                ));
+                )));
             }
         }
     }
@@ -116,12 +116,12 @@ pub struct SequenceOptions {
     pub piece: Option<Piece>,
 }
 
-/// What became of one frame.
-pub enum FrameOutcome {
+/// What became of one frame; `E` is the error of the caller's check (and the render's).
+pub enum FrameOutcome<E> {
     Written(Box<RenderStats>),
     /// Its output already existed, complete.
     Skipped,
-    Failed(anyhow::Error),
+    Failed(E),
 }
 
 /// The whole sequence.
@@ -145,14 +145,14 @@ pub fn is_complete_exr(path: &Path) -> bool {
 /// Renders `frames` of `plan` in order, one progress bar over all of them (`progress`);
 /// `check` vets each frame's plan (outputs that would clobber an input); `on_frame`
 /// hears what became of each frame as it ends.
-pub fn render_sequence(
+pub fn render_sequence<E: From<RenderError>>(
     plan: &RenderPlan,
     paths: &FramePaths,
     frames: &[i64],
     options: SequenceOptions,
     progress: &dyn Progress,
-    check: &dyn Fn(&RenderPlan) -> Result<()>,
-    on_frame: &mut dyn FnMut(i64, &RenderPlan, &FrameOutcome),
+    check: &dyn Fn(&RenderPlan) -> Result<(), E>,
+    on_frame: &mut dyn FnMut(i64, &RenderPlan, &FrameOutcome<E>),
 ) -> SequenceSummary {
     let start = Instant::now();
     let mut reuse = FrameReuse::across_frames();
@@ -168,7 +168,7 @@ pub fn render_sequence(
                 frame: Some(frame),
                 piece: options.piece,
             };
-            match check(&fp).and_then(|_| run_frame(&fp, &Silent, &mut reuse, job)) {
+            match check(&fp).and_then(|_| Ok(run_frame(&fp, &Silent, &mut reuse, job)?)) {
                 Ok(st) => FrameOutcome::Written(Box::new(st)),
                 Err(e) => FrameOutcome::Failed(e),
             }

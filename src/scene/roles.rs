@@ -2,6 +2,7 @@
 //! colour (named, or detected from the names Houdini, Blender and EmberGen use), decoded
 //! only when the render needs them.
 
+use super::SceneError;
 use super::conventions::{TemperatureMapping, Tool, detect_tool, temperature_mapping};
 use super::plan::{GridChoice, RenderPlan};
 use super::report::SceneReport;
@@ -10,7 +11,8 @@ use super::source::{FieldKind, FieldSource, Loaded};
 use crate::field::color3::ChannelColor;
 use crate::field::{ColorField, Field};
 use crate::integrate::blackbody::BlackbodyTable;
-use anyhow::{Result, anyhow};
+
+type Result<T> = std::result::Result<T, SceneError>;
 
 /// Half floats round values below this to 0: half the smallest subnormal, 2⁻²⁵.
 pub const HALF_ZERO: f64 = 2.980_232_238_769_531_2e-8;
@@ -84,11 +86,12 @@ fn choose_color(source: &dyn FieldSource, choice: &GridChoice) -> Result<Option<
     let scalar = |n: &str| -> Result<String> {
         let g = source.field(n)?;
         if g.kind != FieldKind::Scalar {
-            return Err(anyhow!(
-                "{}: grid \"{}\" ({}) cannot be a colour channel: it must hold float values",
-                source.path().display(),
-                g.unique_name,
-                g.type_name
+            return Err(SceneError::input(
+                source.path(),
+                format!(
+                    "grid \"{}\" ({}) cannot be a colour channel: it must hold float values",
+                    g.unique_name, g.type_name
+                ),
             ));
         }
         Ok(g.unique_name.clone())
@@ -97,9 +100,11 @@ fn choose_color(source: &dyn FieldSource, choice: &GridChoice) -> Result<Option<
         GridChoice::Named(list) if list.contains(',') => {
             let names: Vec<&str> = list.split(',').map(str::trim).collect();
             let [r, g, b] = names.as_slice() else {
-                return Err(anyhow!(
-                    "--color-grid \"{list}\": a list names three float grids, red,green,blue"
-                ));
+                return Err(SceneError::Flag {
+                    flag: "--color-grid",
+                    value: list.clone(),
+                    problem: "a list names three float grids, red,green,blue".into(),
+                });
             };
             Ok(Some(ColorSource::Channels([
                 scalar(r)?,
@@ -158,11 +163,12 @@ fn choose(
                 } else {
                     "float"
                 };
-                return Err(anyhow!(
-                    "{}: grid \"{}\" ({}) cannot be the {role} grid: it must hold {want} values",
-                    source.path().display(),
-                    g.unique_name,
-                    g.type_name
+                return Err(SceneError::input(
+                    source.path(),
+                    format!(
+                        "grid \"{}\" ({}) cannot be the {role} grid: it must hold {want} values",
+                        g.unique_name, g.type_name
+                    ),
                 ));
             }
             Ok(Some(g.unique_name.clone()))
@@ -221,10 +227,12 @@ pub fn load_fields(
         FieldKind::Scalar,
     )?
     .ok_or_else(|| {
-        anyhow!(
-            "{}: no density grid found (the file has: {}); name one with --density-grid",
-            plan.input.display(),
-            source.field_list()
+        SceneError::input(
+            &plan.input,
+            format!(
+                "no density grid found (the file has: {}); name one with --density-grid",
+                source.field_list()
+            ),
         )
     })?;
     let emission_name = choose(
