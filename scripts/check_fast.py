@@ -47,7 +47,7 @@ CASES = {
     "white_backlit_x4": ("cloud.vdb", 0.02, 1.98, 4.0, BEHIND, CLOUD_CAM),
     "white_below_x4": ("cloud.vdb", 0.02, 1.98, 4.0, BELOW, CLOUD_CAM),
     "white_x10_side": ("cloud.vdb", 0.02, 1.98, 10.0, SIDE, CLOUD_CAM),
-    # the fixtures the README names
+    # the fixtures docs/how-it-works.md names
     "fog_front": ("levelset_fog.vdb", 0.1, 20.0, 1.0, FRONT, []),
     "fog_backlit": ("levelset_fog.vdb", 0.1, 20.0, 1.0, BEHIND, []),
     "fog_a95_below": ("levelset_fog.vdb", 0.5, 9.5, 1.0, BELOW, []),

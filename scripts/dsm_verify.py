@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Measures the deep shadow map against exact shadow rays on the fixtures and prints the
-two markdown tables README's "How exact the map is" shows.
+two markdown tables docs/how-it-works.md's "How exact the map is" shows.
 
 Runs `murk render --dsm-verify` (10,000 random points inside the density) for each
 fixture, sun and tolerance, at a tiny image size: the map and its verification do not

@@ -142,7 +142,7 @@ def make_graded():
 def make_plume():
     """A smoke plume on hexahedra over [-1,1]×[-1,1]×[0,3] (8×8×12 cells, their height
     growing upward as a CFD mesh's would, and the columns sheared sideways with height),
-    with point data density, temperature and a colour Cd: the README's render."""
+    with point data density, temperature and a colour Cd: the render in docs/guide.md."""
     xs = np.linspace(-1.0, 1.0, 9)
     zs = 3.0 * (np.linspace(0.0, 1.0, 13) ** 1.4)
     pts, idx = lattice(xs, xs, zs)

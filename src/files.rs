@@ -5,6 +5,8 @@
 //! the water-drop table cache and the reports all write through it. It imports no other
 //! module of the crate.
 
+pub mod place;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -120,7 +122,7 @@ fn remove_stale_temporaries(path: &Path) {
 /// truncate or recreate it). On success the temporary file is renamed over
 /// `path`, replacing any existing file; on any error (from `write` or from the
 /// rename) the temporary file is removed and an existing target is left
-/// untouched. No fsync is done.
+/// untouched. The target's folder is made if missing. No fsync is done.
 ///
 /// Errors produced here are [`FileError`]s naming `path`; `write`'s own
 /// error type only needs `From<FileError>` (so `FileError` itself works, and so does
@@ -131,6 +133,7 @@ where
     E: From<FileError>,
 {
     let temp = temp_path_for(path)?;
+    place::make_folder(path)?;
     remove_stale_temporaries(path);
     if let Err(source) = fs::File::create(&temp) {
         return Err(FileError::CreateTemp {
@@ -269,10 +272,22 @@ mod tests {
     }
 
     #[test]
-    fn missing_directory_names_the_path() {
-        let target = Path::new("/nonexistent-murk-dir/x/out.png");
-        let r: Result<(), FileError> = write_atomically(target, |_| Ok(()));
+    fn missing_folders_are_made_and_a_folder_that_cannot_be_names_the_path() {
+        let dir = scratch_dir("folders");
+        let target = dir.join("seqA/b/out.png");
+        let r: Result<(), FileError> = write_atomically(&target, |tmp| {
+            fs::write(tmp, "new").map_err(|source| FileError::Io {
+                path: tmp.into(),
+                source,
+            })
+        });
+        r.unwrap();
+        assert_eq!(fs::read_to_string(&target).unwrap(), "new");
+        // Under a file no folder can be made, even as root.
+        let target = dir.join("seqA/b/out.png/x/out.png");
+        let r: Result<(), FileError> = write_atomically(&target, |_| Ok(()));
         let msg = r.unwrap_err().to_string();
-        assert!(msg.contains("/nonexistent-murk-dir/x/out.png"), "{msg}");
+        assert!(msg.contains(&target.display().to_string()), "{msg}");
+        fs::remove_dir_all(&dir).unwrap();
     }
 }

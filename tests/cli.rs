@@ -396,33 +396,94 @@ fn unknown_compression() {
     );
 }
 
+/// An output under a regular file (no folder can be made there, even as root).
+fn under_a_file(output: &str) -> String {
+    format!("{}/missing/{output}", fixture("cloud.vdb"))
+}
+
+/// A place that cannot be written is found before the render (the output folder stays
+/// empty, the message is one line), whichever output it is.
 #[test]
-fn exr_into_a_missing_directory() {
-    fails(
-        "exr-dir",
+fn outputs_where_no_folder_can_be_made_fail_before_the_render() {
+    for (flag, file) in [
+        ("-o", "x.exr"),
+        ("--preview", "x.png"),
+        ("--stats", "x.json"),
+    ] {
+        let place = under_a_file(file);
+        fails(
+            &format!("place{flag}"),
+            &fixture("cloud.vdb"),
+            &[flag, &place],
+            &[&format!("missing/{file}"), "cannot create the folder"],
+        );
+    }
+}
+
+/// Missing output folders are made, for every output.
+#[test]
+fn outputs_into_missing_folders_are_made() {
+    let dir = scratch("new-folders");
+    let args: Vec<String> = [
+        "render",
         &fixture("cloud.vdb"),
-        &["-o", "OUT/missing/x.exr"],
-        &["missing/x.exr"],
+        "-o",
+        "seqA/x.exr",
+        "--preview",
+        "png/a/x.png",
+        "--stats",
+        "json/b/c/x.json",
+        "--res",
+        "32x18",
+        "--quiet",
+    ]
+    .map(String::from)
+    .to_vec();
+    let out = murk(&dir, &args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in ["seqA/x.exr", "png/a/x.png", "json/b/c/x.json"] {
+        assert!(dir.join(f).is_file(), "{f}");
+    }
+}
+
+/// `-o` names an OpenEXR and `--preview` a PNG: another extension is refused with the
+/// name that works (an EXR was silently written as out.png).
+#[test]
+fn outputs_named_for_another_format_are_refused() {
+    fails(
+        "o-png",
+        &fixture("cloud.vdb"),
+        &["-o", "OUT/out.png"],
+        &["-o", "out.png", "OpenEXR", "out.exr", "--preview"],
+    );
+    fails(
+        "preview-exr",
+        &fixture("cloud.vdb"),
+        &["--preview", "OUT/p.exr"],
+        &["--preview", "p.exr", "PNG", "p.png"],
     );
 }
 
+/// A negative value for a triple is the value's error, not "unexpected argument '-1'";
+/// a misspelt flag gets clap's suggestion.
 #[test]
-fn preview_into_a_missing_directory() {
-    fails(
-        "png-dir",
+fn flag_values_and_names_get_what_to_write() {
+    let msg = fails(
+        "sigma-negative",
         &fixture("cloud.vdb"),
-        &["--preview", "OUT/missing/x.png"],
-        &["missing/x.png"],
+        &["--sigma-s", "-1,2,2"],
+        &["--sigma-s", "negative"],
     );
-}
-
-#[test]
-fn stats_into_a_missing_directory() {
+    assert!(!msg.contains("unexpected argument"), "{msg}");
     fails(
-        "json-dir",
+        "preveiw",
         &fixture("cloud.vdb"),
-        &["--stats", "OUT/missing/x.json"],
-        &["missing/x.json"],
+        &["--preveiw", "OUT/y.png"],
+        &["--preveiw", "did you mean '--preview'?"],
     );
 }
 
@@ -439,7 +500,67 @@ fn scene_file_with_an_unknown_key() {
         "bad-scene",
         scene.to_str().unwrap(),
         &[],
-        &["scene.toml", "colour"],
+        &[
+            "scene.toml: line 2, `colour = \"red\"`",
+            "did you mean `color_grid`?",
+        ],
+    );
+    // `[[light]]` (the key is a list of strings) gets the syntax, not serde's words.
+    fs::write(
+        &scene,
+        format!(
+            "input = \"{}\"\n[[light]]\nspec = \"sun:1,1,1\"\n",
+            fixture("cloud.vdb")
+        ),
+    )
+    .unwrap();
+    fails(
+        "bad-scene-light",
+        scene.to_str().unwrap(),
+        &[],
+        &["line 2, `[[light]]`", "light = [\"sun:", "[[lights]]"],
+    );
+}
+
+/// A scene's relative shadow cache is read from the scene's folder, like its input,
+/// and named so in errors.
+#[test]
+fn a_scene_s_relative_shadow_cache_is_the_scene_folder_s() {
+    let dir = scratch("scene-cache");
+    fs::create_dir(dir.join("shot")).unwrap();
+    fs::copy(fixture("cloud.vdb"), dir.join("shot/cloud.vdb")).unwrap();
+    fs::write(
+        dir.join("shot/scene.toml"),
+        "input = \"cloud.vdb\"\nshadow_cache = \"shadows.vdb\"\nres = \"32x18\"\n",
+    )
+    .unwrap();
+    let run = |args: &[&str]| {
+        murk(
+            &dir,
+            &args.iter().map(|a| a.to_string()).collect::<Vec<_>>(),
+        )
+    };
+    let out = run(&["render", "shot/scene.toml", "-o", "x.exr", "--quiet"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("shot/shadows.vdb"), "{err}");
+    let bake = run(&[
+        "bake-shadows",
+        "shot/cloud.vdb",
+        "-o",
+        "shot/shadows.vdb",
+        "--quiet",
+    ]);
+    assert!(
+        bake.status.success(),
+        "{}",
+        String::from_utf8_lossy(&bake.stderr)
+    );
+    let out = run(&["render", "shot/scene.toml", "-o", "x.exr", "--quiet"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
     );
 }
 
@@ -456,12 +577,8 @@ fn unparseable_flag_value() {
 
 #[test]
 fn error_messages_do_not_repeat_their_cause() {
-    let msg = fails(
-        "repeat",
-        &fixture("cloud.vdb"),
-        &["-o", "OUT/missing/x.exr"],
-        &[],
-    );
+    let place = under_a_file("x.exr");
+    let msg = fails("repeat", &fixture("cloud.vdb"), &["-o", &place], &[]);
     let parts: Vec<&str> = msg.split(": ").collect();
     for pair in parts.windows(2) {
         assert_ne!(

@@ -472,23 +472,24 @@ fn nans_are_written_as_zero_and_counted() {
 }
 
 #[test]
-fn missing_directory_fails_naming_the_path() {
+fn missing_folders_are_made_and_one_that_cannot_be_fails_naming_the_path() {
     let dir = scratch("missing-dir");
-    let path = dir.join("no/such/dir/frame.exr");
+    let made = dir.join("no/such/dir/frame.exr");
+    write_exr(&made, &test_frame(), &ExrOptions::default()).unwrap();
+    assert!(made.is_file());
+    // Under a regular file no folder can be made, even as root.
+    fs::write(dir.join("file"), "x").unwrap();
+    let path = dir.join("file/no/frame.exr");
     let err = write_exr(&path, &test_frame(), &ExrOptions::default()).unwrap_err();
     let msg = err.to_string();
     assert!(msg.contains(&path.display().to_string()), "{msg}");
-    assert!(matches!(err, OutputError::CreateTemp { .. }), "{err:?}");
-    assert_eq!(
-        fs::read_dir(&dir).unwrap().count(),
-        0,
-        "nothing may be created"
-    );
-    let png = dir.join("no/preview.png");
+    assert!(msg.contains("cannot create the folder"), "{msg}");
+    let png = dir.join("file/preview.png");
     let msg = write_preview(&png, &test_frame(), &PreviewOptions::default())
         .unwrap_err()
         .to_string();
     assert!(msg.contains(&png.display().to_string()), "{msg}");
+    assert_eq!(fs::read_to_string(dir.join("file")).unwrap(), "x");
 }
 
 #[test]

@@ -444,5 +444,7 @@ fn acescg_output_is_the_published_matrix_times_rec709_with_its_chromaticities() 
     assert_eq!(a.channels["Z"], b.channels["Z"]);
     let h = common::exrheader(&aces);
     assert!(h.contains("red   (0.713 0.293)"), "{h}");
+    // ACES' own white (S-2014-004), not the daylight locus' D60 (0.321626, 0.337736).
+    assert!(h.contains("white (0.32168 0.33767)"), "{h}");
     assert!(common::exrheader(&lin).contains("red   (0.64 0.33)"));
 }

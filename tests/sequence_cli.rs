@@ -440,3 +440,148 @@ fn a_scene_file_may_hold_the_frames() {
     ok(&dir, &["render", "shot.toml", "--frames", "1", "--quiet"]);
     assert!(dir.join("shot_0001.exr").exists());
 }
+
+/// A sequence into folders that do not exist makes them; a place that cannot be written
+/// is found before the first frame, in one line (it was found after every frame, a line
+/// each).
+#[test]
+fn a_sequence_makes_its_folders_and_checks_them_first() {
+    let dir = scratch("folders");
+    let input = seq("fluid_####.vdb");
+    let mut args = vec![
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        "seqA/fluid_####.exr",
+        "--preview",
+        "seqA/png/fluid_####.png",
+        "--stats",
+        "stats_####/s.json",
+        "--quiet",
+    ];
+    args.extend(LOOK);
+    ok(&dir, &args);
+    for f in 1..=4 {
+        for p in [
+            format!("seqA/fluid_{f:04}.exr"),
+            format!("seqA/png/fluid_{f:04}.png"),
+            format!("stats_{f:04}/s.json"),
+        ] {
+            assert!(dir.join(&p).is_file(), "{p}");
+        }
+    }
+    fs::write(dir.join("file"), b"x").unwrap();
+    let mut args = vec![
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        "seqB/fluid_####.exr",
+        "--preview",
+        "file/fluid_####.png",
+    ];
+    args.extend(LOOK);
+    refused(&dir, &args, "file/fluid_0001.png");
+    assert!(!dir.join("seqB/fluid_0001.exr").exists());
+}
+
+/// `--skip-existing` leaves a frame only when all its outputs are there: a deleted
+/// preview (or stats file) brings the frame back.
+#[test]
+fn skip_existing_brings_back_a_deleted_preview() {
+    let dir = scratch("skip-preview");
+    let input = seq("fluid_####.vdb");
+    let mut args = vec![
+        "render",
+        input.to_str().unwrap(),
+        "--frames",
+        "1-2",
+        "-o",
+        "r_####.exr",
+        "--preview",
+        "r_####.png",
+        "--stats",
+        "r_####.json",
+    ];
+    args.extend(LOOK);
+    ok(&dir, &args);
+    fs::remove_file(dir.join("r_0002.png")).unwrap();
+    args.push("--skip-existing");
+    let err = ok(&dir, &args);
+    assert!(dir.join("r_0002.png").is_file(), "{err}");
+    assert!(err.contains("1 written, 1 skipped"), "{err}");
+    fs::remove_file(dir.join("r_0001.json")).unwrap();
+    let err = ok(&dir, &args);
+    assert!(dir.join("r_0001.json").is_file(), "{err}");
+    assert!(err.contains("1 written, 1 skipped"), "{err}");
+}
+
+/// `--frames` of which no input exists is refused before any render, saying which
+/// frames the cache holds; another syntax gets the syntax.
+#[test]
+fn frames_that_do_not_exist_and_other_syntaxes_are_one_line() {
+    let dir = scratch("frames-exist");
+    let input = seq("fluid_####.vdb");
+    let i = input.to_str().unwrap();
+    refused(
+        &dir,
+        &["render", i, "--frames", "150-152", "-o", "o_####.exr"],
+        "no file for --frames 150-152; the files found hold frames 1-4",
+    );
+    refused(
+        &dir,
+        &["render", i, "--frames", "1..3", "-o", "o_####.exr"],
+        "write a range as A-B",
+    );
+    assert!(!dir.join("o_0001.exr").exists());
+}
+
+/// A stitch writes the whole frame's preview and removes the pieces when asked.
+#[test]
+fn stitch_writes_the_preview_and_removes_the_pieces() {
+    let dir = scratch("stitch-preview");
+    for (extra, name) in [(&[][..], "rec"), (&["--colorspace", "acescg"][..], "aces")] {
+        let pieces = pieces_of_frame_3(&dir, 2, extra);
+        let whole = dir.join(format!("{name}.exr"));
+        let png = dir.join(format!("{name}.png"));
+        let mut args = vec!["stitch"];
+        args.extend(pieces.iter().map(|p| p.to_str().unwrap()));
+        args.extend([
+            "-o",
+            whole.to_str().unwrap(),
+            "--preview",
+            png.to_str().unwrap(),
+        ]);
+        args.extend(["--exposure", "-1", "--remove-pieces"]);
+        ok(&dir, &args);
+        assert!(pieces.iter().all(|p| !p.exists()), "pieces left");
+        let input = seq("fluid_0003.vdb");
+        let direct_png = dir.join(format!("{name}-direct.png"));
+        let mut args = vec![
+            "render",
+            input.to_str().unwrap(),
+            "-o",
+            "scratch.exr",
+            "--preview",
+            direct_png.to_str().unwrap(),
+            "--exposure",
+            "-1",
+            "--quiet",
+        ];
+        args.extend(LOOK);
+        args.extend(extra);
+        ok(&dir, &args);
+        let (a, b) = (
+            image::open(&png).unwrap().to_rgba8(),
+            image::open(&direct_png).unwrap().to_rgba8(),
+        );
+        let worst = a
+            .as_raw()
+            .iter()
+            .zip(b.as_raw())
+            .map(|(x, y)| x.abs_diff(*y))
+            .max()
+            .unwrap();
+        // Up to the rounding of the pieces' half floats (and ACEScg's round trip).
+        assert!(worst <= 1, "{name}: preview codes differ by {worst}");
+    }
+}

@@ -13,13 +13,13 @@ pub struct MapArgs {
     #[arg(long = "density-grid", value_name = "NAME")]
     pub density_grid: Option<String>,
     /// Absorption per world unit at density 1, r,g,b (default 0.1,0.1,0.1).
-    #[arg(long = "sigma-a", value_name = "r,g,b")]
+    #[arg(long = "sigma-a", allow_hyphen_values = true, value_name = "r,g,b")]
     pub sigma_a: Option<String>,
     /// Scattering per world unit at density 1, r,g,b (default 2,2,2).
-    #[arg(long = "sigma-s", value_name = "r,g,b")]
+    #[arg(long = "sigma-s", allow_hyphen_values = true, value_name = "r,g,b")]
     pub sigma_s: Option<String>,
     /// Multiplies density (default 1).
-    #[arg(long = "density-scale", value_name = "F")]
+    #[arg(long = "density-scale", allow_hyphen_values = true, value_name = "F")]
     pub density_scale: Option<f64>,
     /// A light: sun:DX,DY,DZ[:R,G,B[:INTENSITY]] (direction toward the sun; intensity is its
     /// irradiance), point:X,Y,Z[:R,G,B[:INTENSITY]] or env:R,G,B[:INTENSITY] (a uniform
@@ -27,7 +27,7 @@ pub struct MapArgs {
     #[arg(long = "light", value_name = "SPEC", allow_hyphen_values = true)]
     pub light: Vec<String>,
     /// Largest transmittance error the deep shadow map may make, absolute (default 1e-3).
-    #[arg(long = "dsm-tolerance", value_name = "T")]
+    #[arg(long = "dsm-tolerance", allow_hyphen_values = true, value_name = "T")]
     pub dsm_tolerance: Option<f64>,
 }
 
@@ -64,10 +64,10 @@ pub struct CameraArgs {
     #[arg(long, value_name = "x,y,z", allow_hyphen_values = true)]
     pub up: Option<String>,
     /// Horizontal field of view in degrees, like vdb_render (default 40).
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, allow_hyphen_values = true, value_name = "DEG")]
     pub fov: Option<f64>,
     /// Width of the orthographic view in world units (default: framing the bounds).
-    #[arg(long = "ortho-width", value_name = "W")]
+    #[arg(long = "ortho-width", allow_hyphen_values = true, value_name = "W")]
     pub ortho_width: Option<f64>,
 }
 
@@ -104,14 +104,26 @@ pub struct LookArgs {
     )]
     pub drop_radius: Option<f64>,
     /// Emission colour, r,g,b (default 1,0.45,0.12).
-    #[arg(long = "emission-color", value_name = "r,g,b")]
+    #[arg(
+        long = "emission-color",
+        allow_hyphen_values = true,
+        value_name = "r,g,b"
+    )]
     pub emission_color: Option<String>,
     /// Emission intensity per world unit at emission-grid value 1 (default 4).
-    #[arg(long = "emission-intensity", value_name = "F")]
+    #[arg(
+        long = "emission-intensity",
+        allow_hyphen_values = true,
+        value_name = "F"
+    )]
     pub emission_intensity: Option<f64>,
     /// Kelvin = temperature value × scale + offset (default: detected from the file —
     /// Blender ×1000, Houdini ×5000, ×1 when the values are Kelvin; see README).
-    #[arg(long = "temperature-scale", value_name = "F")]
+    #[arg(
+        long = "temperature-scale",
+        allow_hyphen_values = true,
+        value_name = "F"
+    )]
     pub temperature_scale: Option<f64>,
     /// Kelvin = temperature value × scale + offset (default offset 0; giving either
     /// turns the detection off).
@@ -122,7 +134,11 @@ pub struct LookArgs {
     )]
     pub temperature_offset: Option<f64>,
     /// Blackbody brightness: emission = colour(K) × intensity × (K/1000)^4 (default 0.05).
-    #[arg(long = "blackbody-intensity", value_name = "F")]
+    #[arg(
+        long = "blackbody-intensity",
+        allow_hyphen_values = true,
+        value_name = "F"
+    )]
     pub blackbody_intensity: Option<f64>,
     /// Render without any light (emission only).
     #[arg(long = "no-lights")]
@@ -133,10 +149,14 @@ pub struct LookArgs {
 #[derive(Args, Clone, Debug, Default, PartialEq)]
 pub struct QualityArgs {
     /// Largest march step in voxels of the density grid (default 0.5, at least 1/1024).
-    #[arg(long, value_name = "VOXELS")]
+    #[arg(long, allow_hyphen_values = true, value_name = "VOXELS")]
     pub step: Option<f64>,
     /// Shadow-ray step in voxels (default 1, at least 1/1024).
-    #[arg(long = "shadow-step", value_name = "VOXELS")]
+    #[arg(
+        long = "shadow-step",
+        allow_hyphen_values = true,
+        value_name = "VOXELS"
+    )]
     pub shadow_step: Option<f64>,
     /// dsm (a deep shadow map of optical depth baked once per light, default), march (a
     /// shadow ray per sample: the reference) or none.
@@ -163,7 +183,7 @@ pub struct QualityArgs {
     #[arg(long)]
     pub reference: bool,
     /// Transmittance below which a ray stops (default 1e-4).
-    #[arg(long, value_name = "T")]
+    #[arg(long, allow_hyphen_values = true, value_name = "T")]
     pub termination: Option<f64>,
     /// Meet this relative radiance RMSE against --reference at least cost (e.g. 1e-2):
     /// murk chooses the step and termination from a pilot render and the shadow map's

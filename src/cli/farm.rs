@@ -1,14 +1,19 @@
 //! `murk farm openjd`: an Open Job Description job template (specification 2023-09, the
-//! format AWS Deadline Cloud runs) for a sequence: a `Render` step with a task per frame
-//! and piece, a `Stitch` step after it that puts each frame's pieces together (with one
-//! piece it checks the piece and writes the frame). Paths are job parameters, so a farm
-//! can remap them, each with a default: what was given here, made absolute.
+//! format AWS Deadline Cloud runs) for a sequence. Whole frames: a `Render` step with a
+//! task per frame. Frames in pieces (`--tiles N`): a `Bake` step baking each frame's
+//! deep shadow maps once, a `Render` step with a task per frame and piece reading them,
+//! and a `Stitch` step putting each frame's pieces together (with its preview) and
+//! removing the pieces and the maps. Frames are range expressions (`1001-2100`), which
+//! hold any number of frames. Paths are job parameters, so a farm can remap them, each
+//! with a default: what was given here, relative to the template's folder.
 
-use super::args::RenderArgs;
+use super::args::{BakeArgs, RenderArgs};
 use anyhow::{Result, anyhow};
 use clap::{Args, Subcommand};
 use murk::render::RenderPlan;
 use murk::render::sequence::{FramePaths, choose_frames};
+use murk::scene::frames::frame_ranges;
+use murk::scene::plan::ShadowMode;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -23,7 +28,7 @@ pub enum FarmCommand {
         #[command(flatten)]
         options: Box<RenderArgs>,
         /// Split every frame into N bands of rows, rendered as separate tasks and
-        /// stitched (default 1).
+        /// stitched.
         #[arg(long, value_name = "N", default_value_t = 1)]
         tiles: usize,
         /// The job template to write (JSON, which is YAML too).
@@ -33,14 +38,33 @@ pub enum FarmCommand {
 }
 
 pub const EXAMPLES: &str = "Examples:
-  murk farm openjd 'cache/fluid_####.vdb' --frames 1-250 -o 'render/fluid_####.exr' --job job.yaml
+  murk farm openjd 'cache/fluid_####.vdb' --frames 1-250 -o 'render/fluid_####.exr' --preview 'render/fluid_####.png' --job job.yaml
   murk farm openjd 'cache/fluid_####.vdb' --frames 1-250 --tiles 4 --res 1920x1080 -o 'render/fluid_####.exr' --job job.yaml
-  openjd check job.yaml && openjd run job.yaml --step Stitch --run-dependencies";
 
-/// The flags forwarded verbatim to every `murk render` task: all those given, except
-/// the paths (job parameters), the frames and pieces (task parameters) and this
-/// command's own.
-fn forwarded_flags(raw: &[String], input: &Path) -> Vec<String> {
+Run a job with `openjd check job.yaml && openjd run job.yaml --step Render` (whole frames)
+or `openjd run job.yaml --step Stitch --run-dependencies` (frames in pieces); output
+folders are made by the tasks.";
+
+/// The flags of `murk render` that the template sets itself: the paths (job
+/// parameters), the frames and pieces (task parameters), `--quiet`, and this command's
+/// own. A user's are not forwarded (twice, `murk render` refuses them).
+const SET_BY_THE_TEMPLATE: [&str; 11] = [
+    "-o",
+    "--output",
+    "--stats",
+    "--preview",
+    "--shadow-cache",
+    "--frames",
+    "--tile",
+    "--tiles",
+    "--job",
+    "--skip-existing",
+    "--quiet",
+];
+
+/// The flags of `raw` (this command's arguments after `farm openjd`) forwarded verbatim
+/// to a task: those `keep` accepts, without the input and the flags the template sets.
+fn forwarded_flags(raw: &[String], input: &Path, keep: &dyn Fn(&str) -> bool) -> Vec<String> {
     let cmd = RenderArgs::augment_args(clap::Command::new("x"));
     let takes_value = |flag: &str| {
         cmd.get_arguments().any(|a| {
@@ -51,18 +75,6 @@ fn forwarded_flags(raw: &[String], input: &Path) -> Vec<String> {
         }) || flag == "--tiles"
             || flag == "--job"
     };
-    let dropped = [
-        "-o",
-        "--output",
-        "--stats",
-        "--preview",
-        "--shadow-cache",
-        "--frames",
-        "--tile",
-        "--tiles",
-        "--job",
-        "--skip-existing",
-    ];
     let mut out = Vec::new();
     let mut input_seen = false;
     let mut i = 0;
@@ -70,13 +82,13 @@ fn forwarded_flags(raw: &[String], input: &Path) -> Vec<String> {
         let a = &raw[i];
         let flag = a.split_once('=').map_or(a.as_str(), |(f, _)| f);
         let with_value = a.starts_with('-') && !a.contains('=') && takes_value(flag);
-        let keep = if !a.starts_with('-') && !input_seen && Path::new(a) == input {
+        let forward = if !a.starts_with('-') && !input_seen && Path::new(a) == input {
             input_seen = true;
             false
         } else {
-            !dropped.contains(&flag)
+            !SET_BY_THE_TEMPLATE.contains(&flag) && keep(flag)
         };
-        if keep {
+        if forward {
             out.push(a.clone());
             if with_value && i + 1 < raw.len() {
                 out.push(raw[i + 1].clone());
@@ -85,6 +97,15 @@ fn forwarded_flags(raw: &[String], input: &Path) -> Vec<String> {
         i += if with_value { 2 } else { 1 };
     }
     out
+}
+
+/// Whether `flag` is one `murk bake-shadows` takes.
+fn is_bake_flag(flag: &str) -> bool {
+    let cmd = BakeArgs::augment_args(clap::Command::new("x"));
+    cmd.get_arguments().any(|a| {
+        a.get_long().is_some_and(|l| flag == format!("--{l}"))
+            || a.get_short().is_some_and(|s| flag == format!("-{s}"))
+    })
 }
 
 fn absolute(p: &Path) -> Result<String> {
@@ -133,6 +154,99 @@ fn on_run(args: Vec<String>) -> Value {
     json!({ "actions": { "onRun": { "command": "{{Param.Murk}}", "args": args } } })
 }
 
+/// The job's command lines, as built from the arguments and the plan.
+struct Tasks {
+    /// Per frame, before the renders: one shadow-map bake shared by the frame's pieces.
+    bake: Option<Vec<String>>,
+    render: Vec<String>,
+    /// Per frame, after its pieces: none with one piece (the render writes the frame).
+    stitch: Option<Vec<String>>,
+}
+
+/// What the job's tasks need to know besides the forwarded flags.
+struct Job<'a> {
+    tiles: usize,
+    /// Whether the frame number goes into `murk stitch` (a pattern or several frames).
+    per_frame: bool,
+    stats: bool,
+    preview: bool,
+    shadow_cache: bool,
+    /// Whether a bake per frame is shared by its pieces.
+    share_bake: bool,
+    /// The preview's exposure and background, for `murk stitch`.
+    look: &'a [String],
+}
+
+/// The task command lines; `raw` are the user's arguments, `input` the input as given.
+fn tasks(raw: &[String], input: &Path, job: &Job) -> Tasks {
+    let tiles = job.tiles;
+    let frame = || ["--frames".to_string(), "{{Task.Param.Frame}}".into()];
+    let mut render: Vec<String> = vec!["render".into(), "{{Param.Input}}".into()];
+    render.extend(frame());
+    let whole = tiles == 1;
+    let piece = |tile: &str| format!("{{{{Param.Output}}}}.piece{tile}of{tiles}.exr");
+    let shadows = "{{Param.Output}}.shadows.vdb".to_string();
+    if whole {
+        render.extend(["-o".into(), "{{Param.Output}}".into()]);
+    } else {
+        render.extend([
+            "--tile".into(),
+            format!("{{{{Task.Param.Tile}}}}/{tiles}"),
+            "-o".into(),
+            piece("{{Task.Param.Tile}}"),
+        ]);
+    }
+    let mut param = |on: bool, flag: &str, name: &str| {
+        if on {
+            render.extend([flag.to_string(), format!("{{{{Param.{name}}}}}")]);
+        }
+    };
+    param(job.stats && whole, "--stats", "Stats");
+    param(job.preview && whole, "--preview", "Preview");
+    param(job.shadow_cache, "--shadow-cache", "ShadowCache");
+    let bake = (job.share_bake && !whole).then(|| {
+        let mut bake: Vec<String> = vec![
+            "bake-shadows".into(),
+            "{{Param.Input}}".into(),
+            "--frame".into(),
+            "{{Task.Param.Frame}}".into(),
+            "-o".into(),
+            shadows.clone(),
+            "--quiet".into(),
+        ];
+        bake.extend(forwarded_flags(raw, input, &is_bake_flag));
+        bake
+    });
+    if bake.is_some() {
+        render.extend(["--shadow-cache".into(), shadows.clone()]);
+    }
+    render.push("--quiet".into());
+    render.extend(forwarded_flags(raw, input, &|_| true));
+    let stitch = (!whole).then(|| {
+        let mut stitch: Vec<String> = vec!["stitch".into()];
+        if job.per_frame {
+            stitch.extend(["--frame".into(), "{{Task.Param.Frame}}".into()]);
+        }
+        stitch.extend((1..=tiles).map(|t| piece(&t.to_string())));
+        stitch.extend(["-o".into(), "{{Param.Output}}".into()]);
+        if job.preview {
+            stitch.extend(["--preview".into(), "{{Param.Preview}}".into()]);
+            stitch.extend(job.look.iter().cloned());
+        }
+        stitch.push("--remove-pieces".into());
+        if bake.is_some() {
+            stitch.extend(["--remove".into(), shadows.clone()]);
+        }
+        stitch.push("--quiet".into());
+        stitch
+    });
+    Tasks {
+        bake,
+        render,
+        stitch,
+    }
+}
+
 /// `murk farm openjd`.
 pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Result<()> {
     if options.sequence.tile.is_some() {
@@ -147,13 +261,13 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
         ));
     }
     let raw: Vec<String> = std::env::args().skip(3).collect();
-    let flags = forwarded_flags(&raw, input);
     let (merged, vdb) = super::render::options_for(input, options.options())?;
     if merged.output.is_none() {
         return Err(anyhow!(
             "-o: name the frames' output, e.g. -o 'render/fluid_####.exr'"
         ));
     }
+    super::render::check_output_names(&merged)?;
     let plan = RenderPlan::new(&merged, vdb).map_err(|e| anyhow!("{e}"))?;
     if tiles > plan.camera.height {
         return Err(anyhow!(
@@ -163,10 +277,9 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
     }
     let paths = FramePaths::of(&plan);
     let frames = choose_frames(&paths, &plan, merged.frames.as_deref())?;
-    let has_pattern = paths.output.is_pattern();
-    if tiles > 1 && (merged.stats.is_some() || merged.preview.is_some()) {
+    if tiles > 1 && merged.stats.is_some() {
         return Err(anyhow!(
-            "--stats and --preview describe a whole render: give them without --tiles"
+            "--stats describes a whole render, not a piece: give it without --tiles"
         ));
     }
     let job_dir = match job.parent() {
@@ -184,78 +297,187 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
         path_param("Input", input, &job_dir, "IN", "INPUT")?,
         path_param("Output", &plan.outputs.path, &job_dir, "OUT", "-o")?,
     ];
-    let mut render_args: Vec<String> = vec!["render".into(), "{{Param.Input}}".into()];
-    let mut extra = |name: &str, flag: &str, path: &Option<PathBuf>, flow: &str| -> Result<()> {
+    for (name, flag, path, flow) in [
+        ("Stats", "--stats", &merged.stats, "OUT"),
+        ("Preview", "--preview", &merged.preview, "OUT"),
+        ("ShadowCache", "--shadow-cache", &merged.shadow_cache, "IN"),
+    ] {
         if let Some(p) = path {
             params.push(path_param(name, p, &job_dir, flow, flag)?);
-            render_args.extend([flag.to_string(), format!("{{{{Param.{name}}}}}")]);
         }
-        Ok(())
-    };
-    extra("Stats", "--stats", &merged.stats, "OUT")?;
-    extra("Preview", "--preview", &merged.preview, "OUT")?;
-    extra("ShadowCache", "--shadow-cache", &merged.shadow_cache, "IN")?;
-    let piece = |tile: &str| format!("{{{{Param.Output}}}}.piece{tile}of{tiles}.exr");
-    render_args.extend([
-        "--frames".into(),
-        "{{Task.Param.Frame}}".into(),
-        "--tile".into(),
-        format!("{{{{Task.Param.Tile}}}}/{tiles}"),
-        "-o".into(),
-        piece("{{Task.Param.Tile}}"),
-        "--quiet".into(),
-    ]);
-    render_args.extend(flags);
-    let mut stitch_args: Vec<String> = vec!["stitch".into()];
-    if has_pattern || frames.len() > 1 {
-        stitch_args.extend(["--frame".into(), "{{Task.Param.Frame}}".into()]);
     }
-    stitch_args.extend((1..=tiles).map(|t| piece(&t.to_string())));
-    stitch_args.extend(["-o".into(), "{{Param.Output}}".into()]);
-    let frame_param = json!({ "name": "Frame", "type": "INT", "range": frames });
+    let mut look = Vec::new();
+    if let Some(e) = merged.exposure {
+        look.extend(["--exposure".to_string(), e.to_string()]);
+    }
+    if let Some(b) = &merged.background {
+        look.extend(["--background".to_string(), b.clone()]);
+    }
+    // A bake shared by a frame's pieces must be the bake each would make: not when the
+    // render chooses the tolerance (--max-error) or flags bake-shadows lacks decide
+    // the lights (--up-axis), nor without a deep shadow map to bake, nor with an
+    // environment light (bake-shadows, with no --scattering path, refuses one).
+    let share_bake = plan.shadows.mode == ShadowMode::Dsm
+        && !plan.lights.is_empty()
+        && plan.transport.environment.is_none()
+        && merged.shadow_cache.is_none()
+        && merged.max_error.is_none()
+        && merged.up_axis.is_none();
+    let spec = Job {
+        tiles,
+        per_frame: paths.output.is_pattern() || frames.len() > 1,
+        stats: merged.stats.is_some(),
+        preview: merged.preview.is_some(),
+        shadow_cache: merged.shadow_cache.is_some(),
+        share_bake,
+        look: &look,
+    };
+    let tasks = tasks(&raw, input, &spec);
+    // A range expression, not a list: a list holds at most 1,024 values.
+    let frame_param =
+        json!({ "name": "Frame", "type": "INT", "range": frame_ranges(&frames, ":") });
     let name = format!(
         "murk {}",
         input.file_name().unwrap_or_default().to_string_lossy()
     );
+    let mut steps = Vec::new();
+    if let Some(bake) = tasks.bake {
+        steps.push(json!({
+            "name": "Bake",
+            "parameterSpace": { "taskParameterDefinitions": [frame_param] },
+            "script": on_run(bake),
+        }));
+    }
+    let mut render = json!({
+        "name": "Render",
+        "parameterSpace": {
+            "taskParameterDefinitions": if tiles == 1 {
+                json!([frame_param])
+            } else {
+                json!([frame_param, { "name": "Tile", "type": "INT", "range": format!("1-{tiles}") }])
+            },
+        },
+        "script": on_run(tasks.render),
+    });
+    if !steps.is_empty() {
+        render["dependencies"] = json!([{ "dependsOn": "Bake" }]);
+    }
+    steps.push(render);
+    if let Some(stitch) = tasks.stitch {
+        steps.push(json!({
+            "name": "Stitch",
+            "dependencies": [{ "dependsOn": "Render" }],
+            "parameterSpace": { "taskParameterDefinitions": [frame_param] },
+            "script": on_run(stitch),
+        }));
+    }
+    let n = frames.len();
     let template = json!({
         "specificationVersion": "jobtemplate-2023-09",
         "name": name,
         "description": format!(
-            "murk render of {} frames in {tiles} piece(s) each, stitched. Made by murk farm openjd.",
-            frames.len()
+            "murk render of {n} frames in {tiles} piece(s) each. Made by murk farm openjd."
         ),
         "parameterDefinitions": params,
-        "steps": [
-            {
-                "name": "Render",
-                "parameterSpace": {
-                    "taskParameterDefinitions": [
-                        frame_param,
-                        { "name": "Tile", "type": "INT", "range": (1..=tiles).collect::<Vec<_>>() },
-                    ],
-                },
-                "script": on_run(render_args),
-            },
-            {
-                "name": "Stitch",
-                "dependencies": [{ "dependsOn": "Render" }],
-                "parameterSpace": { "taskParameterDefinitions": [frame_param] },
-                "script": on_run(stitch_args),
-            },
-        ],
+        "steps": steps,
     });
     let text = serde_json::to_string_pretty(&template)? + "\n";
     murk::output::write_atomically(job, |tmp| {
         std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", job.display()))
     })?;
     if !merged.quiet {
+        let mut what = vec![format!("{} render tasks", n * tiles)];
+        if share_bake && tiles > 1 {
+            what.insert(0, format!("{n} shadow bakes"));
+        }
+        if tiles > 1 {
+            what.push(format!("{n} stitch tasks"));
+        }
         eprintln!(
-            "murk: wrote {} ({} frames x {tiles} pieces: {} render tasks, {} stitch tasks)",
+            "murk: wrote {} ({n} frames x {tiles} pieces: {})",
             job.display(),
-            frames.len(),
-            frames.len() * tiles,
-            frames.len()
+            what.join(", ")
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    /// A task's command line as a worker runs it: the parameters filled in.
+    fn filled(task: &[String]) -> Vec<String> {
+        let values = [
+            ("{{Param.Input}}", "cache/f_####.vdb"),
+            ("{{Param.Output}}", "render/f_####.exr"),
+            ("{{Param.Stats}}", "render/f_####.json"),
+            ("{{Param.Preview}}", "render/f_####.png"),
+            ("{{Param.ShadowCache}}", "cache/shadows_####.vdb"),
+            ("{{Task.Param.Frame}}", "7"),
+            ("{{Task.Param.Tile}}", "2"),
+        ];
+        let fill = |a: &String| {
+            values
+                .iter()
+                .fold(a.clone(), |a, (from, to)| a.replace(from, to))
+        };
+        std::iter::once("murk".to_string())
+            .chain(task.iter().map(fill))
+            .collect()
+    }
+
+    /// Every flag of `murk render` a user may give `murk farm openjd`, with and without
+    /// pieces and the optional outputs: every task's command line is one `murk` takes
+    /// (a flag the template sets too, such as --quiet, was refused by every task).
+    #[test]
+    fn every_flag_a_user_passes_through_gives_tasks_murk_accepts() {
+        let cmd = RenderArgs::augment_args(clap::Command::new("x"));
+        let input = Path::new("cache/f_####.vdb");
+        let look = ["--exposure".to_string(), "-1".to_string()];
+        let mut tried = 0;
+        for arg in cmd.get_arguments() {
+            let Some(long) = arg.get_long() else {
+                continue;
+            };
+            let mut raw = vec![input.display().to_string(), format!("--{long}")];
+            if arg.get_action().takes_values() {
+                let value = arg
+                    .get_possible_values()
+                    .first()
+                    .map_or_else(|| "1".to_string(), |v| v.get_name().to_string());
+                raw.push(value);
+            }
+            raw.extend(["-o", "render/f_####.exr", "--job", "job.yaml"].map(String::from));
+            for tiles in [1, 3] {
+                for (outputs, share_bake) in [(false, true), (true, false)] {
+                    let job = Job {
+                        tiles,
+                        per_frame: true,
+                        stats: outputs,
+                        preview: outputs,
+                        shadow_cache: outputs,
+                        share_bake,
+                        look: &look,
+                    };
+                    let t = tasks(&raw, input, &job);
+                    assert_eq!(
+                        t.stitch.is_some(),
+                        tiles > 1,
+                        "a Stitch step only for pieces"
+                    );
+                    assert_eq!(t.bake.is_some(), tiles > 1 && share_bake);
+                    for task in [Some(t.render), t.bake, t.stitch].into_iter().flatten() {
+                        let line = filled(&task);
+                        if let Err(e) = crate::cli::Cli::try_parse_from(&line) {
+                            panic!("--{long}, tiles {tiles}: murk {}: {e}", line[1..].join(" "));
+                        }
+                    }
+                }
+            }
+            tried += 1;
+        }
+        assert!(tried > 40, "{tried} flags");
+    }
 }

@@ -9,6 +9,7 @@ mod phase;
 mod progress;
 mod render;
 mod report;
+mod stitch;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -48,6 +49,10 @@ enum Command {
         input: PathBuf,
         #[command(flatten)]
         options: Box<args::BakeArgs>,
+        /// Bake this frame of a sequence: its number put into the frame patterns of INPUT
+        /// and -o (as `murk stitch --frame`; for a farm's job).
+        #[arg(long, value_name = "N")]
+        frame: Option<i64>,
     },
     /// Run a fixed battery of stiff and extreme cases; print a pass/fail table and write
     /// stability.json.
@@ -83,22 +88,9 @@ enum Command {
     },
     /// Put the pieces of a frame rendered with `murk render --tile I/N` back together.
     #[command(
-        after_help = "Examples:\n  murk stitch out.piece1of2.exr out.piece2of2.exr -o out.exr\n  murk stitch --frame 12 'out_####.p1.exr' 'out_####.p2.exr' -o 'out_####.exr'"
+        after_help = "Examples:\n  murk stitch out.piece1of2.exr out.piece2of2.exr -o out.exr\n  murk stitch --frame 12 'out_####.p1.exr' 'out_####.p2.exr' -o 'out_####.exr' --preview 'out_####.png' --remove-pieces"
     )]
-    Stitch {
-        /// Every piece of the frame, in any order.
-        #[arg(required = true)]
-        pieces: Vec<PathBuf>,
-        /// The whole frame's EXR.
-        #[arg(short = 'o', long = "output", value_name = "FULL.exr")]
-        output: PathBuf,
-        /// Put this frame number into the frame patterns (####, %04d, $F4) of the paths.
-        #[arg(long, value_name = "N")]
-        frame: Option<i64>,
-        /// No report.
-        #[arg(long)]
-        quiet: bool,
-    },
+    Stitch(stitch::StitchArgs),
     /// Tabulate and plot a phase function (CSV, PNG), to see what a render will get.
     Phase {
         #[command(subcommand)]
@@ -136,6 +128,16 @@ pub fn run() -> i32 {
                 .collect();
             if !named.is_empty() {
                 first = format!("{first}: {}", named.join(", "));
+            }
+            // clap's suggestion for a misspelt flag or value comes on a later line.
+            if let Some(tip) = text.lines().find_map(|l| l.trim().strip_prefix("tip: ")) {
+                first = match tip.split_once("similar ") {
+                    Some((_, similar)) => match similar.split_once(" exists: ") {
+                        Some((_, name)) => format!("{first}: did you mean {name}?"),
+                        None => format!("{first} ({tip})"),
+                    },
+                    None => format!("{first} ({tip})"),
+                };
             }
             eprintln!("murk: error: {first} (see murk --help)");
             return 2;
@@ -176,12 +178,7 @@ pub fn run() -> i32 {
                     job,
                 },
         } => farm::openjd(&input, *options, tiles, &job),
-        Command::Stitch {
-            pieces,
-            output,
-            frame,
-            quiet,
-        } => stitch(&pieces, &output, frame, quiet),
+        Command::Stitch(a) => stitch::run(a),
         Command::Render { input, options } => {
             let sequence = options.sequence.clone();
             match render::run_sequence_or_frame(&input, options.options(), &sequence) {
@@ -190,7 +187,11 @@ pub fn run() -> i32 {
                 Err(e) => Err(e),
             }
         }
-        Command::BakeShadows { input, options } => render::bake(&input, options.options()),
+        Command::BakeShadows {
+            input,
+            options,
+            frame,
+        } => render::bake(&input, options.options(), frame),
     };
     match result {
         Ok(()) => 0,
@@ -199,26 +200,6 @@ pub fn run() -> i32 {
             2
         }
     }
-}
-
-/// `murk stitch`.
-fn stitch(
-    pieces: &[PathBuf],
-    output: &std::path::Path,
-    frame: Option<i64>,
-    quiet: bool,
-) -> anyhow::Result<()> {
-    let at = |p: &std::path::Path| match frame {
-        Some(f) => murk::render::sequence::frame_path(p, f),
-        None => p.to_path_buf(),
-    };
-    let pieces: Vec<PathBuf> = pieces.iter().map(|p| at(p)).collect();
-    let output = at(output);
-    let (w, h, n) = murk::output::stitch::stitch(&pieces, &output)?;
-    if !quiet {
-        eprintln!("murk: wrote {} ({w}x{h}, {n} pieces)", output.display());
-    }
-    Ok(())
 }
 
 /// The error and its causes, each cause added only if the text so far does not already

@@ -3,7 +3,8 @@
 use anyhow::{Result, anyhow};
 use murk::render::piece::Piece;
 use murk::render::sequence::{
-    FrameOutcome, FramePaths, SequenceOptions, choose_frames, is_complete_exr, render_sequence,
+    FrameOutcome, FramePaths, SequenceOptions, check_inputs_exist, choose_frames, frame_is_done,
+    prepare_places, render_sequence,
 };
 use murk::render::{
     FrameJob, RenderOptions, RenderPlan, bake_shadow_file, run as render, run_frame,
@@ -47,6 +48,28 @@ pub fn options_for(input: &Path, options: RenderOptions) -> Result<(RenderOption
     }
 }
 
+/// A render's output names must say what murk writes: `-o` an OpenEXR, `--preview` a
+/// PNG (`-o out.png` once wrote an EXR named .png). A name with no extension is left.
+pub fn check_output_names(options: &RenderOptions) -> Result<()> {
+    let wrong = |p: &Path, ext: &str| p.extension().is_some_and(|e| !e.eq_ignore_ascii_case(ext));
+    if let Some(o) = options.output.as_deref().filter(|o| wrong(o, "exr")) {
+        return Err(anyhow!(
+            "-o {}: murk writes OpenEXR; name it {} (and for a PNG of the beauty pass add --preview {})",
+            o.display(),
+            o.with_extension("exr").display(),
+            o.with_extension("png").display()
+        ));
+    }
+    if let Some(p) = options.preview.as_deref().filter(|p| wrong(p, "png")) {
+        return Err(anyhow!(
+            "--preview {}: the preview is a PNG; name it {}",
+            p.display(),
+            p.with_extension("png").display()
+        ));
+    }
+    Ok(())
+}
+
 /// The plan of a render or bake: options from the flags over a scene file, if given.
 fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> {
     let (options, vdb) = options_for(input, options)?;
@@ -82,6 +105,7 @@ pub fn run_sequence_or_frame(
         .transpose()
         .map_err(|e| anyhow!(e))?;
     let (merged, vdb) = options_for(input, options.clone())?;
+    check_output_names(&merged)?;
     let spec = merged.frames.clone();
     let probe = RenderPlan::new(&merged, vdb.clone());
     let is_sequence = spec.is_some()
@@ -93,7 +117,7 @@ pub fn run_sequence_or_frame(
             return run(input, options).map(|_| true);
         }
         let (plan, quiet) = plan_for(input, options)?;
-        if sequence.skip_existing && is_complete_exr(&plan.outputs.path) {
+        if sequence.skip_existing && frame_is_done(&plan) {
             if !quiet {
                 eprintln!("murk: {} exists: skipped", plan.outputs.path.display());
             }
@@ -125,6 +149,8 @@ pub fn run_sequence_or_frame(
     let scene = scene_of(input, &plan.input).map(Path::to_path_buf);
     let paths = FramePaths::of(&plan);
     let frames = choose_frames(&paths, &plan, spec.as_deref())?;
+    check_inputs_exist(&paths, &plan, &frames)?;
+    prepare_places(&paths, &frames)?;
     let bars = super::progress::Bars::new(quiet);
     let check = |p: &RenderPlan| super::guard::check_plan(p, scene.as_deref());
     let mut report = |frame: i64, p: &RenderPlan, outcome: &FrameOutcome<anyhow::Error>| {
@@ -222,9 +248,18 @@ pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
     Ok(())
 }
 
-pub fn bake(input: &Path, options: RenderOptions) -> Result<()> {
+pub fn bake(input: &Path, options: RenderOptions, frame: Option<i64>) -> Result<()> {
     let (plan, quiet) = plan_for(input, options)?;
-    let scene = scene_of(input, &plan.input);
+    let scene = scene_of(input, &plan.input).map(Path::to_path_buf);
+    let scene = scene.as_deref();
+    let plan = match frame {
+        Some(f) => {
+            let at = FramePaths::of(&plan).plan(&plan, f);
+            super::guard::check_plan(&at, scene)?;
+            at
+        }
+        None => plan,
+    };
     let stats = bake_shadow_file(&plan, &super::progress::Bars::new(quiet))
         .map_err(|e| super::guard::name_scene(e.into(), scene, &plan.input))?;
     print_warnings(&stats.scene.warnings);

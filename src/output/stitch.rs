@@ -232,6 +232,21 @@ fn same(pieces: &[Piece]) -> Result<()> {
 /// Reads the pieces, checks they are every piece of one frame, and writes the whole frame
 /// to `out`. Returns the frame's size and the number of pieces.
 pub fn stitch(pieces: &[PathBuf], out: &Path) -> Result<(usize, usize, usize)> {
+    let whole = stitch_frame(pieces)?;
+    write_exr(out, &whole.frame, &whole.options)?;
+    Ok((whole.frame.width, whole.frame.height, whole.pieces))
+}
+
+/// A frame put together from its pieces, as its EXR is written.
+pub struct Stitched {
+    /// The channels as the pieces store them (in the pieces' colour space).
+    pub frame: Frame,
+    pub options: ExrOptions,
+    pub pieces: usize,
+}
+
+/// Reads the pieces and checks they are every piece of one frame: the whole frame.
+pub fn stitch_frame(pieces: &[PathBuf]) -> Result<Stitched> {
     if pieces.is_empty() {
         return Err(StitchError::NoPieces);
     }
@@ -364,6 +379,9 @@ pub fn stitch(pieces: &[PathBuf], out: &Path) -> Result<(usize, usize, usize)> {
         z_empty: attribute(first, attr::Z_EMPTY)?.unwrap_or(ExrOptions::default().z_empty),
         crop_data_window: first.strings.get(attr::CROP).is_some_and(|c| c == "true"),
     };
-    write_exr(out, &frame, &opts)?;
-    Ok((w, h, count))
+    Ok(Stitched {
+        frame,
+        options: opts,
+        pieces: count,
+    })
 }

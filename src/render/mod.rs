@@ -28,7 +28,7 @@ use crate::scene::roles::load_fields;
 pub use error::RenderError;
 use piece::Piece;
 use stats::{RenderStats, Stage};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 type Result<T> = std::result::Result<T, RenderError>;
@@ -472,30 +472,22 @@ fn write_stats(path: &Path, st: &RenderStats) -> Result<()> {
     })
 }
 
-/// Fails before any work if an output's directory does not exist.
+/// Before any work: makes every output's folder if missing and checks it writable.
 fn check_output_dirs(plan: &RenderPlan) -> Result<()> {
-    let outputs = [
+    for path in output_paths(plan) {
+        crate::files::place::prepare(path)?;
+    }
+    Ok(())
+}
+
+/// The files a render of `plan` writes (not `--stats -`, standard output).
+pub fn output_paths(plan: &RenderPlan) -> impl Iterator<Item = &Path> {
+    [
         Some(&plan.outputs.path),
         plan.outputs.preview.as_ref().map(|p| &p.0),
         plan.outputs.stats.as_ref().filter(|p| p.as_os_str() != "-"),
-    ];
-    for path in outputs.into_iter().flatten() {
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        if !dir.is_dir() {
-            return Err(RenderError::output_path(
-                path,
-                format!(
-                    "cannot write there: the directory {} does not exist",
-                    dir.display()
-                ),
-            ));
-        }
-        if path.is_dir() {
-            return Err(RenderError::output_path(path, "is a directory"));
-        }
-    }
-    Ok(())
+    ]
+    .into_iter()
+    .flatten()
+    .map(PathBuf::as_path)
 }

@@ -99,7 +99,10 @@ mod tests {
     fn bad_pieces() {
         for bad in ["0/3", "4/3", "1/0", "3", "a/b", "-1/3"] {
             assert!(
-                Piece::parse(bad).unwrap_err().to_string().starts_with("--tile"),
+                Piece::parse(bad)
+                    .unwrap_err()
+                    .to_string()
+                    .starts_with("--tile"),
                 "{bad}"
             );
         }

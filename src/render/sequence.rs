@@ -9,7 +9,7 @@ use super::piece::Piece;
 use super::stats::RenderStats;
 use super::{FrameJob, run_frame};
 use crate::scene::RenderPlan;
-use crate::scene::frames::{FramePattern, parse_frames};
+use crate::scene::frames::{FramePattern, frame_ranges, parse_frames};
 use crate::scene::progress::{Progress, Silent};
 use crate::scene::reuse::FrameReuse;
 use std::path::{Path, PathBuf};
@@ -72,6 +72,68 @@ impl FramePaths {
     }
 }
 
+/// Before any frame is rendered, when `--frames` picks the frames of an input pattern:
+/// refuses a list of which no input exists, in one line that says which frames do
+/// (`--frames 1-3` on a cache of frames 150 to 250). Some frames missing is not refused:
+/// each is reported and the others are written. A folder that cannot be listed (or a
+/// pattern in a folder name) is left to the frames to report.
+pub fn check_inputs_exist(
+    paths: &FramePaths,
+    plan: &RenderPlan,
+    frames: &[i64],
+) -> Result<(), RenderError> {
+    if !paths.input.is_pattern() || frames.iter().any(|&f| paths.input.path(f).exists()) {
+        return Ok(());
+    }
+    let found = match paths.input.existing_frames(&plan.input) {
+        Ok(found) => found,
+        Err(e) if e.contains("matches no file") => return Err(RenderError::Frames(e)),
+        Err(_) => return Ok(()),
+    };
+    Err(RenderError::Input {
+        path: plan.input.clone(),
+        problem: format!(
+            "no file for --frames {}; the files found hold frames {}",
+            clip(&frame_ranges(frames, "x")),
+            clip(&frame_ranges(&found, "x"))
+        ),
+    })
+}
+
+/// A frame list as printed in a one-line error: at most 200 characters.
+fn clip(s: &str) -> String {
+    match s.char_indices().nth(200) {
+        Some((at, _)) => format!("{}...", &s[..at]),
+        None => s.to_string(),
+    }
+}
+
+/// Whether frame `plan` needs no render with `--skip-existing`: its EXR is complete
+/// and its preview and stats files exist (one deleted brings the frame back).
+pub fn frame_is_done(plan: &RenderPlan) -> bool {
+    is_complete_exr(&plan.outputs.path) && super::output_paths(plan).skip(1).all(|p| p.is_file())
+}
+
+/// Before any frame is rendered: the folder of every frame's every output made if
+/// missing and checked writable (each folder once), so that a sequence that cannot be
+/// written fails at once with one line, not once per frame after each render.
+pub fn prepare_places(paths: &FramePaths, frames: &[i64]) -> Result<(), RenderError> {
+    let mut seen = std::collections::HashSet::new();
+    for &frame in frames {
+        for (pattern, _) in paths.outputs() {
+            let path = pattern.path(frame);
+            if path.as_os_str() == "-" {
+                continue;
+            }
+            let folder = path.parent().map(Path::to_path_buf).unwrap_or_default();
+            if seen.insert(folder) {
+                crate::files::place::prepare(&path)?;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The frames to render: `spec` (`--frames` or the scene's `frames`), else the frames
 /// whose input files exist when the input is a pattern. Several frames need a frame
 /// pattern in every output path (else they would overwrite one another).
@@ -110,7 +172,8 @@ pub fn choose_frames(
 /// How a sequence is rendered.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SequenceOptions {
-    /// Leave frames whose output is already a complete EXR.
+    /// Leave frames whose output is already a complete EXR (and whose preview and stats
+    /// files exist).
     pub skip_existing: bool,
     /// Render only this piece of every frame.
     pub piece: Option<Piece>,
@@ -161,7 +224,7 @@ pub fn render_sequence<E: From<RenderError>>(
     for &frame in frames {
         let fp = paths.plan(plan, frame);
         progress.note(&format!("frame {frame}"));
-        let outcome = if options.skip_existing && is_complete_exr(&fp.outputs.path) {
+        let outcome = if options.skip_existing && frame_is_done(&fp) {
             FrameOutcome::Skipped
         } else {
             let job = FrameJob {

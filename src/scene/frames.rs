@@ -175,12 +175,17 @@ pub fn parse_frames(spec: &str) -> Result<Vec<i64>, String> {
         if item.is_empty() {
             return Err(bad("an empty item".into()));
         }
+        if item.contains("..") || item.contains(':') {
+            return Err(bad(format!(
+                "`{item}`: write a range as A-B, with a step as A-BxSTEP (e.g. 1-10,20,30-40x2)"
+            )));
+        }
         let num = |t: &str| -> Result<i64, String> {
-            t.trim()
-                .parse::<i64>()
-                .ok()
-                .filter(|v| *v >= 0)
-                .ok_or_else(|| bad(format!("`{item}`: `{t}` is not a frame number (0 or more)")))
+            t.trim().parse::<i64>().ok().filter(|v| *v >= 0).ok_or_else(|| {
+                bad(format!(
+                    "`{item}`: `{t}` is not a frame number (0 or more); a list reads 1-10,20,30-40x2"
+                ))
+            })
         };
         let (range, step) = match item.split_once('x') {
             Some((r, s)) => {
@@ -219,6 +224,36 @@ pub fn parse_frames(spec: &str) -> Result<Vec<i64>, String> {
         )));
     }
     Ok(frames)
+}
+
+/// `frames` (ascending) written as a short list: runs of three or more frames a
+/// constant step apart as `A-B` (step 1) or `A-B{step_mark}STEP`, the rest one by one;
+/// `x` gives `--frames` syntax, `:` an Open Job Description range expression.
+pub fn frame_ranges(frames: &[i64], step_mark: &str) -> String {
+    let mut items = Vec::new();
+    let mut i = 0;
+    while i < frames.len() {
+        let mut j = i + 1;
+        if let Some(&next) = frames.get(i + 1) {
+            let step = next - frames[i];
+            while j < frames.len() && frames[j] - frames[j - 1] == step {
+                j += 1;
+            }
+            if j - i >= 3 {
+                let (a, b) = (frames[i], frames[j - 1]);
+                items.push(if step == 1 {
+                    format!("{a}-{b}")
+                } else {
+                    format!("{a}-{b}{step_mark}{step}")
+                });
+                i = j;
+                continue;
+            }
+        }
+        items.push(frames[i].to_string());
+        i += 1;
+    }
+    items.join(",")
 }
 
 #[cfg(test)]
@@ -277,5 +312,31 @@ mod tests {
             assert!(e.starts_with("--frames"), "{bad}: {e}");
         }
         assert!(parse_frames("0-99999999999").is_err());
+        for other_syntax in ["1..10", "1:10"] {
+            let e = parse_frames(other_syntax).unwrap_err();
+            assert!(e.contains("write a range as A-B"), "{e}");
+        }
+    }
+
+    #[test]
+    fn frame_lists_are_written_back_short() {
+        for spec in [
+            "1-10,20,30-40x2",
+            "1001-2100",
+            "1,3",
+            "5",
+            "1-2,4-9",
+            "0-8x4,10-20x5",
+        ] {
+            let frames = parse_frames(spec).unwrap();
+            let short = frame_ranges(&frames, "x");
+            assert_eq!(parse_frames(&short).unwrap(), frames, "{spec} -> {short}");
+        }
+        assert_eq!(
+            frame_ranges(&parse_frames("1001-2100").unwrap(), ":"),
+            "1001-2100"
+        );
+        assert_eq!(frame_ranges(&[1, 3, 5, 6], ":"), "1-5:2,6");
+        assert_eq!(frame_ranges(&[150, 151, 152, 200], "x"), "150-152,200");
     }
 }

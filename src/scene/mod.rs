@@ -17,6 +17,7 @@ pub mod progress;
 pub mod report;
 pub mod reuse;
 pub mod roles;
+mod scene_file;
 pub mod source;
 pub mod transport;
 

@@ -173,11 +173,17 @@ impl RenderOptions {
         };
         let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
         let mut o: RenderOptions =
-            toml::from_str(&text).map_err(|e| bad(e.to_string().replace('\n', " ")))?;
+            toml::from_str(&text).map_err(|e| bad(super::scene_file::describe(&e, &text)))?;
         let dir = path.parent().unwrap_or(std::path::Path::new("."));
-        for p in [&mut o.input, &mut o.output, &mut o.stats, &mut o.preview]
-            .into_iter()
-            .flatten()
+        for p in [
+            &mut o.input,
+            &mut o.output,
+            &mut o.stats,
+            &mut o.preview,
+            &mut o.shadow_cache,
+        ]
+        .into_iter()
+        .flatten()
         {
             if p.is_relative() {
                 *p = dir.join(&*p);
