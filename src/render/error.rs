@@ -32,13 +32,13 @@ pub enum RenderError {
     /// `--tile` names more pieces than the image has rows.
     #[error(transparent)]
     Piece(#[from] super::piece::PieceError),
-    /// A flag's value does not fit the render (`--frames` that cannot be read, an output
-    /// without a frame pattern). The text names the flag.
+    /// A flag's value does not fit the render (an output without a frame pattern for a
+    /// sequence). The text names the flag.
     #[error("{0}")]
     Flag(String),
-    /// The frames of an input pattern cannot be listed. The text names the pattern.
-    #[error("{0}")]
-    Frames(String),
+    /// `--frames` is not a frame list, or the frames of an input pattern cannot be found.
+    #[error(transparent)]
+    Frames(#[from] crate::scene::frames::FramesError),
     /// `murk bake-shadows` with no light.
     #[error("no lights to bake shadows for")]
     NoLights,

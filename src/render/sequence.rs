@@ -9,7 +9,7 @@ use super::piece::Piece;
 use super::stats::RenderStats;
 use super::{FrameJob, run_frame};
 use crate::scene::RenderPlan;
-use crate::scene::frames::{FramePattern, frame_ranges, parse_frames};
+use crate::scene::frames::{FramePattern, FramesError, frame_ranges, parse_frames};
 use crate::scene::progress::{Progress, Silent};
 use crate::scene::reuse::FrameReuse;
 use std::path::{Path, PathBuf};
@@ -87,7 +87,7 @@ pub fn check_inputs_exist(
     }
     let found = match paths.input.existing_frames(&plan.input) {
         Ok(found) => found,
-        Err(e) if e.contains("matches no file") => return Err(RenderError::Frames(e)),
+        Err(e @ FramesError::NoMatch { .. }) => return Err(e.into()),
         Err(_) => return Ok(()),
     };
     Err(RenderError::Input {
@@ -143,11 +143,8 @@ pub fn choose_frames(
     spec: Option<&str>,
 ) -> Result<Vec<i64>, RenderError> {
     let frames = match spec {
-        Some(s) => parse_frames(s).map_err(RenderError::Flag)?,
-        None if paths.input.is_pattern() => paths
-            .input
-            .existing_frames(&plan.input)
-            .map_err(RenderError::Frames)?,
+        Some(s) => parse_frames(s)?,
+        None if paths.input.is_pattern() => paths.input.existing_frames(&plan.input)?,
         None => {
             return Err(RenderError::output_path(
                 &plan.outputs.path,
