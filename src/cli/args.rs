@@ -60,7 +60,7 @@ pub struct CameraArgs {
     /// Point the camera looks at, x,y,z (default: the centre of the density's bounds).
     #[arg(long = "look-at", value_name = "x,y,z", allow_hyphen_values = true)]
     pub look_at: Option<String>,
-    /// Camera up vector (default 0,1,0).
+    /// Camera up vector (default: the world's up axis, 0,1,0, or 0,0,1 for a Z-up cache).
     #[arg(long, value_name = "x,y,z", allow_hyphen_values = true)]
     pub up: Option<String>,
     /// Horizontal field of view in degrees, like vdb_render (default 40).

@@ -419,6 +419,15 @@ fn bake_shadow_file_here(plan: &RenderPlan, progress: &dyn Progress) -> Result<R
     report
         .stages
         .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
+    let (up, _) = crate::scene::conventions::resolve_up_axis(
+        plan.production.up_axis,
+        &fields.tool,
+        fields.up_from_data.as_ref(),
+    );
+    // The lights as a render of this input turns them, so that it finds them in the cache.
+    let turned = crate::scene::turned_for_up(plan, up);
+    let plan = &*turned;
+    density_only.lights = plan.lights.clone();
     let density = fields.density.as_ref();
     let sigma_t = plan.medium.sigma_t();
     let hash = density.content_hash().ok_or_else(|| RenderError::Input {

@@ -216,6 +216,7 @@ pub fn render_sequence<E: From<RenderError>>(
 ) -> SequenceSummary {
     let start = Instant::now();
     let mut reuse = FrameReuse::across_frames();
+    reuse.frame_box = sequence_box(plan, paths, frames);
     let mut summary = SequenceSummary::default();
     progress.start("frames", frames.len() as u64, "frames");
     for &frame in frames {
@@ -245,6 +246,25 @@ pub fn render_sequence<E: From<RenderError>>(
     summary.shadow_maps_reused = reuse.shadow_maps_reused;
     summary.seconds = start.elapsed().as_secs_f64();
     summary
+}
+
+/// The box the default camera frames in every frame of a sequence rendered in one run:
+/// the union of the frames' densities (each decoded once more for it), so that the
+/// camera stays put and the last frame's plume is framed as tightly as the first's.
+/// `None` for one frame, with the camera placed by hand, or with no frame to read.
+fn sequence_box(
+    plan: &RenderPlan,
+    paths: &FramePaths,
+    frames: &[i64],
+) -> Option<(glam::DVec3, glam::DVec3)> {
+    let req = &plan.camera.request;
+    if frames.len() < 2 || !paths.input.is_pattern() || req.eye.is_some() || req.look_at.is_some() {
+        return None;
+    }
+    frames
+        .iter()
+        .filter_map(|&f| crate::scene::roles::density_box_of(&paths.plan(plan, f)))
+        .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
 }
 
 /// The path of frame `frame` of `pattern` (for tools that build command lines).

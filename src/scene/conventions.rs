@@ -17,6 +17,8 @@
 //!
 //! Up axis. Blender is Z-up; Houdini and EmberGen are Y-up, as is murk's default.
 
+use super::source::{FieldKind, SourceField};
+use crate::field::Field;
 use glam::DVec3;
 
 /// The tool a cache comes from, as far as murk can tell.
@@ -48,9 +50,11 @@ pub const BLENDER_KELVIN_PER_UNIT: f64 = 1000.0;
 pub const HOUDINI_KELVIN_PER_UNIT: f64 = 5000.0;
 
 /// The tool a file comes from: from the file's `creator` metadata first, then from the
-/// grid names only Blender or EmberGen write. `None` when nothing tells. The second value
+/// grids only one tool writes: Blender's `color_r/g/b`, Mantaflow's `shadow` grid and
+/// staggered `velocity` (a MAC grid, which Mantaflow alone writes as `staggered`),
+/// Houdini's `Cd`/`vel`, EmberGen's `flames`. `None` when nothing tells. The second value
 /// says how it was told (for the stats).
-pub fn detect_tool(metadata: &[(String, String)], grids: &[String]) -> Option<(Tool, String)> {
+pub fn detect_tool(metadata: &[(String, String)], grids: &[SourceField]) -> Option<(Tool, String)> {
     for (k, v) in metadata {
         if !k.eq_ignore_ascii_case("creator") {
             continue;
@@ -67,9 +71,20 @@ pub fn detect_tool(metadata: &[(String, String)], grids: &[String]) -> Option<(T
         };
         return Some((tool, format!("file metadata creator = \"{v}\"")));
     }
-    let has = |n: &str| grids.iter().any(|g| g == n);
+    let has = |n: &str| grids.iter().any(|g| g.name == n);
     if has("color_r") && has("color_g") && has("color_b") {
         return Some((Tool::Blender, "Blender's grid set (color_r/g/b)".into()));
+    }
+    let staggered = grids
+        .iter()
+        .any(|g| g.name == "velocity" && g.kind == FieldKind::Vector && g.class == "staggered");
+    if staggered || (has("shadow") && has("density")) {
+        let what = if staggered {
+            "staggered velocity"
+        } else {
+            "shadow grid"
+        };
+        return Some((Tool::Blender, format!("Mantaflow's grid set ({what})")));
     }
     if has("flame") && (has("heat") || has("fuel") || has("react")) && !has("Cd") {
         return Some((
@@ -192,8 +207,71 @@ pub enum UpAxisChoice {
     Fixed(UpAxis),
 }
 
-/// The up axis for a file from `tool` under `choice`, and why (for the stats).
-pub fn resolve_up_axis(choice: UpAxisChoice, tool: &Option<(Tool, String)>) -> (UpAxis, String) {
+/// What a cache's own data says of its up axis when no tool tells it: hot gas rises, so
+/// the density's centre lies above the temperature's (a plume's smoke over its source).
+/// The up axis is y or z, whichever that offset points along, when it points up, is at
+/// least 5 % of the extent and twice the offset along the other; else why not.
+pub fn up_from_data(
+    density: &dyn Field,
+    temperature: Option<&dyn Field>,
+) -> Result<(UpAxis, String), String> {
+    let Some(temperature) = temperature else {
+        return Err("no temperature grid tells which way is up".into());
+    };
+    let (lo, hi) = density.world_bounds();
+    let extent = hi - lo;
+    if !(extent.min_element() > 0.0) || !extent.is_finite() {
+        return Err("the density has no extent to tell it from".into());
+    }
+    // A lattice of cell centres over the density's bounds, up to 32 a side.
+    const N: usize = 32;
+    let (mut wd, mut wt) = (0.0f64, 0.0f64);
+    let (mut md, mut mt) = (DVec3::ZERO, DVec3::ZERO);
+    for i in 0..N * N * N {
+        let c = DVec3::new((i % N) as f64, ((i / N) % N) as f64, (i / (N * N)) as f64);
+        let p = lo + extent * (c + 0.5) / N as f64;
+        let d = (density.value_at_world(p) as f64).max(0.0);
+        let t = (temperature.value_at_world(p) as f64).max(0.0);
+        if d.is_finite() && t.is_finite() {
+            (wd, wt) = (wd + d, wt + t);
+            (md, mt) = (md + p * d, mt + p * t);
+        }
+    }
+    if !(wd > 0.0 && wt > 0.0) {
+        return Err("the temperature is zero wherever the density is not".into());
+    }
+    let offset = (md / wd - mt / wt) / extent;
+    let (y, z) = (offset.y, offset.z);
+    let (axis, along, across) = if y.abs() >= z.abs() {
+        (UpAxis::Y, y, z)
+    } else {
+        (UpAxis::Z, z, y)
+    };
+    if along > 0.05 && along > 2.0 * across.abs() {
+        Ok((
+            axis,
+            format!(
+                "the smoke lies above the heat along +{} ({:.0} % of the extent)",
+                axis.name(),
+                along * 100.0
+            ),
+        ))
+    } else {
+        Err(format!(
+            "the smoke's centre is not clearly above the heat's along y or z (offsets {:.0} % and {:.0} % of the extent)",
+            y * 100.0,
+            z * 100.0
+        ))
+    }
+}
+
+/// The up axis for a file from `tool` under `choice`, and why (for the stats). With no
+/// tool recognised, what the data says ([`up_from_data`]), y when it says nothing.
+pub fn resolve_up_axis(
+    choice: UpAxisChoice,
+    tool: &Option<(Tool, String)>,
+    data: Option<&Result<(UpAxis, String), String>>,
+) -> (UpAxis, String) {
     match (choice, tool) {
         (UpAxisChoice::Fixed(a), _) => (a, format!("{} (--up-axis)", a.name())),
         (UpAxisChoice::Auto, Some((Tool::Blender, how))) => {
@@ -202,7 +280,17 @@ pub fn resolve_up_axis(choice: UpAxisChoice, tool: &Option<(Tool, String)>) -> (
         (UpAxisChoice::Auto, Some((t, how))) => {
             (UpAxis::Y, format!("y (auto: {} is Y-up; {how})", t.name()))
         }
-        (UpAxisChoice::Auto, None) => (UpAxis::Y, "y (auto: no tool recognised)".into()),
+        (UpAxisChoice::Auto, None) => match data {
+            Some(Ok((a, why))) => (
+                *a,
+                format!("{} (auto: no tool recognised; {why})", a.name()),
+            ),
+            Some(Err(why)) => (
+                UpAxis::Y,
+                format!("y (auto: no tool recognised and {why}; y, murk's default)"),
+            ),
+            None => (UpAxis::Y, "y (auto: no tool recognised)".into()),
+        },
     }
 }
 
@@ -210,8 +298,42 @@ pub fn resolve_up_axis(choice: UpAxisChoice, tool: &Option<(Tool, String)>) -> (
 mod tests {
     use super::*;
 
-    fn names(n: &[&str]) -> Vec<String> {
-        n.iter().map(|s| s.to_string()).collect()
+    fn grid(name: &str, kind: FieldKind, class: &str) -> SourceField {
+        SourceField {
+            name: name.into(),
+            unique_name: name.into(),
+            kind,
+            type_name: String::new(),
+            class: class.into(),
+        }
+    }
+
+    fn names(n: &[&str]) -> Vec<SourceField> {
+        n.iter()
+            .map(|s| grid(s, FieldKind::Scalar, "fog volume"))
+            .collect()
+    }
+
+    #[test]
+    fn mantaflow_is_told_by_its_shadow_grid_or_staggered_velocity() {
+        // Mantaflow's fire cache: no colour grids, no metadata.
+        let fire = names(&["density", "shadow", "temperature", "flame"]);
+        let (tool, how) = detect_tool(&[], &fire).unwrap();
+        assert_eq!(
+            (tool, how.as_str()),
+            (Tool::Blender, "Mantaflow's grid set (shadow grid)")
+        );
+        let mut v = names(&["density", "temperature"]);
+        v.push(grid("velocity", FieldKind::Vector, "staggered"));
+        let (tool, how) = detect_tool(&[], &v).unwrap();
+        assert_eq!(
+            (tool, how.as_str()),
+            (Tool::Blender, "Mantaflow's grid set (staggered velocity)")
+        );
+        // A collocated velocity tells nothing.
+        let mut v = names(&["density", "temperature"]);
+        v.push(grid("velocity", FieldKind::Vector, "unknown"));
+        assert!(detect_tool(&[], &v).is_none());
     }
 
     #[test]

@@ -82,6 +82,29 @@ pub struct Scene {
     pub report: SceneReport,
 }
 
+/// A shadow map's transmittance error past which a miss of murk's own tolerance is a
+/// warning rather than a note: 5 % of the light, a visible step in a lit gradient. Below
+/// it (real caches' maps measure under 1 % against marched shadows) the image does not
+/// show it.
+pub const VISIBLE_SHADOW_ERROR: f64 = 5e-2;
+
+/// The plan with its default sun turned for the world's up axis: it shines from the same
+/// side of the default camera in a Z-up world as in a Y-up one (from the front, above
+/// and to the right). Shading and the shadow maps take their lights from this plan.
+pub fn turned_for_up(
+    plan: &RenderPlan,
+    up: conventions::UpAxis,
+) -> std::borrow::Cow<'_, RenderPlan> {
+    if !plan.production.default_light || up == conventions::UpAxis::Y {
+        return std::borrow::Cow::Borrowed(plan);
+    }
+    let mut p = plan.clone();
+    for l in &mut p.lights {
+        l.rotate(|v| up.from_y_up(v));
+    }
+    std::borrow::Cow::Owned(p)
+}
+
 impl Scene {
     /// Opens the plan's input, decodes the fields in their roles, frames the camera and
     /// bakes (or reads) the shadow maps the render needs.
@@ -112,9 +135,19 @@ impl Scene {
         report
             .stages
             .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
-        let (up_axis, up_why) = conventions::resolve_up_axis(plan.production.up_axis, &fields.tool);
+        let (up_axis, up_why) = conventions::resolve_up_axis(
+            plan.production.up_axis,
+            &fields.tool,
+            fields.up_from_data.as_ref(),
+        );
+        if fields.tool.is_none() && plan.production.up_axis == conventions::UpAxisChoice::Auto {
+            report.notes.push(format!(
+                "no tool recognised (no creator metadata, no grid set of Blender, Mantaflow, Houdini or EmberGen): up axis {up_why}; --up-axis y or z to say"
+            ));
+        }
         report.up_axis = up_why;
-        let camera = resolve_camera(plan, fields.density.as_ref(), up_axis)?;
+        let plan = &*turned_for_up(plan, up_axis);
+        let camera = resolve_camera(plan, fields.density.as_ref(), up_axis, reuse.frame_box)?;
         let mut emission_plan = plan.emission;
         if let Some(m) = &fields.temperature_mapping {
             emission_plan.temperature_scale = m.scale;
@@ -122,14 +155,7 @@ impl Scene {
         }
         let emission = (fields.emission.is_some() || fields.temperature.is_some())
             .then(|| (emission_plan, BlackbodyTable::new(200.0, 40000.0, 2048)));
-        // The default sun follows the up axis: it shines from the same side of the
-        // default camera in a Z-up world as in a Y-up one.
-        let mut lights = plan.lights.clone();
-        if plan.production.default_light && up_axis != conventions::UpAxis::Y {
-            for l in &mut lights {
-                l.rotate(|v| up_axis.from_y_up(v));
-            }
-        }
+        let lights = plan.lights.clone();
         // The phase function: water-drop tables are built (or read from the disk
         // cache) here, once per process and radius.
         let t = Instant::now();
@@ -259,11 +285,24 @@ impl Scene {
             let report = &mut self.report;
             report.shadow_map_memory_bytes = map_stats.iter().map(|s| s.bake.memory_bytes).sum();
             report.density_memory_bytes = density.memory_bytes();
-            report.warnings.extend(
-                map_stats
-                    .iter()
-                    .filter_map(|m| m.shortfall(plan.shadows.dsm_tolerance)),
-            );
+            // A tolerance the user chose that a map misses is a warning; murk's own
+            // (the default, or --max-error's share) a note in the stats, unless the
+            // miss is plainly visible. Each says what holds the tolerance.
+            let chosen = plan.march.max_error.is_none()
+                && plan.shadows.dsm_tolerance != plan::defaults::DSM_TOLERANCE;
+            for m in &map_stats {
+                let Some(line) = m.shortfall(plan.shadows.dsm_tolerance) else {
+                    continue;
+                };
+                let line = format!(
+                    "{line}; --shadows march traces these shadows exactly instead (slower)"
+                );
+                if chosen || m.bake.over_tolerance_error > VISIBLE_SHADOW_ERROR {
+                    report.warnings.push(line);
+                } else {
+                    report.notes.push(line);
+                }
+            }
             report.shadow_maps = map_stats;
             report
                 .stages
@@ -381,16 +420,21 @@ impl Scene {
 
 /// The camera the plan asks for, framing the bounds of the density's non-zero values
 /// where it does not say, from the front with `up` up.
+/// The world box of the density's non-zero cells, `None` when it has none.
+pub fn density_box(density: &dyn Field) -> Option<(DVec3, DVec3)> {
+    let nonzero = crate::field::nonzero::nonzero_bounds(density);
+    (!nonzero.is_empty()).then(|| density.transform().index_box_to_world(&nonzero))
+}
+
 fn resolve_camera(
     plan: &RenderPlan,
     density: &dyn Field,
     up: conventions::UpAxis,
+    frame_box: Option<(DVec3, DVec3)>,
 ) -> Result<Camera> {
-    let nonzero = crate::field::nonzero::nonzero_bounds(density);
-    let (lo, hi) = if nonzero.is_empty() {
-        (DVec3::splat(-1.0), DVec3::splat(1.0))
-    } else {
-        density.transform().index_box_to_world(&nonzero)
+    let (lo, hi) = match frame_box.or_else(|| density_box(density)) {
+        Some(b) => b,
+        None => (DVec3::splat(-1.0), DVec3::splat(1.0)),
     };
     let req = &plan.camera.request;
     // Framed in murk's Y-up frame, then turned into the world's: the box's corners

@@ -84,4 +84,6 @@ pub struct TemperatureConvention {
     /// The grid's largest value, and that in Kelvin.
     pub max_value: f64,
     pub max_kelvin: f64,
+    /// Whether the temperature glows (blackbody emission) and why: `on: …` or `off: …`.
+    pub emission: String,
 }

@@ -13,6 +13,9 @@ pub struct FrameReuse {
     shadows: Option<(String, Vec<ShadowMap>, Vec<ShadowMapStats>)>,
     /// Frames whose shadow maps were reused rather than baked.
     pub shadow_maps_reused: usize,
+    /// The world box the default camera frames in every frame (the union of the
+    /// frames' densities), so that it does not move; `None`: each frame's own.
+    pub frame_box: Option<(DVec3, DVec3)>,
 }
 
 /// Everything a set of shadow maps depends on, as one comparable string: the density's

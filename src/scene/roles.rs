@@ -3,7 +3,9 @@
 //! only when the render needs them.
 
 use super::SceneError;
-use super::conventions::{TemperatureMapping, Tool, detect_tool, temperature_mapping};
+use super::conventions::{
+    TemperatureMapping, Tool, UpAxis, UpAxisChoice, detect_tool, temperature_mapping, up_from_data,
+};
 use super::plan::{GridChoice, RenderPlan};
 use super::report::SceneReport;
 use super::report::TemperatureConvention;
@@ -185,6 +187,22 @@ fn choose(
     }
 }
 
+/// The world box of the non-zero cells of the density `plan` would render (decoded
+/// alone), `None` when it has none or cannot be read (the render says why).
+pub fn density_box_of(plan: &RenderPlan) -> Option<(glam::DVec3, glam::DVec3)> {
+    let source = super::source::open(&plan.input).ok()?;
+    let name = choose(
+        source.as_ref(),
+        &plan.grids.density,
+        DENSITY_NAMES,
+        "density",
+        FieldKind::Scalar,
+    )
+    .ok()??;
+    let density = source.load_scalar(&name).ok()?.field;
+    super::density_box(density.as_ref())
+}
+
 /// The decoded fields of a render.
 pub struct SceneFields {
     /// The tool the file is taken to come from, and how that was told.
@@ -198,6 +216,8 @@ pub struct SceneFields {
     pub color: Option<Box<dyn ColorField>>,
     /// An emission or temperature field exists, whether or not it is used.
     pub emission_found: bool,
+    /// With no tool recognised and `--up-axis auto`: what the data says of the up axis.
+    pub up_from_data: Option<Result<(UpAxis, String), String>>,
 }
 
 /// Notes a decoded field in the report under its role, and hands the field on.
@@ -235,6 +255,19 @@ pub fn load_fields(
             ),
         )
     })?;
+    let d = source.field(&density_name)?;
+    if d.class == "level set" {
+        // A level set holds a surface's signed distance, negative inside: read as
+        // density it is a rounded box of sanitised values, not the shape.
+        return Err(SceneError::input(
+            &plan.input,
+            format!(
+                "grid \"{}\" is a level set (a surface's signed distance), not a fog volume; convert it first, e.g. vdb_tool -read {} -ls2fog name=density -write fog.vdb",
+                d.unique_name,
+                plan.input.display()
+            ),
+        ));
+    }
     let emission_name = choose(
         source,
         &plan.grids.emission,
@@ -255,11 +288,11 @@ pub fn load_fields(
         && plan.emission.intensity > 0.0
         && plan.emission.color.max_element() > 0.0;
     let temperature_wanted = temperature_name.is_some() && plan.emission.blackbody_intensity > 0.0;
+    let flame_grid = emission_name.clone();
     let emission_name = emission_name.filter(|_| emission_wanted);
     let temperature_name = temperature_name.filter(|_| temperature_wanted);
 
-    let names: Vec<String> = source.fields().iter().map(|g| g.name.clone()).collect();
-    let tool = detect_tool(&source.metadata(), &names);
+    let tool = detect_tool(&source.metadata(), source.fields());
     report.source_tool = tool
         .as_ref()
         .map(|(t, how)| format!("{} ({how})", t.name()));
@@ -283,6 +316,15 @@ pub fn load_fields(
         Some(n) => Some(record(report, "temperature", source.load_scalar(n)?)),
         None => None,
     };
+    let up_from_data = (tool.is_none() && plan.production.up_axis == UpAxisChoice::Auto)
+        .then(|| up_from_data(density.as_ref(), temperature.as_deref()));
+    let fire = fire_of(
+        plan,
+        &tool,
+        flame_grid.as_deref(),
+        emission_name.is_some(),
+        emission.is_some(),
+    );
     let mut mapping = None;
     if let (Some(n), Some(f)) = (&temperature_name, &temperature) {
         let max = field_max(f.as_ref());
@@ -303,9 +345,21 @@ pub fn load_fields(
             reason: m.reason.clone(),
             max_value: max,
             max_kelvin: max * m.scale + m.offset,
+            emission: match &fire {
+                Ok(why) => format!("on: {why}"),
+                Err(why) => format!("off: {why}"),
+            },
         });
         let table = BlackbodyTable::new(200.0, 40000.0, 2048);
-        if let Some(why) =
+        if let Err(why) = &fire {
+            report.notes.push(format!(
+                "temperature grid \"{n}\" does not glow: {why}; name it (--temperature-grid {n}) to make it glow"
+            ));
+            report
+                .skipped_grids
+                .insert(n.clone(), format!("temperature: {why}"));
+            temperature = None;
+        } else if let Some(why) =
             temperature_invisible(f.as_ref(), &m, plan.emission.blackbody_intensity, &table)
         {
             report.notes.push(format!(
@@ -326,7 +380,25 @@ pub fn load_fields(
             let r = record(report, "color_r", source.load_scalar(&r)?);
             let g = record(report, "color_g", source.load_scalar(&g)?);
             let b = record(report, "color_b", source.load_scalar(&b)?);
-            Some(Box::new(ChannelColor::new(r, g, b)) as Box<dyn ColorField>)
+            let all_zero = [&r, &g, &b].iter().all(|f| field_max(f.as_ref()) <= 0.0);
+            if all_zero {
+                // Blender writes color_r/g/b with no active voxel for plain smoke:
+                // multiplying by them would make the smoke black.
+                let names = report.grids_decoded[report.grids_decoded.len() - 3..].join(", ");
+                report.notes.push(format!(
+                    "colour grids {names} are empty or zero everywhere: left out, so the smoke is not blackened (it scatters as --sigma-s says)"
+                ));
+                for role in ["color_r", "color_g", "color_b"] {
+                    if let Some(n) = report.grid_roles.remove(role) {
+                        report
+                            .skipped_grids
+                            .insert(n, "colour: empty or zero everywhere".into());
+                    }
+                }
+                None
+            } else {
+                Some(Box::new(ChannelColor::new(r, g, b)) as Box<dyn ColorField>)
+            }
         }
         None => None,
     };
@@ -344,5 +416,40 @@ pub fn load_fields(
         temperature,
         color,
         emission_found,
+        up_from_data,
     })
+}
+
+/// Whether a temperature grid glows by default, and why: where the cache has fire. A
+/// cache whose flame grid is empty or zero everywhere, or a Blender cache with none, is
+/// smoke: Cycles' Principled Volume shows no blackbody unless asked, and a smoke
+/// source's temperature (1 to 2 in Blender's units, 1000 to 2000 K) would glow pink.
+/// Asked for — the grid named, or its Kelvin mapping given — it glows.
+fn fire_of(
+    plan: &RenderPlan,
+    tool: &Option<(Tool, String)>,
+    flame_grid: Option<&str>,
+    flame_loaded: bool,
+    flame_kept: bool,
+) -> Result<String, String> {
+    if plan.production.temperature_explicit {
+        return Ok("--temperature-scale/--temperature-offset given".into());
+    }
+    if let GridChoice::Named(n) = &plan.grids.temperature {
+        return Ok(format!("--temperature-grid {n} given"));
+    }
+    match flame_grid {
+        Some(f) if flame_kept => Ok(format!("the cache has fire (grid \"{f}\")")),
+        Some(f) if flame_loaded => Err(format!(
+            "the cache has no fire (grid \"{f}\" is empty or zero everywhere): smoke only"
+        )),
+        // The flame grid not read (its emission turned off): as the cache says nothing.
+        Some(f) => Ok(format!(
+            "grid \"{f}\" not read; the temperature taken as fire"
+        )),
+        None if matches!(tool, Some((Tool::Blender, _))) => {
+            Err("a Blender cache with no flame grid is smoke only".into())
+        }
+        None => Ok("no flame grid: the temperature is the fire".into()),
+    }
 }

@@ -75,6 +75,9 @@ pub struct SourceField {
     pub kind: FieldKind,
     /// The value type as the file calls it (`float`, `vec3s`, …).
     pub type_name: String,
+    /// The grid class as the file records it (`fog volume`, `level set`, `staggered`,
+    /// `unknown`); `unknown` where the source has none.
+    pub class: String,
 }
 
 /// A loaded field with what loading it found.

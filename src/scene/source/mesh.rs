@@ -40,6 +40,7 @@ impl MeshFieldSource {
                     a.components,
                     if a.components == 1 { "" } else { "s" }
                 ),
+                class: "unknown".into(),
             })
             .collect();
         Ok(MeshFieldSource {

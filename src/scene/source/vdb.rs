@@ -29,6 +29,7 @@ impl VdbSource {
                     _ => FieldKind::Other,
                 },
                 type_name: g.value_type.clone(),
+                class: g.class.clone(),
             })
             .collect();
         Ok(VdbSource { file, fields })
