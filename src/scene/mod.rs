@@ -57,7 +57,7 @@ use roles::{SceneFields, load_fields};
 use std::sync::Arc;
 use std::time::Instant;
 
-type Result<T> = std::result::Result<T, SceneError>;
+type Result<T, E = SceneError> = std::result::Result<T, E>;
 
 /// A scene ready to render.
 pub struct Scene {

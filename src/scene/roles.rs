@@ -14,7 +14,7 @@ use crate::field::color3::ChannelColor;
 use crate::field::{ColorField, Field};
 use crate::integrate::blackbody::BlackbodyTable;
 
-type Result<T> = std::result::Result<T, SceneError>;
+type Result<T, E = SceneError> = std::result::Result<T, E>;
 
 /// Half floats round values below this to 0: half the smallest subnormal, 2⁻²⁵.
 pub const HALF_ZERO: f64 = 2.980_232_238_769_531_2e-8;
