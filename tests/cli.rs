@@ -744,7 +744,9 @@ fn bake_shadows_refuses_camera_flags_and_bakes_a_scene_s_lights() {
 }
 
 /// Every default lives in `murk::scene::plan::defaults`; the flags' help states each one,
-/// so the two cannot drift apart (a changed default without its help fails here).
+/// so the two cannot drift apart (a changed default without its help fails here). The
+/// library's own test holds every stated value to the plan; this one reads `--help` as a
+/// user does, and covers the defaults that depend on other flags.
 #[test]
 fn help_states_every_default() {
     use murk::scene::plan::defaults as d;
@@ -761,48 +763,50 @@ fn help_states_every_default() {
     };
     let rgb = |v: [f64; 3]| format!("{},{},{}", v[0], v[1], v[2]);
     let cases = [
-        ("--res", format!("default {}x{}", d::RES.0, d::RES.1)),
-        ("--fov", format!("default {}", d::FOV_DEG)),
-        ("--sigma-a", format!("default {}", rgb([d::SIGMA_A; 3]))),
-        ("--sigma-s", format!("default {}", rgb([d::SIGMA_S; 3]))),
-        ("--density-scale", format!("default {}", d::DENSITY_SCALE)),
-        ("--g", format!("default {}", d::G)),
+        ("--res", format!("[default: {}x{}", d::RES.0, d::RES.1)),
+        ("--fov", format!("[default: {}", d::FOV_DEG)),
+        ("--sigma-a", format!("[default: {}", rgb([d::SIGMA_A; 3]))),
+        ("--sigma-s", format!("[default: {}", rgb([d::SIGMA_S; 3]))),
+        ("--density-scale", format!("[default: {}", d::DENSITY_SCALE)),
+        ("--g", format!("[default: {}", d::G)),
         (
             "--emission-color",
-            format!("default {}", rgb(d::EMISSION_COLOR)),
+            format!("[default: {}", rgb(d::EMISSION_COLOR)),
         ),
         (
             "--emission-intensity",
-            format!("default {}", d::EMISSION_INTENSITY),
+            format!("[default: {}", d::EMISSION_INTENSITY),
         ),
-        // Detected from the file's convention since production caches (issue 13).
-        ("--temperature-scale", "default: detected".to_string()),
+        ("--temperature-scale", "[default: detected".to_string()),
         (
             "--temperature-offset",
-            format!("default offset {}", d::TEMPERATURE_OFFSET),
+            format!("[default: {}, detected", d::TEMPERATURE_OFFSET),
         ),
         (
             "--blackbody-intensity",
-            format!("default {}", d::BLACKBODY_INTENSITY),
+            format!("[default: {}", d::BLACKBODY_INTENSITY),
         ),
-        ("--light", format!("Default: {}", d::LIGHT)),
-        ("--dsm-tolerance", format!("default {:e}", d::DSM_TOLERANCE)),
-        ("--step", format!("default {}", d::STEP)),
-        ("--shadow-step", format!("default {}", d::SHADOW_STEP)),
-        ("--termination", format!("default {:e}", d::TERMINATION)),
-        ("--spp", format!("default {}", d::SPP)),
-        ("--seed", format!("default {}", d::SEED)),
-        ("--exposure", format!("default {}", d::EXPOSURE)),
-        ("--drop-radius", format!("default {}", d::DROP_RADIUS_UM)),
-        ("--z-empty", format!("default {:e}", d::Z_EMPTY)),
-        ("--up-axis", "default auto".to_string()),
-        ("--colorspace", "default lin_rec709".to_string()),
+        ("--light", format!("[default: {}", d::LIGHT)),
         (
-            "--scattering",
-            format!("{} (every order approximated; default", d::SCATTERING),
+            "--dsm-tolerance",
+            format!("[default: {:e}", d::DSM_TOLERANCE),
         ),
-        ("--bounces", format!("path: default {}", d::PATH_BOUNCES)),
-        ("--bounces", format!("fast: default {}", d::FAST_BOUNCES)),
+        ("--step", format!("[default: {}", d::STEP)),
+        ("--shadow-step", format!("[default: {}", d::SHADOW_STEP)),
+        ("--termination", format!("[default: {:e}", d::TERMINATION)),
+        ("--spp", format!("[default: {}", d::SPP)),
+        ("--seed", format!("[default: {}", d::SEED)),
+        ("--exposure", format!("[default: {}", d::EXPOSURE)),
+        ("--drop-radius", format!("[default: {}", d::DROP_RADIUS_UM)),
+        ("--z-empty", format!("[default: {:e}", d::Z_EMPTY)),
+        ("--up-axis", "[default: auto]".to_string()),
+        ("--colorspace", "[default: lin_rec709]".to_string()),
+        ("--scattering", format!("[default: {}]", d::SCATTERING)),
+        ("--bounces", format!("{} with path", d::PATH_BOUNCES)),
+        (
+            "--bounces",
+            format!("[default: {} with fast", d::FAST_BOUNCES),
+        ),
     ];
     for (flag, want) in cases {
         let l = line(flag);

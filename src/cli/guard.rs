@@ -4,61 +4,14 @@
 //! in scene mode: they name the scene and its keys, not flags the user never typed.
 
 use anyhow::{Result, anyhow};
-use murk::render::RenderPlan;
-use std::collections::HashSet;
+use murk::render::{RenderOptions, RenderPlan};
+use murk::scene::{PlanError, flag_name};
 use std::path::{Path, PathBuf};
 
-/// The most worker threads murk starts: more than any machine it runs on has cores, and
-/// few enough that starting them is instant (4294967296 took 13 s before failing).
-pub const MAX_THREADS: usize = 1024;
-
-/// The most lights a render or bake takes. Each light costs a shadow map (up to the
-/// bake's budget) and three float channels of the frame, so 1,000 lights took 1 GB.
-pub const MAX_LIGHTS: usize = 32;
-
-/// The most memory the frame's channels may take: width × height × channels × 4 bytes.
-/// 16384 × 16384 with the default channels would be 8.6 GB, allocated before the first
-/// pixel; past this murk refuses at once rather than fail an allocation later.
-pub const MAX_FRAME_BYTES: f64 = 4.0 * 1024.0 * 1024.0 * 1024.0;
-
-/// Refuses settings past murk's limits and outputs that would clobber an input, another
-/// output or something other than a regular file. `scene` is the scene file, if any.
+/// Refuses outputs that would clobber an input, another output or something other than
+/// a regular file. `scene` is the scene file, if any. (Limits on what a render may ask
+/// for are the plan's.)
 pub fn check_plan(plan: &RenderPlan, scene: Option<&Path>) -> Result<()> {
-    if let Some(n) = plan.sampling.threads
-        && n > MAX_THREADS
-    {
-        return Err(anyhow!(
-            "--threads {n} is more than murk starts (at most {MAX_THREADS})"
-        ));
-    }
-    if plan.lights.len() > MAX_LIGHTS {
-        return Err(anyhow!(
-            "{} lights: murk renders at most {MAX_LIGHTS} (each costs a shadow map and three channels)",
-            plan.lights.len()
-        ));
-    }
-    // Beauty (R, G, B, A), Z, emission and shadow layers, and a scatter layer per light:
-    // a bound on the channels a render writes.
-    let channels = 5 + 3 + 3 + 3 * plan.lights.len();
-    let bytes = plan.camera.width as f64 * plan.camera.height as f64 * channels as f64 * 4.0;
-    if bytes > MAX_FRAME_BYTES {
-        return Err(anyhow!(
-            "a {}x{} frame of up to {channels} channels needs {:.1} GiB; murk renders frames up to {} GiB (lower --res)",
-            plan.camera.width,
-            plan.camera.height,
-            bytes / 1024f64.powi(3),
-            MAX_FRAME_BYTES / 1024f64.powi(3)
-        ));
-    }
-    let mut names = HashSet::new();
-    for l in &plan.lights {
-        if !names.insert(l.name.as_str()) {
-            return Err(anyhow!(
-                "two lights named \"{}\": each light's scatter layer is named after it",
-                printable(&l.name)
-            ));
-        }
-    }
     let mut inputs: Vec<(&Path, &str)> = vec![(plan.input.as_path(), "the input")];
     if let Some(s) = scene {
         inputs.push((s, "the scene file"));
@@ -176,54 +129,44 @@ pub fn message_text(s: &str) -> String {
 pub fn name_scene(e: anyhow::Error, scene: Option<&Path>, input: &Path) -> anyhow::Error {
     match scene {
         Some(s) if !e.to_string().contains(&*input.to_string_lossy()) => {
-            anyhow!(in_scene(s, &format!("{e:#}")))
+            anyhow!(with_prefix(s, &format!("{e:#}")))
         }
         _ => e,
     }
 }
 
-/// A plan error in scene mode: prefixed with the scene's path, and each `--flag` the user
-/// did not type (so the value came from the scene) named as the scene's key `flag`.
-pub fn in_scene(scene: &Path, message: &str) -> String {
-    let typed: Vec<String> = std::env::args()
-        .filter(|a| a.starts_with("--"))
-        .map(|a| a.split('=').next().unwrap_or("").to_string())
-        .collect();
-    let mut out = String::with_capacity(message.len());
-    let mut rest = message;
-    while let Some(at) = rest.find("--") {
-        out.push_str(&rest[..at]);
-        let tail = &rest[at..];
-        let end = tail[2..]
-            .find(|c: char| !(c.is_ascii_alphanumeric() || c == '-'))
-            .map_or(tail.len(), |e| e + 2);
-        let flag = &tail[..end];
-        if end > 2 && !typed.iter().any(|t| t == flag) {
-            out.push_str(&format!("`{}`", flag[2..].replace('-', "_")));
-        } else {
-            out.push_str(flag);
-        }
-        rest = &tail[end..];
+/// A plan error as printed: each option named as the user gave it — a flag they typed
+/// (`--sigma-a`, set in `flags`) or, in scene mode, the scene file's key (`sigma_a`),
+/// prefixed with the scene's path.
+pub fn plan_error_text(e: &PlanError, flags: &RenderOptions, scene: Option<&Path>) -> String {
+    match scene {
+        None => e.to_string(),
+        Some(s) => with_prefix(
+            s,
+            &e.named(&|key| {
+                if flags.is_given(key) {
+                    flag_name(key)
+                } else {
+                    format!("`{key}`")
+                }
+            }),
+        ),
     }
-    out.push_str(rest);
+}
+
+/// `message` prefixed with the scene's path, once.
+fn with_prefix(scene: &Path, message: &str) -> String {
     let prefix = format!("{}: ", scene.display());
-    if out.starts_with(&prefix) {
-        out
+    if message.starts_with(&prefix) {
+        message.to_string()
     } else {
-        format!("{prefix}{out}")
+        format!("{prefix}{message}")
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn untyped_flags_become_scene_keys() {
-        let m = in_scene(Path::new("s.toml"), "--sigma-a \"x\" is not three numbers");
-        assert_eq!(m, "s.toml: `sigma_a` \"x\" is not three numbers");
-        assert_eq!(in_scene(Path::new("s.toml"), "s.toml: bad"), "s.toml: bad");
-    }
 
     #[test]
     fn long_numbers_are_compact() {

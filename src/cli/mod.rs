@@ -38,7 +38,7 @@ enum Command {
         /// Decode every float and vec3 grid and report value statistics and memory.
         #[arg(long)]
         stats: bool,
-        /// Print JSON (stable keys, documented in README) instead of a table.
+        /// Print JSON (stable keys, listed in docs/guide.md) instead of a table.
         #[arg(long)]
         json: bool,
     },
@@ -148,7 +148,10 @@ pub fn run() -> i32 {
         }
     };
     let result = match cli.command {
-        Command::Converge { options, .. } if options.sequence != args::SequenceArgs::default() => {
+        Command::Converge { options, .. }
+            if options.sequence != args::SequenceArgs::default()
+                || options.options.frames.is_some() =>
+        {
             Err(anyhow::anyhow!(
                 "murk converge times one image: --frames, --skip-existing and --tile are for murk render"
             ))

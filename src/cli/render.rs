@@ -71,19 +71,24 @@ pub fn check_output_names(options: &RenderOptions) -> Result<()> {
 }
 
 /// The plan of a render or bake: options from the flags over a scene file, if given.
-fn plan_for(input: &Path, options: RenderOptions) -> Result<(RenderPlan, bool)> {
-    let (options, vdb) = options_for(input, options)?;
+fn plan_for(input: &Path, flags: RenderOptions) -> Result<(RenderPlan, bool)> {
+    let (options, vdb) = options_for(input, flags.clone())?;
     let quiet = options.quiet;
     let scene = scene_of(input, &vdb);
     let plan = RenderPlan::new(&options, vdb)
-        .map_err(|e| e.to_string())
-        .and_then(|p| {
-            super::guard::check_plan(&p, scene)
-                .map_err(|e| e.to_string())
-                .map(|_| p)
-        })
-        .map_err(|e| anyhow!(scene.map_or(e.clone(), |s| super::guard::in_scene(s, &e))))?;
+        .map_err(|e| anyhow!(super::guard::plan_error_text(&e, &flags, scene)))?;
+    super::guard::check_plan(&plan, scene)
+        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
     Ok((plan, quiet))
+}
+
+/// The plan of a render: as [`plan_for`], and its outputs named for what murk writes
+/// (after the checks that outputs replace no input, which say more).
+fn render_plan_for(input: &Path, flags: RenderOptions) -> Result<(RenderPlan, bool)> {
+    let (merged, _) = options_for(input, flags.clone())?;
+    let planned = plan_for(input, flags)?;
+    check_output_names(&merged)?;
+    Ok(planned)
 }
 
 /// The scene file, if `input` is one (the .vdb it names is then another path).
@@ -105,7 +110,6 @@ pub fn run_sequence_or_frame(
         .transpose()
         .map_err(|e| anyhow!(e))?;
     let (merged, vdb) = options_for(input, options.clone())?;
-    check_output_names(&merged)?;
     let spec = merged.frames.clone();
     let probe = RenderPlan::new(&merged, vdb.clone());
     let is_sequence = spec.is_some()
@@ -116,7 +120,7 @@ pub fn run_sequence_or_frame(
         if piece.is_none() && !sequence.skip_existing {
             return run(input, options).map(|_| true);
         }
-        let (plan, quiet) = plan_for(input, options)?;
+        let (plan, quiet) = render_plan_for(input, options)?;
         if sequence.skip_existing && frame_is_done(&plan) {
             if !quiet {
                 eprintln!("murk: {} exists: skipped", plan.outputs.path.display());
@@ -145,7 +149,7 @@ pub fn run_sequence_or_frame(
         }
         return Ok(true);
     }
-    let (plan, quiet) = plan_for(input, options)?;
+    let (plan, quiet) = render_plan_for(input, options)?;
     let scene = scene_of(input, &plan.input).map(Path::to_path_buf);
     let paths = FramePaths::of(&plan);
     let frames = choose_frames(&paths, &plan, spec.as_deref())?;
@@ -227,7 +231,7 @@ pub fn run_sequence_or_frame(
 }
 
 pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
-    let (plan, quiet) = plan_for(input, options)?;
+    let (plan, quiet) = render_plan_for(input, options)?;
     let scene = scene_of(input, &plan.input);
     let stats = render(&plan, &super::progress::Bars::new(quiet))
         .map_err(|e| super::guard::name_scene(e.into(), scene, &plan.input))?;

@@ -2,17 +2,7 @@
 //! `scattering` key, with the `--bounces` each mode takes.
 
 /// `--scattering single|fast|path`.
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    Default,
-    PartialEq,
-    Eq,
-    clap::ValueEnum,
-    serde::Deserialize,
-    serde::Serialize,
-)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ScatteringMode {
     /// Light scattered once toward the camera, by the ray march (no `indirect` layer).

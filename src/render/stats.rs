@@ -1,4 +1,4 @@
-//! What a render did, written with `--stats FILE.json`. Keys are stable (see README).
+//! What a render did, written with `--stats FILE.json`. Keys are stable (docs/guide.md lists them).
 
 pub use crate::scene::report::{Sanitised, SceneReport, Stage};
 use serde::Serialize;

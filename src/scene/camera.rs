@@ -46,10 +46,10 @@ impl Camera {
         }
         match self.projection {
             Projection::Perspective { fov_deg } if !(fov_deg > 0.0 && fov_deg < 180.0) => {
-                Err(format!("--fov {fov_deg} is outside (0, 180) degrees"))
+                Err(format!("{{fov}} {fov_deg} is outside (0, 180) degrees"))
             }
             Projection::Orthographic { width } if !(width > 0.0 && width.is_finite()) => {
-                Err(format!("--ortho-width {width} must be a positive number"))
+                Err(format!("{{ortho_width}} {width} must be a positive number"))
             }
             _ => Ok(()),
         }

@@ -51,14 +51,14 @@ impl Light {
         let parts: Vec<&str> = spec.split(':').collect();
         if parts.len() < 2 || parts.len() > 4 {
             return Err(format!(
-                "--light \"{spec}\": expected sun:DX,DY,DZ[:R,G,B[:INTENSITY]] or point:X,Y,Z[:R,G,B[:INTENSITY]]"
+                "{{light}} \"{spec}\": expected sun:DX,DY,DZ[:R,G,B[:INTENSITY]] or point:X,Y,Z[:R,G,B[:INTENSITY]]"
             ));
         }
         let v = parse_triple(parts[1], "light vector")?;
         let kind = match parts[0] {
             "sun" => {
                 if !(v.length() > 0.0) {
-                    return Err(format!("--light \"{spec}\": the sun direction is zero"));
+                    return Err(format!("{{light}} \"{spec}\": the sun direction is zero"));
                 }
                 LightKind::Sun {
                     toward: v.normalize(),
@@ -67,7 +67,7 @@ impl Light {
             "point" => LightKind::Point { position: v },
             other => {
                 return Err(format!(
-                    "--light \"{spec}\": unknown light type \"{other}\" (sun, point or env)"
+                    "{{light}} \"{spec}\": unknown light type \"{other}\" (sun, point or env)"
                 ));
             }
         };
@@ -79,12 +79,12 @@ impl Light {
             Some(i) => i
                 .trim()
                 .parse::<f64>()
-                .map_err(|_| format!("--light \"{spec}\": intensity \"{i}\" is not a number"))?,
+                .map_err(|_| format!("{{light}} \"{spec}\": intensity \"{i}\" is not a number"))?,
             None => 1.0,
         };
         if color.min_element() < 0.0 || !(intensity >= 0.0) || !intensity.is_finite() {
             return Err(format!(
-                "--light \"{spec}\": colour and intensity must be non-negative"
+                "{{light}} \"{spec}\": colour and intensity must be non-negative"
             ));
         }
         Ok(Light {
@@ -140,7 +140,7 @@ impl EnvLight {
     pub fn parse(spec: &str, name: String) -> Result<EnvLight, super::PlanError> {
         let bad = |why: &str| {
             super::PlanError::Invalid(format!(
-                "--light \"{spec}\": {why} (expected env:R,G,B[:INTENSITY])"
+                "{{light}} \"{spec}\": {why} (expected env:R,G,B[:INTENSITY])"
             ))
         };
         let parts: Vec<&str> = spec.split(':').collect();
@@ -148,7 +148,7 @@ impl EnvLight {
             return Err(bad("not an environment light"));
         }
         let color = parse_triple(parts[1], "environment colour")
-            .map_err(|e| super::PlanError::Invalid(format!("--light \"{spec}\": {e}")))?;
+            .map_err(|e| super::PlanError::Invalid(format!("{{light}} \"{spec}\": {e}")))?;
         let intensity = match parts.get(2) {
             Some(i) => i
                 .trim()

@@ -7,7 +7,6 @@
 pub mod camera;
 pub mod conventions;
 mod error;
-mod flag_values;
 pub mod frames;
 pub mod light;
 pub mod lights;
@@ -25,19 +24,68 @@ pub use options::RenderOptions;
 pub use plan::RenderPlan;
 
 /// Why a render cannot be planned, before anything is loaded.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum PlanError {
-    /// A flag's or a scene key's value is malformed or out of range, or two settings
-    /// contradict each other.
-    #[error("{0}")]
+    /// Options' values are malformed or out of range, or contradict each other. The
+    /// message names each option as `{key}` (a key of [`options::FLAGS`]), which
+    /// [`PlanError::named`] fills in as a flag (`--sigma-a`) or a scene file's key.
     Invalid(String),
     /// A scene file cannot be read or parsed.
-    #[error("{}: {problem}", path.display())]
     SceneFile {
         path: std::path::PathBuf,
         problem: String,
     },
 }
+
+impl PlanError {
+    /// The message with every option named by `name` (given its key, e.g. `sigma_a`).
+    pub fn named(&self, name: &dyn Fn(&str) -> String) -> String {
+        match self {
+            PlanError::Invalid(message) => fill_option_names(message, name),
+            PlanError::SceneFile { path, problem } => format!("{}: {problem}", path.display()),
+        }
+    }
+}
+
+/// `message` with each `{key}` of a render option replaced by `name(key)`; other braces
+/// are left as they are.
+fn fill_option_names(message: &str, name: &dyn Fn(&str) -> String) -> String {
+    let mut out = String::with_capacity(message.len());
+    let mut rest = message;
+    while let Some(open) = rest.find('{') {
+        out.push_str(&rest[..open]);
+        let tail = &rest[open..];
+        let key = tail[1..]
+            .find('}')
+            .map(|close| &tail[1..close + 1])
+            .filter(|k| options::FLAGS.iter().any(|f| f.key == *k));
+        match key {
+            Some(k) => {
+                out.push_str(&name(k));
+                rest = &tail[k.len() + 2..];
+            }
+            None => {
+                out.push('{');
+                rest = &tail[1..];
+            }
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+/// A render option as a flag: `--sigma-a` for `sigma_a`.
+pub fn flag_name(key: &str) -> String {
+    format!("--{}", key.replace('_', "-"))
+}
+
+impl std::fmt::Display for PlanError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.named(&flag_name))
+    }
+}
+
+impl std::error::Error for PlanError {}
 
 use crate::field::union::FieldUnion;
 use crate::field::{ColorField, Field};

@@ -42,18 +42,18 @@ impl TransportPlan {
         let mode = o.scattering.unwrap_or_default();
         if environment.len() > 1 {
             return Err(format!(
-                "--light env: given {} times: a render has one environment light at most",
+                "{{light}} env: given {} times: a render has one environment light at most",
                 environment.len()
             ));
         }
         let environment = environment.into_iter().next();
         if let Some(b) = o.bounces {
             if b == 0 || b > MAX_BOUNCES {
-                return Err(format!("--bounces {b} must be from 1 to {MAX_BOUNCES}"));
+                return Err(format!("{{bounces}} {b} must be from 1 to {MAX_BOUNCES}"));
             }
             if mode == ScatteringMode::Single && b != 1 {
                 return Err(format!(
-                    "--bounces {b}: --scattering single scatters once; use --scattering path (or fast) for more"
+                    "{{bounces}} {b}: {{scattering}} single scatters once; use {{scattering}} path (or fast) for more"
                 ));
             }
         }
@@ -61,7 +61,7 @@ impl TransportPlan {
             ScatteringMode::Fast => {}
             ScatteringMode::Path if o.ground.is_some() => {
                 return Err(
-                    "--ground: the path tracer has no ground plane yet (use --scattering single)"
+                    "{ground}: the path tracer has no ground plane yet (use {scattering} single)"
                         .into(),
                 );
             }
@@ -72,7 +72,7 @@ impl TransportPlan {
             && mode != ScatteringMode::Path
         {
             return Err(format!(
-                "--light env ({}): an environment light needs --scattering path ({} scattering cannot light with one)",
+                "{{light}} env ({}): an environment light needs {{scattering}} path ({} scattering cannot light with one)",
                 e.name,
                 mode.name()
             ));

@@ -6,17 +6,7 @@ use super::{HenyeyGreenstein, PhaseFunction};
 use std::sync::Arc;
 
 /// `--phase hg|water-drop`.
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    Default,
-    PartialEq,
-    Eq,
-    clap::ValueEnum,
-    serde::Deserialize,
-    serde::Serialize,
-)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum PhaseKind {
     /// Henyey–Greenstein with asymmetry `--g` (grey).

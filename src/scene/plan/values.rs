@@ -1,20 +1,20 @@
-//! One flag's value, checked: the parsers [`super::plan`] builds a plan from, each
+//! One option's value, checked: the parsers the parts of the plan are built from, each
 //! returning the one-line error a user sees.
 
-use super::light::parse_triple;
-use super::plan::{MIN_STEP_VOXELS, defaults};
+use super::defaults::{self, MIN_STEP_VOXELS};
 use crate::integrate::phase::water_drop::RADIUS_RANGE_UM;
+use crate::scene::light::parse_triple;
 use glam::DVec3;
 
 pub(super) fn up_axis_choice(
     v: &Option<String>,
-) -> Result<super::conventions::UpAxisChoice, String> {
-    use super::conventions::{UpAxis, UpAxisChoice};
+) -> Result<crate::scene::conventions::UpAxisChoice, String> {
+    use crate::scene::conventions::{UpAxis, UpAxisChoice};
     match v.as_deref() {
         None | Some("auto") => Ok(UpAxisChoice::Auto),
         Some("y") | Some("Y") => Ok(UpAxisChoice::Fixed(UpAxis::Y)),
         Some("z") | Some("Z") => Ok(UpAxisChoice::Fixed(UpAxis::Z)),
-        Some(o) => Err(format!("--up-axis \"{o}\": expected y, z or auto")),
+        Some(o) => Err(format!("{{up_axis}} \"{o}\": expected y, z or auto")),
     }
 }
 
@@ -30,7 +30,7 @@ pub(super) fn z_empty(v: &Option<String>) -> Result<f32, String> {
     match t.parse::<f32>() {
         Ok(z) if z.is_finite() && z >= 0.0 => Ok(z),
         _ => Err(format!(
-            "--z-empty \"{s}\": expected a non-negative number or inf"
+            "{{z_empty}} \"{s}\": expected a non-negative number or inf"
         )),
     }
 }
@@ -82,7 +82,7 @@ pub(super) fn colour(v: &Option<String>, default: DVec3, what: &str) -> Result<D
 
 pub(super) fn resolution(v: &Option<String>) -> Result<(usize, usize), String> {
     let Some(s) = v else { return Ok(defaults::RES) };
-    let bad = || format!("--res \"{s}\" is not WxH with sizes from 1 to 16384");
+    let bad = || format!("{{res}} \"{s}\" is not WxH with sizes from 1 to 16384");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let w: usize = w.trim().parse().map_err(|_| bad())?;
     let h: usize = h.trim().parse().map_err(|_| bad())?;
@@ -99,7 +99,7 @@ pub(super) fn drop_radius(r: Option<f64>) -> Result<f64, String> {
         Ok(r)
     } else {
         Err(format!(
-            "--drop-radius {r} is outside {}–{} µm",
+            "{{drop_radius}} {r} is outside {}–{} µm",
             RADIUS_RANGE_UM.0, RADIUS_RANGE_UM.1
         ))
     }

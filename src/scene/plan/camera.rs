@@ -1,0 +1,66 @@
+//! The image and the camera, as far as they can be known before the input's bounds are:
+//! `res`, `camera`, `fov`, `ortho_width`, `eye`, `look_at`, `up`.
+
+use super::defaults;
+use super::values::{positive, resolution};
+use crate::scene::camera::Projection;
+use crate::scene::light::parse_triple;
+use crate::scene::options::RenderOptions;
+use glam::DVec3;
+
+/// The camera as far as it can be known before the grid's bounds are.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraRequest {
+    pub projection: Option<Projection>,
+    pub eye: Option<DVec3>,
+    pub look_at: Option<DVec3>,
+    pub up: DVec3,
+}
+
+/// The image and the camera.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraPlan {
+    pub width: usize,
+    pub height: usize,
+    pub request: CameraRequest,
+}
+
+impl CameraPlan {
+    pub(super) fn from_options(o: &RenderOptions) -> Result<CameraPlan, String> {
+        let (width, height) = resolution(&o.res)?;
+        let perspective = || Projection::Perspective {
+            fov_deg: o.fov.unwrap_or(defaults::FOV_DEG),
+        };
+        let projection = match o.camera.as_deref() {
+            None if o.ortho_width.is_some() => Projection::Orthographic {
+                width: positive(o.ortho_width, 1.0, "{ortho_width}")?,
+            },
+            None | Some("persp") | Some("perspective") => perspective(),
+            Some("ortho") | Some("orthographic") => Projection::Orthographic {
+                // 0: the width that frames the bounds, found once they are known.
+                width: match o.ortho_width {
+                    Some(w) => positive(Some(w), 1.0, "{ortho_width}")?,
+                    None => 0.0,
+                },
+            },
+            Some(other) => return Err(format!("{{camera}} \"{other}\": expected persp or ortho")),
+        };
+        if let Projection::Perspective { fov_deg } = projection
+            && !(fov_deg > 0.0 && fov_deg < 180.0)
+        {
+            return Err(format!("{{fov}} {fov_deg} is outside (0, 180) degrees"));
+        }
+        let vec =
+            |v: &Option<String>, what: &str| v.as_ref().map(|s| parse_triple(s, what)).transpose();
+        Ok(CameraPlan {
+            width,
+            height,
+            request: CameraRequest {
+                projection: Some(projection),
+                eye: vec(&o.eye, "{eye}")?,
+                look_at: vec(&o.look_at, "{look_at}")?,
+                up: vec(&o.up, "{up}")?.unwrap_or(DVec3::Y),
+            },
+        })
+    }
+}

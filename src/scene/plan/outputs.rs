@@ -1,0 +1,113 @@
+//! What is written and which production conventions are assumed: `output`,
+//! `compression`, `float`, `preview`, `exposure`, `background`, `stats`, `quiet`,
+//! `z_empty`, `crop_data_window`, `colorspace`, `up_axis`.
+
+use super::defaults;
+use super::values::{up_axis_choice, z_empty};
+use crate::output::{Background, ExrCompression, ExrOptions, PreviewOptions};
+use crate::scene::conventions::UpAxisChoice;
+use crate::scene::options::RenderOptions;
+use std::path::{Path, PathBuf};
+
+/// What is written.
+#[derive(Clone, Debug)]
+pub struct OutputPlan {
+    /// The EXR (or, for `bake-shadows`, the cache).
+    pub path: PathBuf,
+    pub exr: ExrOptions,
+    pub preview: Option<(PathBuf, PreviewOptions)>,
+    pub stats: Option<PathBuf>,
+    pub quiet: bool,
+}
+
+impl OutputPlan {
+    pub(super) fn from_options(o: &RenderOptions, input: &Path) -> Result<OutputPlan, String> {
+        let path = o
+            .output
+            .clone()
+            .ok_or("no output file: give -o OUT.exr (or `output` in the scene file)")?;
+        let compression = match &o.compression {
+            Some(c) => c.parse::<ExrCompression>().map_err(|e| e.to_string())?,
+            None => ExrCompression::default(),
+        };
+        let preview = match &o.preview {
+            Some(p) => {
+                let background = match &o.background {
+                    Some(b) => b.parse::<Background>().map_err(|e| e.to_string())?,
+                    None => Background::Checker,
+                };
+                let exposure = o.exposure.unwrap_or(defaults::EXPOSURE);
+                if !exposure.is_finite() {
+                    return Err("{exposure} must be a finite number".into());
+                }
+                Some((
+                    p.clone(),
+                    PreviewOptions {
+                        exposure,
+                        background,
+                    },
+                ))
+            }
+            None => None,
+        };
+        Ok(OutputPlan {
+            path,
+            exr: ExrOptions {
+                compression,
+                float: o.float,
+                input_file: Some(input.display().to_string()),
+                z_empty: z_empty(&o.z_empty)?,
+                crop_data_window: o.crop_data_window,
+                colorspace: match &o.colorspace {
+                    Some(c) => c.parse()?,
+                    None => crate::output::ColorSpace::default(),
+                },
+                ..ExrOptions::default()
+            },
+            preview,
+            stats: o.stats.clone(),
+            quiet: o.quiet,
+        })
+    }
+}
+
+/// Refuses a frame whose channels would not fit in [`defaults::MAX_FRAME_BYTES`].
+pub(super) fn check_frame_size(width: usize, height: usize, lights: usize) -> Result<(), String> {
+    // Beauty (R, G, B, A), Z, emission and shadow layers, and a scatter layer per light:
+    // a bound on the channels a render writes.
+    let channels = 5 + 3 + 3 + 3 * lights;
+    let bytes = width as f64 * height as f64 * channels as f64 * 4.0;
+    if bytes > defaults::MAX_FRAME_BYTES {
+        return Err(format!(
+            "a {width}x{height} frame of up to {channels} channels needs {:.1} GiB; murk renders frames up to {} GiB (lower {{res}})",
+            bytes / 1024f64.powi(3),
+            defaults::MAX_FRAME_BYTES / 1024f64.powi(3)
+        ));
+    }
+    Ok(())
+}
+
+/// Production caches: which conventions are assumed, and what the user fixed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProductionPlan {
+    /// `--up-axis`.
+    pub up_axis: UpAxisChoice,
+    /// `--up` was given: the camera's up is not the world's.
+    pub up_explicit: bool,
+    /// `--temperature-scale` or `--temperature-offset` was given: no convention is
+    /// detected.
+    pub temperature_explicit: bool,
+    /// The scene names no light: the default sun, which follows the up axis.
+    pub default_light: bool,
+}
+
+impl ProductionPlan {
+    pub(super) fn from_options(o: &RenderOptions) -> Result<ProductionPlan, String> {
+        Ok(ProductionPlan {
+            up_axis: up_axis_choice(&o.up_axis)?,
+            up_explicit: o.up.is_some(),
+            temperature_explicit: o.temperature_scale.is_some() || o.temperature_offset.is_some(),
+            default_light: !o.no_lights && o.lights.is_empty() && o.light.is_empty(),
+        })
+    }
+}
