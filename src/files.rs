@@ -5,6 +5,7 @@
 //! the water-drop table cache and the reports all write through it. It imports no other
 //! module of the crate.
 
+pub mod guard;
 pub mod place;
 
 use std::fs;
@@ -20,6 +21,15 @@ pub enum FileError {
         /// The target file.
         path: PathBuf,
         /// The problem.
+        reason: String,
+    },
+
+    /// The target is not one murk may replace (see [`check_target`](guard::check_target)).
+    #[error("{}: {reason}", path.display())]
+    Refused {
+        /// The target file.
+        path: PathBuf,
+        /// Why not.
         reason: String,
     },
 
@@ -124,6 +134,10 @@ fn remove_stale_temporaries(path: &Path) {
 /// rename) the temporary file is removed and an existing target is left
 /// untouched. The target's folder is made if missing. No fsync is done.
 ///
+/// First the target passes [`check_target`](guard::check_target): a device,
+/// FIFO, symbolic link, folder, read-only file or folder, or an input the command
+/// protected is refused, and nothing is written.
+///
 /// Errors produced here are [`FileError`]s naming `path`; `write`'s own
 /// error type only needs `From<FileError>` (so `FileError` itself works, and so does
 /// `OutputError`).
@@ -133,6 +147,7 @@ where
     E: From<FileError>,
 {
     let temp = temp_path_for(path)?;
+    guard::check_target(path)?;
     place::make_folder(path)?;
     remove_stale_temporaries(path);
     if let Err(source) = fs::File::create(&temp) {
@@ -262,12 +277,52 @@ mod tests {
     fn rename_failure_removes_temp() {
         let dir = scratch_dir("rename");
         let target = dir.join("sub");
-        fs::create_dir(&target).unwrap();
-        fs::write(target.join("keep"), "x").unwrap();
-        let r: Result<(), FileError> = write_atomically(&target, |_| Ok(()));
+        // A folder appears at the target while the file is written: the rename fails.
+        let r: Result<(), FileError> = write_atomically(&target, |_| {
+            fs::create_dir(&target).unwrap();
+            fs::write(target.join("keep"), "x").unwrap();
+            Ok(())
+        });
         let msg = r.unwrap_err().to_string();
         assert!(msg.contains(&target.display().to_string()), "{msg}");
         assert_eq!(entries(&dir), vec!["sub"]);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn targets_that_are_not_regular_files_or_are_inputs_are_left_alone() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = scratch_dir("guard");
+        let fifo = dir.join("fifo.exr");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        assert!(made.unwrap().success());
+        let link = dir.join("link.exr");
+        std::os::unix::fs::symlink(dir.join("elsewhere.exr"), &link).unwrap();
+        let input = dir.join("in.vdb");
+        fs::write(&input, "keep").unwrap();
+        super::guard::protect(&[super::guard::Role::new(&input, "the input")]);
+        let write = |target: &Path| -> String {
+            let r: Result<(), FileError> = write_atomically(target, |tmp| {
+                fs::write(tmp, "new").map_err(|source| FileError::Io {
+                    path: tmp.into(),
+                    source,
+                })
+            });
+            r.unwrap_err().to_string()
+        };
+        assert!(write(&fifo).contains("not a regular file"));
+        assert!(write(&link).contains("symbolic link"));
+        let spelled = dir.join(".").join("in.vdb");
+        assert!(write(&spelled).contains("would overwrite the input"));
+        assert!(fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+        assert!(
+            fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(fs::read_to_string(&input).unwrap(), "keep");
+        assert_eq!(entries(&dir), vec!["fifo.exr", "in.vdb", "link.exr"]);
         fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -519,12 +519,12 @@ fn failed_writes_leave_the_existing_target_untouched() {
     assert_eq!(fs::read(&path).unwrap(), before, "target changed");
     no_temp_files(&dir);
 
-    // the final rename fails: the target is a non-empty directory
+    // the target is a non-empty directory: refused by the output guard
     let blocker = dir.join("blocked.exr");
     fs::create_dir(&blocker).unwrap();
     fs::write(blocker.join("keep"), b"keep").unwrap();
     let e = write_exr(&blocker, &test_frame(), &test_options()).unwrap_err();
-    assert!(matches!(e, OutputError::Rename { .. }), "{e:?}");
+    assert!(matches!(e, OutputError::Refused { .. }), "{e:?}");
     assert!(
         e.to_string().contains(&blocker.display().to_string()),
         "{e}"

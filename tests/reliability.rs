@@ -94,6 +94,16 @@ fn default_render_of_root_tiles_finishes() {
         &["render", s(&fixture("tiles.vdb")), "-o", s(&out), "--quiet"],
     );
     ok(&o);
+    // The budget stops the map short, and says so; the error it names is a
+    // transmittance's, at most 1 (it once said "about 1.9e29").
+    let err = stderr(&o);
+    let named = err
+        .split("errors up to about ")
+        .nth(1)
+        .and_then(|t| t.split([' ', ';']).next())
+        .and_then(|v| v.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("no error named in: {err}"));
+    assert!(named > 0.0 && named <= 1.0, "{err}");
     let header = common::exrheader(&out);
     assert!(
         header.contains("scatter") || header.contains("R, "),
@@ -113,21 +123,24 @@ fn outputs_that_would_clobber_are_refused() {
     let out = dir.join("out.exr");
     let i = s(&input);
     let o = s(&out);
-    // -o is the input, also spelled differently.
+    // --stats is the input, also spelled differently (-o must name an EXR).
     let other_spelling = format!("{}/./c.vdb", dir.display());
     for target in [i, other_spelling.as_str()] {
         refused(
-            &murk(&["render", i, "-o", target]),
+            &murk(&["render", i, "-o", o, "--stats", target]),
             &["would overwrite the input"],
         );
     }
     // --stats or --preview equal to -o or to the input.
+    let linked_png = dir.join("c.png");
+    std::fs::hard_link(&input, &linked_png).unwrap();
     refused(
         &murk(&["render", i, "-o", o, "--stats", o]),
         &["the stats file would overwrite the output"],
     );
     refused(
-        &murk(&["render", i, "-o", o, "--preview", i]),
+        // A hard link of the input named as a preview: the same file.
+        &murk(&["render", i, "-o", o, "--preview", s(&linked_png)]),
         &["the preview would overwrite the input"],
     );
     // A scene file as an output.

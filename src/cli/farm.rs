@@ -10,6 +10,7 @@
 use super::args::{BakeArgs, RenderArgs};
 use anyhow::{Result, anyhow};
 use clap::{Args, Subcommand};
+use murk::output::guard::Role;
 use murk::render::RenderPlan;
 use murk::render::sequence::{FramePaths, choose_frames};
 use murk::scene::frames::frame_ranges;
@@ -282,6 +283,8 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
             "--stats describes a whole render, not a piece: give it without --tiles"
         ));
     }
+    let scene = (plan.input != input).then_some(input);
+    check_job(&plan, &paths, &frames, scene, tiles, job)?;
     let job_dir = match job.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -400,6 +403,42 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
         );
     }
     Ok(())
+}
+
+/// The renders' outputs must not replace their inputs (as `murk render` would refuse on
+/// the farm), and the job must replace none of the files the job reads or writes: any
+/// frame's input, shadow cache, output, preview, stats, piece or shared shadow maps, or
+/// the scene.
+fn check_job(
+    plan: &RenderPlan,
+    paths: &FramePaths,
+    frames: &[i64],
+    scene: Option<&Path>,
+    tiles: usize,
+    job: &Path,
+) -> Result<()> {
+    super::guard::check_sequence(plan, paths, frames, scene)?;
+    let mut files = Vec::new();
+    for &f in frames {
+        let p = paths.plan(plan, f);
+        files.extend(super::guard::plan_inputs(&p, scene, Some(f)));
+        files.extend(super::guard::plan_outputs(&p, Some(f)));
+        // With pieces: each piece, and the frame's shared shadow maps.
+        let beside = |suffix: String| {
+            let mut path = p.outputs.path.clone().into_os_string();
+            path.push(suffix);
+            PathBuf::from(path)
+        };
+        if tiles > 1 {
+            for t in 1..=tiles {
+                let piece = beside(format!(".piece{t}of{tiles}.exr"));
+                files.push(Role::new(piece, format!("frame {f}'s piece {t}")));
+            }
+            let maps = beside(".shadows.vdb".into());
+            files.push(Role::new(maps, format!("frame {f}'s shadow maps")));
+        }
+    }
+    super::guard::check_outputs(&files, &[Role::new(job, "the job (--job)")])
 }
 
 #[cfg(test)]

@@ -1,89 +1,77 @@
-//! Checks of a render or bake plan made before any work: limits on what murk is asked to
-//! do (threads, lights), and outputs that must not replace what they should not (an
-//! input, another output, anything but a regular file). Also the wording of plan errors
+//! Checks of a render or bake plan made before any work: the files a command reads and
+//! writes, for the output guard (`murk::output::guard`: no output replaces an input,
+//! another output, or anything but a regular file). Also the wording of plan errors
 //! in scene mode: they name the scene and its keys, not flags the user never typed.
 
 use anyhow::{Result, anyhow};
+use murk::output::guard::Role;
+use murk::render::sequence::FramePaths;
 use murk::render::{RenderOptions, RenderPlan};
 use murk::scene::{PlanError, flag_name};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Refuses outputs that would clobber an input, another output or something other than
-/// a regular file. `scene` is the scene file, if any. (Limits on what a render may ask
+/// a regular file in a writable folder (see `murk::output::guard`). `scene` is the scene
+/// file, if any. (Limits on what a render may ask
 /// for are the plan's.)
 pub fn check_plan(plan: &RenderPlan, scene: Option<&Path>) -> Result<()> {
-    let mut inputs: Vec<(&Path, &str)> = vec![(plan.input.as_path(), "the input")];
+    check_outputs(&plan_inputs(plan, scene, None), &plan_outputs(plan, None))
+}
+
+/// What a render or bake reads: the input, the scene file and the shadow cache, named
+/// after `frame` when it is one frame of a sequence.
+pub fn plan_inputs(plan: &RenderPlan, scene: Option<&Path>, frame: Option<i64>) -> Vec<Role> {
+    let of = |what: &str| match frame {
+        Some(f) => format!("frame {f}'s {what}"),
+        None => format!("the {what}"),
+    };
+    let mut inputs = vec![Role::new(&plan.input, of("input"))];
     if let Some(s) = scene {
-        inputs.push((s, "the scene file"));
+        inputs.push(Role::new(s, "the scene file"));
     }
     if let Some(c) = &plan.shadows.cache {
-        inputs.push((c.as_path(), "the shadow cache"));
+        inputs.push(Role::new(c, of("shadow cache")));
     }
-    let mut outputs: Vec<(&Path, &str)> = vec![(plan.outputs.path.as_path(), "the output (-o)")];
-    if let Some(p) = &plan.outputs.stats {
-        outputs.push((p.as_path(), "the stats file"));
+    inputs
+}
+
+/// What a render or bake writes: the output, the stats (unless `-`, standard output) and
+/// the preview, named after `frame` when it is one frame of a sequence.
+pub fn plan_outputs(plan: &RenderPlan, frame: Option<i64>) -> Vec<Role> {
+    let of = |what: &str| match frame {
+        Some(f) => format!("frame {f}'s {what}"),
+        None => format!("the {what}"),
+    };
+    let mut outputs = vec![Role::new(&plan.outputs.path, of("output (-o)"))];
+    if let Some(p) = plan.outputs.stats.as_ref().filter(|p| p.as_os_str() != "-") {
+        outputs.push(Role::new(p, of("stats file")));
     }
     if let Some((p, _)) = &plan.outputs.preview {
-        outputs.push((p.as_path(), "the preview"));
+        outputs.push(Role::new(p, of("preview")));
     }
-    for (i, (out, what)) in outputs.iter().enumerate() {
-        check_replaceable(out)?;
-        let id = identity(out);
-        for (other, role) in inputs.iter().chain(&outputs[..i]) {
-            if identity(other) == id {
-                return Err(anyhow!(
-                    "{}: {what} would overwrite {role} ({})",
-                    out.display(),
-                    other.display()
-                ));
-            }
-        }
-    }
-    Ok(())
+    outputs
 }
 
-/// An output path must be absent or a writable regular file: murk replaces it by
-/// renaming a new file over it, which would turn a device or FIFO into a file and
-/// replace a symbolic link rather than what it points to.
-fn check_replaceable(path: &Path) -> Result<()> {
-    let meta = match std::fs::symlink_metadata(path) {
-        Ok(m) => m,
-        Err(_) => return Ok(()),
-    };
-    let ft = meta.file_type();
-    let problem = if ft.is_symlink() {
-        "is a symbolic link: murk replaces only regular files (give the link's target)"
-    } else if ft.is_dir() {
-        "is a directory"
-    } else if !ft.is_file() {
-        "is not a regular file (a device, FIFO or socket): murk replaces only regular files"
-    } else if meta.permissions().readonly() {
-        "is read-only: murk does not replace it"
-    } else {
-        return Ok(());
-    };
-    Err(anyhow!("{}: {problem}", path.display()))
-}
-
-/// What a path refers to: its device and inode if it exists, else its folder's canonical
-/// path joined with its name (two spellings of one absent file compare equal).
-#[derive(PartialEq, Eq, Debug)]
-enum Identity {
-    Inode(u64, u64),
-    Path(PathBuf),
-}
-
-fn identity(path: &Path) -> Identity {
-    use std::os::unix::fs::MetadataExt;
-    if let Ok(m) = std::fs::metadata(path) {
-        return Identity::Inode(m.dev(), m.ino());
+/// The outputs of every frame of a sequence against the inputs of every frame (frame 1's
+/// output may be frame 1001's input), before the first frame.
+pub fn check_sequence(
+    plan: &RenderPlan,
+    paths: &FramePaths,
+    frames: &[i64],
+    scene: Option<&Path>,
+) -> Result<()> {
+    let (mut inputs, mut outputs) = (Vec::new(), Vec::new());
+    for &f in frames {
+        let p = paths.plan(plan, f);
+        inputs.extend(plan_inputs(&p, scene, Some(f)));
+        outputs.extend(plan_outputs(&p, Some(f)));
     }
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let dir = std::fs::canonicalize(parent).unwrap_or_else(|_| parent.to_path_buf());
-    Identity::Path(dir.join(path.file_name().unwrap_or_default()))
+    check_outputs(&inputs, &outputs)
+}
+
+/// [`murk::output::guard::check_outputs`], as a command's error.
+pub fn check_outputs(inputs: &[Role], outputs: &[Role]) -> Result<()> {
+    murk::output::guard::check_outputs(inputs, outputs).map_err(|e| anyhow!("{e}"))
 }
 
 /// `s` with control characters escaped (`\u{1b}`), as text from files is printed.

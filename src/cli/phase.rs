@@ -2,6 +2,7 @@
 
 use clap::Subcommand;
 use murk::integrate::phase::water_drop::{DEFAULT_RADIUS_UM, WaterDrop};
+use murk::output::guard::Role;
 use murk::report::phase_plot;
 use std::path::PathBuf;
 
@@ -36,6 +37,11 @@ pub fn run(command: PhaseCommand) -> anyhow::Result<()> {
             spectral,
             plot,
         } => {
+            let outputs: Vec<Role> = [(&csv, "the table (--csv)"), (&plot, "the plot (--plot)")]
+                .into_iter()
+                .filter_map(|(p, what)| p.as_ref().map(|p| Role::new(p, what)))
+                .collect();
+            super::guard::check_outputs(&[], &outputs)?;
             let drop = WaterDrop::for_render(drop_radius)?;
             if let Some(path) = &csv {
                 phase_plot::write_csv(path, &drop, spectral)?;

@@ -154,6 +154,7 @@ pub fn run_sequence_or_frame(
     let paths = FramePaths::of(&plan);
     let frames = choose_frames(&paths, &plan, spec.as_deref())?;
     check_inputs_exist(&paths, &plan, &frames)?;
+    super::guard::check_sequence(&plan, &paths, &frames, scene.as_deref())?;
     prepare_places(&paths, &frames)?;
     let bars = super::progress::Bars::new(quiet);
     let check = |p: &RenderPlan| super::guard::check_plan(p, scene.as_deref());

@@ -2,6 +2,7 @@
 
 use super::print_stdout;
 use anyhow::{Result, anyhow};
+use murk::output::guard::Role;
 use murk::output::write_atomically;
 use murk::render::Progress;
 use murk::render::RenderOptions;
@@ -38,6 +39,7 @@ pub fn write_text(dir: &Path, name: &str, text: &str) -> Result<()> {
 /// Runs the battery; prints the table (or JSON) and writes `stability.json` in `out`.
 /// Returns whether every case passed.
 pub fn check_stability(out: &Path, json: bool) -> Result<bool> {
+    super::guard::check_outputs(&[], &[Role::new(out.join("stability.json"), "the report")])?;
     let results = run_battery()?;
     let pass = results.iter().all(|r| r.pass);
     let text = serde_json::to_string_pretty(&serde_json::json!({
@@ -69,6 +71,15 @@ pub fn converge(input: &Path, options: RenderOptions, out: &Path, runs: usize) -
     if options.res.is_none() {
         options.res = Some("160x90".into());
     }
+    let mut inputs = vec![Role::new(&vdb, "the input")];
+    if vdb != input {
+        inputs.push(Role::new(input, "the scene file"));
+    }
+    let outputs: Vec<Role> = ["converge.csv", "converge.md", "converge.png"]
+        .into_iter()
+        .map(|n| Role::new(out.join(n), format!("the report's {n}")))
+        .collect();
+    super::guard::check_outputs(&inputs, &outputs)?;
     std::fs::create_dir_all(out)
         .map_err(|e| anyhow!("{}: cannot create the directory: {e}", out.display()))?;
     let progress = super::progress::Bars::new(options.quiet);

@@ -5,6 +5,7 @@
 use anyhow::{Result, anyhow};
 use clap::Args;
 use murk::output::colorspace::convert_frame_to_rec709;
+use murk::output::guard::Role;
 use murk::output::{Background, ColorSpace, PreviewOptions, write_exr, write_preview};
 use murk::render::sequence::frame_path;
 use std::path::{Path, PathBuf};
@@ -82,19 +83,10 @@ pub fn run(a: StitchArgs) -> Result<()> {
         }
         None => None,
     };
-    for (p, what) in [(Some(&output), "-o")]
-        .into_iter()
-        .chain([(preview.as_ref().map(|p| &p.0), "--preview")])
-    {
-        if let Some(p) = p
-            && pieces.iter().any(|q| q == p)
-        {
-            return Err(anyhow!(
-                "{what} {}: would overwrite a piece it reads",
-                p.display()
-            ));
-        }
-    }
+    let inputs: Vec<Role> = pieces.iter().map(|p| Role::new(p, "a piece")).collect();
+    let mut outputs = vec![Role::new(&output, "the output (-o)")];
+    outputs.extend(preview.iter().map(|(p, _)| Role::new(p, "the preview")));
+    super::guard::check_outputs(&inputs, &outputs)?;
     let whole = murk::output::stitch::stitch_frame(&pieces)?;
     murk::output::prepare_place(&output)?;
     if let Some((p, _)) = &preview {

@@ -54,6 +54,15 @@ pub enum OutputError {
         reason: String,
     },
 
+    /// The target is not one murk may replace (see [`check_target`](crate::files::guard::check_target)).
+    #[error("{}: {reason}", path.display())]
+    Refused {
+        /// The target file.
+        path: PathBuf,
+        /// Why not.
+        reason: String,
+    },
+
     /// The temporary file next to the target could not be created.
     #[error(
         "cannot write {}: cannot create temporary file {}: {source}",
@@ -117,6 +126,7 @@ impl From<crate::files::FileError> for OutputError {
         use crate::files::FileError as F;
         match e {
             F::Invalid { path, reason } => OutputError::Invalid { path, reason },
+            F::Refused { path, reason } => OutputError::Refused { path, reason },
             F::CreateTemp { path, temp, source } => OutputError::CreateTemp { path, temp, source },
             F::Rename { path, temp, source } => OutputError::Rename { path, temp, source },
             F::Io { path, source } => OutputError::Io { path, source },

@@ -12,6 +12,7 @@ mod frame;
 mod preview;
 pub mod stitch;
 
+pub use crate::files::guard;
 pub use crate::files::place::{make_folder, prepare as prepare_place};
 pub use crate::files::write_atomically;
 pub use colorspace::ColorSpace;

@@ -1,13 +1,18 @@
 //! `murk stitch`: the pieces of a frame rendered with `--tile I/N` put back together into
 //! the EXR the one-piece render writes (the same pixels, channels, storage and data
-//! window). Pieces of different frames or sizes, a piece twice or missing: refused.
+//! window). Pieces of different frames or sizes, a piece twice or missing: refused. A
+//! piece's rows are read where their own chunk headers put them, not where its offset
+//! table points.
 
 use super::OutputError;
 use super::attr;
 use super::exr::{ExrCompression, ExrOptions, write_exr};
 use super::frame::{Frame, is_depth_channel};
+use exr::block::reader::ChunksReader;
+use exr::image::read::image::{LayersReader, ReadLayers};
+use exr::image::read::layers::ReadChannels;
 use exr::meta::attribute::AttributeValue;
-use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
+use exr::prelude::{FlatImage, FlatSamples, read};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -78,8 +83,69 @@ struct Piece {
     software: String,
 }
 
+/// The image in `path`, its chunks read in file order and each placed at the rows its
+/// own header names: the offset table at the file's start is not used (a wrong one
+/// would put rows at other rows' places). Every row of the data window must be stored
+/// exactly once.
+fn read_by_rows(path: &Path) -> Result<FlatImage> {
+    let fail = |e: exr::error::Error| bad(path, format!("{e}"));
+    let file = std::fs::File::open(path).map_err(|e| bad(path, format!("{e}")))?;
+    let reader = exr::block::read(std::io::BufReader::new(file), false).map_err(fail)?;
+    let headers = reader.headers().to_vec();
+    let [header] = &headers[..] else {
+        return Err(bad(
+            path,
+            format!("not a murk piece (it has {} parts)", headers.len()),
+        ));
+    };
+    if header.deep || !matches!(header.blocks, exr::meta::BlockDescription::ScanLines) {
+        return Err(bad(
+            path,
+            "not a murk piece (it is stored in tiles or deep)",
+        ));
+    }
+    let attributes = header.shared_attributes.clone();
+    let height = header.layer_size.1;
+    let layers = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers();
+    let mut collect = layers.create_layers_reader(&headers).map_err(fail)?;
+    let mut stored = vec![false; height];
+    let mut twice = None;
+    let chunks = reader.all_chunks(false).map_err(fail)?;
+    chunks
+        .decompress_sequential(false, |meta, block| {
+            let (y, h) = (block.index.pixel_position.1, block.index.pixel_size.1);
+            for row in stored.iter_mut().skip(y).take(h) {
+                if std::mem::replace(row, true) {
+                    twice.get_or_insert(y);
+                }
+            }
+            collect.read_block(&meta.headers, block)
+        })
+        .map_err(fail)?;
+    if let Some(y) = twice {
+        return Err(bad(
+            path,
+            format!("the rows from {y} of its data window are stored twice"),
+        ));
+    }
+    if let Some(y) = stored.iter().position(|s| !s) {
+        return Err(bad(
+            path,
+            format!("row {y} of its data window is not stored (the file is cut short or damaged)"),
+        ));
+    }
+    Ok(exr::image::Image {
+        attributes,
+        layer_data: collect.into_layers(),
+    })
+}
+
 fn read_piece(path: &Path) -> Result<Piece> {
-    let image = read_all_flat_layers_from_file(path).map_err(|e| bad(path, e.to_string()))?;
+    let image = read_by_rows(path)?;
     let [layer] = &image.layer_data[..] else {
         return Err(bad(
             path,
@@ -189,10 +255,9 @@ fn same(pieces: &[Piece]) -> Result<()> {
     let names = |p: &Piece| p.channels.iter().map(|c| c.0.clone()).collect::<Vec<_>>();
     for p in &pieces[1..] {
         let a = first.path.display();
-        let b = &p.path;
         if frame_of(p) != frame_of(first) {
             return Err(bad(
-                b,
+                &p.path,
                 format!(
                     "a piece of another frame ({}) than {a} ({})",
                     frame_of(p),
@@ -202,7 +267,7 @@ fn same(pieces: &[Piece]) -> Result<()> {
         }
         if p.size != first.size {
             return Err(bad(
-                b,
+                &p.path,
                 format!(
                     "{}x{}, but {a} is {}x{}: pieces of different sizes",
                     p.size.0, p.size.1, first.size.0, first.size.1
@@ -211,19 +276,42 @@ fn same(pieces: &[Piece]) -> Result<()> {
         }
         if p.count != first.count {
             return Err(bad(
-                b,
+                &p.path,
                 format!(
                     "a piece of {} but {a} is a piece of {}",
                     p.count, first.count
                 ),
             ));
         }
-        if names(p) != names(first)
-            || [attr::STORAGE, attr::COLORSPACE, attr::Z_EMPTY, attr::CROP]
-                .iter()
-                .any(|a| p.strings.get(*a) != first.strings.get(*a))
-        {
-            return Err(bad(b, format!("its channels are not those of {a}")));
+        if names(p) != names(first) {
+            return Err(bad(
+                &p.path,
+                format!(
+                    "its channels ({}) are not those of {a} ({})",
+                    names(p).join(","),
+                    names(first).join(",")
+                ),
+            ));
+        }
+        // How the pixels are stored; the data window (attr::CROP) may differ: each
+        // piece's pixels are read by their rows and columns.
+        for (key, what) in [
+            (attr::STORAGE, "storage"),
+            (attr::COLORSPACE, "colour space"),
+            (attr::Z_EMPTY, "empty depth"),
+        ] {
+            let (x, y) = (p.strings.get(key), first.strings.get(key));
+            if x != y {
+                let text = |v: Option<&String>| v.map_or("none".to_string(), |v| v.clone());
+                return Err(bad(
+                    &p.path,
+                    format!(
+                        "its {what} ({key} {}) is not that of {a} ({})",
+                        text(x),
+                        text(y)
+                    ),
+                ));
+            }
         }
     }
     Ok(())
@@ -303,12 +391,10 @@ pub fn stitch_frame(pieces: &[PathBuf]) -> Result<Stitched> {
         });
     }
     let mut frame = Frame::new(w, h);
+    let z_empty = attribute(&read[0], attr::Z_EMPTY)?.unwrap_or(ExrOptions::default().z_empty);
     for (c, (name, _, _)) in read[0].channels.iter().enumerate() {
-        let fill = if is_depth_channel(name) {
-            f32::INFINITY
-        } else {
-            0.0
-        };
+        let depth = is_depth_channel(name);
+        let fill = if depth { f32::INFINITY } else { 0.0 };
         let mut data = vec![fill; w * h];
         let mut float = false;
         for p in &read {
@@ -317,7 +403,15 @@ pub fn stitch_frame(pieces: &[PathBuf]) -> Result<Stitched> {
             float |= *f;
             for y in y0.max(p.rows.0)..(y0 + ph).min(p.rows.1) {
                 let row = &src[(y - y0) * pw..][..pw];
-                data[y * w + x0..][..pw].copy_from_slice(row);
+                let dst = &mut data[y * w + x0..][..pw];
+                dst.copy_from_slice(row);
+                // A piece's "no depth" is the stitch's too (+inf), so that it counts
+                // as empty when the window is cropped, and is written as it was.
+                if depth {
+                    dst.iter_mut()
+                        .filter(|v| **v == z_empty)
+                        .for_each(|v| *v = f32::INFINITY);
+                }
             }
         }
         frame.add_channel(name.clone(), data)?;
@@ -376,8 +470,11 @@ pub fn stitch_frame(pieces: &[PathBuf]) -> Result<Stitched> {
         // +inf, which becomes it).
         colorspace: attribute(first, attr::COLORSPACE)?.unwrap_or(Default::default()),
         colour_converted: true,
-        z_empty: attribute(first, attr::Z_EMPTY)?.unwrap_or(ExrOptions::default().z_empty),
-        crop_data_window: first.strings.get(attr::CROP).is_some_and(|c| c == "true"),
+        z_empty,
+        // Cropped when any piece was (cropping drops only empty pixels).
+        crop_data_window: read
+            .iter()
+            .any(|p| p.strings.get(attr::CROP).is_some_and(|c| c == "true")),
     };
     Ok(Stitched {
         frame,

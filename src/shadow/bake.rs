@@ -26,6 +26,7 @@
 //!    depth lies for certain (the density's least value over the bricks above) is held as
 //!    one τ and its columns are not marched.
 
+use super::chart::Chart;
 use super::lattice::{
     MAX_COARSENINGS, block_corners, block_edge, cells_per_column, cells_per_unit, charts_for,
     column_cells,
@@ -37,18 +38,40 @@ use crate::field::Field;
 use glam::{DVec3, IVec3};
 use std::collections::{BTreeMap, HashSet};
 
+/// The lattice step of a bake made `coarsenings` times twice coarser than the density's
+/// smallest voxel edge (1 when that edge is not a positive number).
+pub fn lattice_unit(density: &dyn Field, coarsenings: usize) -> f64 {
+    let voxel = density.transform().voxel_size().min_element();
+    let unit = if voxel > 0.0 && voxel.is_finite() {
+        voxel
+    } else {
+        1.0
+    };
+    unit * 2f64.powi(coarsenings.min(MAX_COARSENINGS) as i32)
+}
+
+/// The charts a bake of `light` over `density` lays on the lattice coarsened
+/// `coarsenings` times (what a shadow cache's chart metadata must say); `None` where
+/// the density's blocks are past the bake's budget at that lattice (no bake made it).
+pub fn bake_charts(
+    density: &dyn Field,
+    light: LightGeometry,
+    settings: &BakeSettings,
+    coarsenings: usize,
+) -> Option<Vec<Chart>> {
+    let unit = lattice_unit(density, coarsenings);
+    let edge = block_edge(unit / lattice_unit(density, 0));
+    let blocks = block_corners(density, edge, settings.max_bricks / 8)?;
+    Some(charts_for(density, light, &blocks, unit).0)
+}
+
 /// Bakes the map of one light over `density`.
 pub fn bake(
     density: &dyn Field,
     light: LightGeometry,
     settings: &BakeSettings,
 ) -> (ShadowMap, BakeReport) {
-    let voxel = density.transform().voxel_size().min_element();
-    let mut unit = if voxel > 0.0 && voxel.is_finite() {
-        voxel
-    } else {
-        1.0
-    };
+    let mut unit = lattice_unit(density, 0);
     let voxel_unit = unit;
     for coarsenings in 0..MAX_COARSENINGS {
         if let Some((map, mut report)) = bake_at(

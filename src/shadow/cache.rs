@@ -19,6 +19,7 @@
 //! the density grid it was baked from (`murk:density_hash`).
 
 use super::BakeReport;
+use super::cache_check::{GridMeta, check_bake_charts, check_consistent, shown};
 pub use super::cache_error::CacheError;
 use super::chart::{Chart, ChartKind, LateralBlend};
 use super::map::{
@@ -33,9 +34,6 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 type Result<T> = std::result::Result<T, CacheError>;
-
-/// A grid's metadata, name → text.
-type GridMeta = BTreeMap<String, String>;
 
 fn vec_text(v: DVec3) -> String {
     format!("{:?},{:?},{:?}", v.x, v.y, v.z)
@@ -304,9 +302,10 @@ pub fn read(
             bad(format!(
                 "has no shadow map for light {} (it has maps for: {}); bake again with murk bake-shadows",
                 light.name(),
-                by_light.keys().cloned().collect::<Vec<_>>().join(", ")
+                by_light.keys().map(|k| shown(k)).collect::<Vec<_>>().join(", ")
             ))
         })?;
+        check_consistent(light.name(), grids).map_err(bad)?;
         let meta = &grids[0].1;
         let get = |k: &str| {
             meta.get(k)
@@ -332,21 +331,31 @@ pub fn read(
             .and_then(|(_, n)| n.parse().ok())
             .filter(|n| (1..=6).contains(n))
             .ok_or_else(|| bad("bad murk:chart".into()))?;
+        let mut expected = Vec::with_capacity(charts);
+        for ci in 0..charts {
+            let name = grid_name(light.name(), ci, "bricks");
+            let (_, m) = grids
+                .iter()
+                .find(|(n, _)| *n == name)
+                .ok_or_else(|| bad(format!("lacks grid {name}")))?;
+            expected.push(
+                chart_from(m).ok_or_else(|| bad(format!("grid {name}: bad chart metadata")))?,
+            );
+        }
+        check_bake_charts(density, light.geometry(), light.name(), meta, &expected).map_err(bad)?;
         let mut report = BakeReport {
             charts,
             points_per_level: vec![0; LEVELS],
             ..Default::default()
         };
         let mut chart_maps = Vec::with_capacity(charts);
-        for ci in 0..charts {
+        for (ci, &chart) in expected.iter().enumerate() {
             let name = grid_name(light.name(), ci, "bricks");
             let meta = &grids
                 .iter()
                 .find(|(n, _)| *n == name)
                 .ok_or_else(|| bad(format!("lacks grid {name}")))?
                 .1;
-            let chart =
-                chart_from(meta).ok_or_else(|| bad(format!("grid {name}: bad chart metadata")))?;
             report.lattice_step = chart.unit;
             // Every chart's grids carry the whole map's counts: read them once.
             if ci == 0 {
@@ -492,6 +501,17 @@ pub fn read(
             select,
         };
         report.count(&map);
+        if report.bricks_over_tolerance > report.bricks
+            || report.bricks_stopped_by_budget > report.bricks_over_tolerance
+        {
+            return Err(bad(format!(
+                "the map of light {} says {} of its {} bricks are over the tolerance ({} stopped by the budget): not what a bake writes; bake again with murk bake-shadows",
+                light.name(),
+                report.bricks_over_tolerance,
+                report.bricks,
+                report.bricks_stopped_by_budget
+            )));
+        }
         out.push((map, report));
     }
     Ok(out)

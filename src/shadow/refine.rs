@@ -204,7 +204,9 @@ pub(super) fn refine(
             report.bricks_over_tolerance += next.len();
             report.bricks_stopped_by_budget += next.len();
             let worst = next.iter().map(|(_, e)| *e).fold(0.0, f64::max);
-            report.over_tolerance_error = report.over_tolerance_error.max(worst);
+            // A transmittance error is at most 1, whatever the estimate (a brick's bound
+            // on a vast active tile can be far past it).
+            report.over_tolerance_error = report.over_tolerance_error.max(worst.min(1.0));
             next.clear();
         } else {
             *cells += marched;
@@ -308,7 +310,7 @@ fn decide(
         };
         if error > gain * allowed {
             report.bricks_over_tolerance += 1;
-            report.over_tolerance_error = report.over_tolerance_error.max(error / gain);
+            report.over_tolerance_error = report.over_tolerance_error.max((error / gain).min(1.0));
         }
         keep(fine_level, BrickForm::Hermite)
     } else {

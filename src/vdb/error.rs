@@ -32,7 +32,7 @@ impl VdbError {
     pub fn grid(path: impl Into<PathBuf>, grid: &str, problem: impl Into<String>) -> Self {
         VdbError::Grid {
             path: path.into(),
-            grid: grid.to_string(),
+            grid: super::guard::short_text(grid),
             problem: problem.into(),
         }
     }

@@ -89,6 +89,19 @@ pub fn number_text(f: f64) -> String {
     format!("{f:e}")
 }
 
+/// Text from a file as an error names it: [`printable`], and past 40 characters cut
+/// with the whole text's length said (a grid name of hundreds of bytes of binary would
+/// fill the terminal).
+pub fn short_text(s: &str) -> String {
+    let p = printable(s);
+    if p.chars().count() <= 40 {
+        p
+    } else {
+        let head: String = p.chars().take(40).collect();
+        format!("{head}… ({} bytes)", s.len())
+    }
+}
+
 pub fn printable(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
     for c in s.chars().take(200) {

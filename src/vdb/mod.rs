@@ -256,7 +256,7 @@ impl VdbFile {
     pub fn grid_list(&self) -> String {
         self.grids
             .iter()
-            .map(|g| g.unique_name.clone())
+            .map(|g| guard::short_text(&g.unique_name))
             .collect::<Vec<_>>()
             .join(", ")
     }
@@ -273,7 +273,7 @@ impl VdbFile {
             .or_else(|| self.grids.iter().position(|g| g.name == name))
             .ok_or_else(|| VdbError::NoSuchGrid {
                 path: self.path.clone(),
-                grid: guard::printable(name),
+                grid: guard::short_text(name),
                 available: self.grid_list(),
             })
     }
