@@ -151,6 +151,18 @@ fn path_param(name: &str, path: &Path, job_dir: &Path, flow: &str, what: &str) -
     }))
 }
 
+/// Refuses `text` (`what` names it) when it holds `{{` or `}}`: Open Job Description
+/// reads them in a template's names and command arguments as the bounds of an
+/// expression, so the job would not run what was given here.
+fn no_expression(text: &str, what: &str) -> Result<()> {
+    if text.contains("{{") || text.contains("}}") {
+        return Err(anyhow!(
+            "{what}: \"{{{{\" and \"}}}}\" would be read by Open Job Description as an expression; rename it without double braces"
+        ));
+    }
+    Ok(())
+}
+
 fn on_run(args: Vec<String>) -> Value {
     json!({ "actions": { "onRun": { "command": "{{Param.Murk}}", "args": args } } })
 }
@@ -262,6 +274,9 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
         ));
     }
     let raw: Vec<String> = std::env::args().skip(3).collect();
+    for a in &raw {
+        no_expression(a, a)?;
+    }
     let (merged, vdb) = super::render::options_for(input, options.options())?;
     if merged.output.is_none() {
         return Err(anyhow!(
@@ -275,6 +290,17 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
             "--tiles {tiles}: more pieces than the image's {} rows",
             plan.camera.height
         ));
+    }
+    // Paths may come from a scene file too.
+    let given = [
+        Some(&plan.input),
+        Some(&plan.outputs.path),
+        merged.stats.as_ref(),
+        merged.preview.as_ref(),
+        merged.shadow_cache.as_ref(),
+    ];
+    for p in given.into_iter().flatten() {
+        no_expression(&p.to_string_lossy(), &p.display().to_string())?;
     }
     let paths = FramePaths::of(&plan);
     let frames = choose_frames(&paths, &plan, merged.frames.as_deref())?;

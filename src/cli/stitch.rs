@@ -46,14 +46,14 @@ pub struct StitchArgs {
 /// `murk stitch`.
 pub fn run(a: StitchArgs) -> Result<()> {
     let at = |p: &Path| match a.frame {
-        Some(f) => frame_path(p, f),
-        None => p.to_path_buf(),
+        Some(f) => Ok(frame_path(p, f)?),
+        None => Ok(p.to_path_buf()),
     };
-    let pieces: Vec<PathBuf> = a.pieces.iter().map(|p| at(p)).collect();
-    let output = at(&a.output);
+    let pieces: Vec<PathBuf> = a.pieces.iter().map(|p| at(p)).collect::<Result<_>>()?;
+    let output = at(&a.output)?;
     let preview = match &a.preview {
         Some(p) => {
-            let p = at(p);
+            let p = at(p)?;
             if p.extension()
                 .is_some_and(|e| !e.eq_ignore_ascii_case("png"))
             {
@@ -101,7 +101,7 @@ pub fn run(a: StitchArgs) -> Result<()> {
         }
     }
     let mut removed = 0;
-    let extra: Vec<PathBuf> = a.remove.iter().map(|p| at(p)).collect();
+    let extra: Vec<PathBuf> = a.remove.iter().map(|p| at(p)).collect::<Result<_>>()?;
     let doomed = pieces
         .iter()
         .filter(|_| a.remove_pieces)

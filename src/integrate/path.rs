@@ -13,7 +13,9 @@
 //! Novák et al. 2018): unbiased in every channel when σ differs between channels, and
 //! exactly delta tracking with albedo weighting (`β·σs/σt`) in a grey medium. Absorption
 //! is in the weight, so paths end only by escaping, by `--bounces` or by Russian
-//! roulette (on the throughput's largest channel, from the third event on).
+//! roulette (on the throughput's largest channel, from the third event on). A span
+//! so dense that tracking it would take hundreds of tentative collisions is crossed by
+//! the density's integral instead ([`dense`]), so no extinction makes a path endless.
 //!
 //! At every scattering event each light is sampled (next-event estimation): sun and
 //! point lights by their direction, with the transmittance toward them from
@@ -45,7 +47,11 @@ use super::pass::PassLayout;
 use super::scatter_passes::{ScatterPassSpec, ScatterPasses};
 use crate::accel::{IndexRay, MajorantGrid, MajorantSpan, MajorantSpans, Spans, clip_to_box};
 use crate::field::random::SplitMix64;
+pub use camera::PathScratch;
 use glam::DVec3;
+
+mod camera;
+mod dense;
 
 /// How a scattering event finds the transmittance toward a sun or point light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -251,7 +257,22 @@ impl<'a> PathTracer<'a> {
                 continue;
             }
             let mut t = span.t0;
+            let mut tries = 0u32;
             loop {
+                if dense::too_many(tries, maj * (span.t1 - t)) {
+                    // The rest of the span by its integral (the flight goes on from a
+                    // tentative collision as a fresh one would).
+                    let Some((tc, w)) =
+                        self.dense_flight(&ray, t, span.t1, maj, beta, rng, samples)
+                    else {
+                        break;
+                    };
+                    let (p, x) = (ray.at(tc), origin + dir * tc);
+                    emit(piece, tc, *beta);
+                    *beta *= self.sigma_s_at(p, x) * w;
+                    return Some(Collision { x });
+                }
+                tries += 1;
                 t -= (1.0 - rng.next_f64()).ln() / maj;
                 if t >= span.t1 {
                     break;
@@ -335,6 +356,8 @@ impl<'a> PathTracer<'a> {
             if span.range.is_constant() {
                 // A constant cell: its transmittance is exact.
                 tr *= (-self.sigma_t * rho_max * (span.t1 - span.t0)).exp();
+            } else if self.sigma_t_max * rho_max * (span.t1 - span.t0) > dense::DENSE_SPAN {
+                tr *= self.dense_transmittance(&ray, span.t0, span.t1);
             } else {
                 let maj = self.sigma_t_max * rho_max;
                 if !(maj > 0.0) {
@@ -365,35 +388,6 @@ impl<'a> PathTracer<'a> {
         tr
     }
 
-    /// The camera ray: its optical depth per unit σt (`∫ρ`, exact per cell) and where the
-    /// mean transmittance first falls to 0.5. (A collision estimator of the direct light
-    /// along the whole camera ray — every tentative collision adding `T·σs·ρ·p·E/σ̄` —
-    /// was tried: on the demo cloud it cost 2× the time for 6 % less noise, twice the
-    /// work for the same error, so the first event is delta-tracked like the others.)
-    #[allow(clippy::too_many_arguments)]
-    fn camera_ray(
-        &self,
-        origin: DVec3,
-        dir: DVec3,
-        t_min: f64,
-        t_max: f64,
-        scratch: &mut PathScratch,
-    ) -> (f64, Option<f64>) {
-        let density = self.volume.density;
-        let ray = IndexRay::new(density, origin, dir);
-        let mean_t = |d: f64| (-self.sigma_t * d).exp().element_sum() / 3.0;
-        let mut total = 0.0;
-        let mut half = None;
-        for span in Spans::new(density, ray, t_min, t_max) {
-            let part = density.integral(&ray, span.t0, span.t1);
-            if half.is_none() && mean_t(total + part) <= 0.5 {
-                half = Some(self.half_crossing(&ray, span.t0, span.t1, total, scratch));
-            }
-            total += part;
-        }
-        (total, half)
-    }
-
     /// Next-event estimation at `x` (the path arrived along `dir` with weight `beta`,
     /// after `events` events): each sun and point light's light scattered toward `−dir`.
     /// `point` tells this event's shadow rays' streams apart.
@@ -417,7 +411,11 @@ impl<'a> PathTracer<'a> {
             }
             let phase = self.volume.phase.eval(travel.dot(-dir));
             let tr = match self.settings.transmittance {
-                LightTransmittance::Lookup => (-self.sigma_t * lights.density_to_light(l, x)).exp(),
+                // A map's τ may undershoot 0 by its tolerance: at a huge σt that would
+                // be a transmittance far over 1.
+                LightTransmittance::Lookup => {
+                    (-self.sigma_t * lights.density_to_light(l, x).max(0.0)).exp()
+                }
                 LightTransmittance::RatioTracking => {
                     let mut s = rng.stream(shadow_stream(events, l) ^ (point << 24));
                     let dist = lights.distance_to_light(l, x);
@@ -430,56 +428,6 @@ impl<'a> PathTracer<'a> {
             }
         }
     }
-}
-
-impl PathTracer<'_> {
-    /// Where in `[t0, t1]` the mean transmittance falls to 0.5, given `before` (∫ρ up to
-    /// t0): the cell cut into pieces of a voxel, their exact integrals in one walk, and
-    /// the crossing piece interpolated as an exponential (as the march finds Z).
-    fn half_crossing(
-        &self,
-        ray: &IndexRay,
-        t0: f64,
-        t1: f64,
-        before: f64,
-        scratch: &mut PathScratch,
-    ) -> f64 {
-        let mean_t = |d: f64| (-self.sigma_t * d).exp().element_sum() / 3.0;
-        let n = (((t1 - t0) * ray.index_speed()).ceil() as usize).clamp(1, 4096);
-        let h = (t1 - t0) / n as f64;
-        scratch.ends.clear();
-        scratch
-            .ends
-            .extend((1..=n).map(|i| if i == n { t1 } else { t0 + h * i as f64 }));
-        scratch.integrals.resize(n, 0.0);
-        self.volume
-            .density
-            .piece_integrals(ray, t0, &scratch.ends, &mut scratch.integrals[..n]);
-        let (mut a, mut d) = (t0, before);
-        for i in 0..n {
-            let b = scratch.ends[i];
-            let (m0, m1) = (mean_t(d), mean_t(d + scratch.integrals[i]));
-            if m1 <= 0.5 {
-                let rate = (m0 / m1).ln() / (b - a);
-                let s = if rate.is_finite() && rate > 0.0 {
-                    (m0 / 0.5).ln() / rate
-                } else {
-                    b - a
-                };
-                return a + s.clamp(0.0, b - a);
-            }
-            d += scratch.integrals[i];
-            a = b;
-        }
-        t1
-    }
-}
-
-/// Per-thread buffers: the pieces of the cell where the camera ray's opacity crosses ½.
-#[derive(Clone, Debug, Default)]
-pub struct PathScratch {
-    ends: Vec<f64>,
-    integrals: Vec<f64>,
 }
 
 impl Integrator for PathTracer<'_> {

@@ -142,6 +142,37 @@ pub fn choose_frames(
     plan: &RenderPlan,
     spec: Option<&str>,
 ) -> Result<Vec<i64>, RenderError> {
+    // Every per-frame path, as given, with the flag that names it.
+    let given = [
+        (Some(&paths.input), "", Some(plan.input.as_path())),
+        (
+            Some(&paths.output),
+            "-o ",
+            Some(plan.outputs.path.as_path()),
+        ),
+        (
+            paths.preview.as_ref(),
+            "--preview ",
+            plan.outputs.preview.as_ref().map(|p| p.0.as_path()),
+        ),
+        (
+            paths.stats.as_ref(),
+            "--stats ",
+            plan.outputs.stats.as_deref(),
+        ),
+        (
+            paths.shadow_cache.as_ref(),
+            "--shadow-cache ",
+            plan.shadows.cache.as_deref(),
+        ),
+    ];
+    for (pattern, flag, path) in given {
+        if let (Some(pattern), Some(path)) = (pattern, path) {
+            pattern
+                .check(&format!("{flag}{}", path.display()))
+                .map_err(RenderError::Flag)?;
+        }
+    }
     let frames = match spec {
         Some(s) => parse_frames(s)?,
         None if paths.input.is_pattern() => paths.input.existing_frames(&plan.input)?,
@@ -267,7 +298,11 @@ fn sequence_box(
         .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
 }
 
-/// The path of frame `frame` of `pattern` (for tools that build command lines).
-pub fn frame_path(pattern: &Path, frame: i64) -> PathBuf {
-    FramePattern::new(pattern).path(frame)
+/// The path of frame `frame` of `pattern` (for tools that build command lines); a
+/// pattern wider than murk pads is refused.
+pub fn frame_path(pattern: &Path, frame: i64) -> Result<PathBuf, RenderError> {
+    let p = FramePattern::new(pattern);
+    p.check(&pattern.display().to_string())
+        .map_err(RenderError::Flag)?;
+    Ok(p.path(frame))
 }

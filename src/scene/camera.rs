@@ -123,9 +123,14 @@ impl Camera {
         let centre = (lo + hi) * 0.5;
         let back = DVec3::new(0.0, 0.3, 1.0).normalize();
         let aspect = height as f64 / width as f64;
+        // The first eye only gives the frame's axes: one unit back, unless the box is
+        // so far from the origin that a unit is lost in its coordinates' rounding (at
+        // 5e17 a step of 0.95 in z rounds away, and the view would turn).
+        let far = centre.abs().max_element();
+        let reach = if far < 1e6 { 1.0 } else { far };
         let mut cam = Camera {
             projection: projection.unwrap_or(Projection::Perspective { fov_deg: 40.0 }),
-            eye: centre + back,
+            eye: centre + back * reach,
             look_at: centre,
             up: DVec3::Y,
             width,
@@ -189,6 +194,29 @@ mod tests {
         // World → camera puts the target on −z at distance 5.
         let p = cam.world_to_camera().transform_point3(DVec3::ZERO);
         assert!((p - DVec3::new(0.0, 0.0, -5.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn framing_a_box_far_from_the_origin_looks_at_it_from_the_front() {
+        for (lo, hi) in [
+            (DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 1.0, 1e18)),
+            (DVec3::new(1e15, 0.0, 0.0), DVec3::new(1e15 + 1.0, 1.0, 1.0)),
+            (DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 1.0, 3e38)),
+        ] {
+            let cam = Camera::framing(lo, hi, 32, 18, None);
+            assert!(cam.validate().is_ok(), "{lo} {hi}: {cam:?}");
+            let f = cam.frame();
+            let back = DVec3::new(0.0, 0.3, 1.0).normalize();
+            assert!(
+                (f.forward + back).length() < 1e-9,
+                "{lo} {hi}: {:?}",
+                f.forward
+            );
+            // Every corner is in front of the eye.
+            for c in [lo, hi] {
+                assert!((c - cam.eye).dot(f.forward) > 0.0, "{lo} {hi}");
+            }
+        }
     }
 
     #[test]

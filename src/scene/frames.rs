@@ -15,6 +15,9 @@ enum Piece {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct FramePattern {
     pieces: Vec<Piece>,
+    /// The first pattern asking for more than [`MAX_PAD`] digits, as written (its
+    /// piece holds [`MAX_PAD`]); [`FramePattern::check`] refuses it.
+    too_wide: Option<String>,
 }
 
 /// The widest padding accepted (wider is surely a typo).
@@ -22,8 +25,19 @@ const MAX_PAD: usize = 12;
 
 impl FramePattern {
     pub fn new(path: &Path) -> FramePattern {
-        FramePattern {
-            pieces: parse(&path.to_string_lossy()),
+        let (pieces, too_wide) = parse(&path.to_string_lossy());
+        FramePattern { pieces, too_wide }
+    }
+
+    /// Refuses a pattern wider than [`MAX_PAD`] digits (`what` names the path in the
+    /// message): no frame number has that many, so it is surely a typo, and padding it
+    /// silently to fewer would write names nobody asked for.
+    pub fn check(&self, what: &str) -> Result<(), String> {
+        match &self.too_wide {
+            Some(p) => Err(format!(
+                "{what}: the frame pattern {p} asks for more than {MAX_PAD} digits; use at most {MAX_PAD} (e.g. ####)"
+            )),
+            None => Ok(()),
         }
     }
 
@@ -58,7 +72,7 @@ impl FramePattern {
                 pattern: shown.to_owned(),
             });
         }
-        let name = parse(&path.file_name().unwrap_or_default().to_string_lossy());
+        let (name, _) = parse(&path.file_name().unwrap_or_default().to_string_lossy());
         let entries = std::fs::read_dir(&dir).map_err(|e| FramesError::Unlisted {
             pattern: shown.to_owned(),
             folder: dir.clone(),
@@ -90,21 +104,33 @@ impl FramePattern {
     }
 }
 
-fn parse(s: &str) -> Vec<Piece> {
+/// The pieces of `s`, and the first pattern in it wider than [`MAX_PAD`] (as written).
+fn parse(s: &str) -> (Vec<Piece>, Option<String>) {
     let b = s.as_bytes();
     let mut pieces = Vec::new();
     let mut text = String::new();
+    let mut too_wide = None;
     let mut i = 0;
-    let push = |pieces: &mut Vec<Piece>, text: &mut String, pad: usize| {
+    let mut push = |pieces: &mut Vec<Piece>, text: &mut String, pad: usize, written: &str| {
         if !text.is_empty() {
             pieces.push(Piece::Text(std::mem::take(text)));
         }
-        pieces.push(Piece::Frame { pad });
+        if pad > MAX_PAD && too_wide.is_none() {
+            too_wide = Some(written.to_string());
+        }
+        pieces.push(Piece::Frame {
+            pad: pad.clamp(1, MAX_PAD),
+        });
+    };
+    // A width too long to parse is too wide.
+    let width = |digits: &str, none: usize| match digits {
+        "" => none,
+        d => d.parse::<usize>().unwrap_or(usize::MAX),
     };
     while i < b.len() {
         if b[i] == b'#' {
             let n = b[i..].iter().take_while(|&&c| c == b'#').count();
-            push(&mut pieces, &mut text, n.min(MAX_PAD));
+            push(&mut pieces, &mut text, n, &s[i..i + n]);
             i += n;
             continue;
         }
@@ -112,16 +138,16 @@ fn parse(s: &str) -> Vec<Piece> {
             // %d or %0Nd
             let digits: usize = b[i + 1..].iter().take_while(|c| c.is_ascii_digit()).count();
             if b.get(i + 1 + digits) == Some(&b'd') {
-                let pad = s[i + 1..i + 1 + digits].parse::<usize>().unwrap_or(0);
-                push(&mut pieces, &mut text, pad.clamp(1, MAX_PAD));
+                let pad = width(&s[i + 1..i + 1 + digits], 0);
+                push(&mut pieces, &mut text, pad, &s[i..i + digits + 2]);
                 i += digits + 2;
                 continue;
             }
         }
         if b[i] == b'$' && b.get(i + 1) == Some(&b'F') {
             let digits = b[i + 2..].iter().take_while(|c| c.is_ascii_digit()).count();
-            let pad = s[i + 2..i + 2 + digits].parse::<usize>().unwrap_or(1);
-            push(&mut pieces, &mut text, pad.clamp(1, MAX_PAD));
+            let pad = width(&s[i + 2..i + 2 + digits], 1);
+            push(&mut pieces, &mut text, pad, &s[i..i + digits + 2]);
             i += digits + 2;
             continue;
         }
@@ -132,7 +158,7 @@ fn parse(s: &str) -> Vec<Piece> {
     if !text.is_empty() {
         pieces.push(Piece::Text(text));
     }
-    pieces
+    (pieces, too_wide)
 }
 
 /// The frame of file name `name` under the pattern `pieces`, if it fits: every frame
@@ -332,15 +358,50 @@ mod tests {
     }
 
     #[test]
+    fn patterns_wider_than_twelve_digits_are_refused() {
+        for ok in [
+            "f_############.vdb",
+            "f_%012d.vdb",
+            "f.$F12.vdb",
+            "f_%d.vdb",
+            "plain.vdb",
+        ] {
+            assert!(FramePattern::new(Path::new(ok)).check(ok).is_ok(), "{ok}");
+        }
+        for (bad, shown) in [
+            ("f_################.vdb", "################"),
+            ("f_%0999d.vdb", "%0999d"),
+            ("f.$F99.vdb", "$F99"),
+            (
+                "f_%099999999999999999999999d.vdb",
+                "%099999999999999999999999d",
+            ),
+            ("ok_####/f_%013d.vdb", "%013d"),
+        ] {
+            let e = FramePattern::new(Path::new(bad))
+                .check(&format!("-o {bad}"))
+                .unwrap_err();
+            assert!(
+                e.starts_with(&format!("-o {bad}: the frame pattern {shown} ")),
+                "{e}"
+            );
+            // Still a pattern (a sequence), whose names are never built wider than 12.
+            let p = FramePattern::new(Path::new(bad));
+            assert!(p.is_pattern());
+            assert!(p.path(7).to_string_lossy().len() <= bad.len() + 12, "{bad}");
+        }
+    }
+
+    #[test]
     fn names_match_only_with_the_right_padding() {
-        let p = parse("fluid_####.vdb");
+        let p = parse("fluid_####.vdb").0;
         assert_eq!(match_name(&p, "fluid_0012.vdb"), Some(12));
         assert_eq!(match_name(&p, "fluid_12345.vdb"), Some(12345));
         assert_eq!(match_name(&p, "fluid_012.vdb"), None);
         assert_eq!(match_name(&p, "fluid_00012.vdb"), None);
         assert_eq!(match_name(&p, "fluid_0012.vdb.tmp"), None);
-        assert_eq!(match_name(&parse("p.$F.vdb"), "p.7.vdb"), Some(7));
-        assert_eq!(match_name(&parse("p.$F.vdb"), "p.07.vdb"), None);
+        assert_eq!(match_name(&parse("p.$F.vdb").0, "p.7.vdb"), Some(7));
+        assert_eq!(match_name(&parse("p.$F.vdb").0, "p.07.vdb"), None);
     }
 
     #[test]

@@ -187,6 +187,52 @@ fn choose(
     }
 }
 
+/// Why no density was found: a grid of a density's name that holds other values (a
+/// vec3 `density`) is named as the reason, else the file's fields are listed.
+fn no_density(source: &dyn FieldSource, input: &std::path::Path) -> SceneError {
+    let named = DENSITY_NAMES.iter().find_map(|n| {
+        source
+            .fields()
+            .iter()
+            .find(|g| g.name.eq_ignore_ascii_case(n))
+    });
+    let scalars: Vec<&str> = source
+        .fields()
+        .iter()
+        .filter(|g| g.kind == FieldKind::Scalar)
+        .map(|g| g.unique_name.as_str())
+        .collect();
+    let instead = if scalars.is_empty() {
+        "the file has no float grid; write the density as one (e.g. its magnitude)".to_string()
+    } else {
+        format!(
+            "name a float grid with --density-grid (the file's: {})",
+            scalars.join(", ")
+        )
+    };
+    match named {
+        Some(g) => SceneError::input(
+            input,
+            format!(
+                "grid \"{}\" holds {} values ({}), but a density must be a float grid; {instead}",
+                g.unique_name,
+                match g.kind {
+                    FieldKind::Vector => "vec3",
+                    _ => "non-float",
+                },
+                g.type_name
+            ),
+        ),
+        None => SceneError::input(
+            input,
+            format!(
+                "no density grid found (the file has: {}); name one with --density-grid",
+                source.field_list()
+            ),
+        ),
+    }
+}
+
 /// The world box of the non-zero cells of the density `plan` would render (decoded
 /// alone), `None` when it has none or cannot be read (the render says why).
 pub fn density_box_of(plan: &RenderPlan) -> Option<(glam::DVec3, glam::DVec3)> {
@@ -246,15 +292,7 @@ pub fn load_fields(
         "density",
         FieldKind::Scalar,
     )?
-    .ok_or_else(|| {
-        SceneError::input(
-            &plan.input,
-            format!(
-                "no density grid found (the file has: {}); name one with --density-grid",
-                source.field_list()
-            ),
-        )
-    })?;
+    .ok_or_else(|| no_density(source, &plan.input))?;
     let d = source.field(&density_name)?;
     if d.class == "level set" {
         // A level set holds a surface's signed distance, negative inside: read as

@@ -259,10 +259,7 @@ pub fn write(
         format!("murk {}", env!("CARGO_PKG_VERSION")),
     )];
     crate::files::write_atomically(path, |tmp| {
-        write_float_grids(tmp, &grids, &file_meta).map_err(|source| CacheError::Encode {
-            path: path.to_owned(),
-            source,
-        })
+        write_float_grids(tmp, &grids, &file_meta).map_err(|e| CacheError::Read(e.at(path)))
     })
 }
 

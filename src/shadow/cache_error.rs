@@ -15,15 +15,7 @@ pub enum CacheError {
         /// What does not fit, and what to do.
         problem: String,
     },
-    /// The cache could not be encoded.
-    #[error("{}: {source}", path.display())]
-    Encode {
-        /// The cache file.
-        path: PathBuf,
-        /// The cause.
-        source: VdbError,
-    },
-    /// The file could not be read as a VDB (its error names the file).
+    /// The file could not be read or encoded as a VDB (its error names the file).
     #[error(transparent)]
     Read(#[from] VdbError),
     /// The file could not be written.

@@ -36,6 +36,27 @@ impl VdbError {
             problem: problem.into(),
         }
     }
+
+    /// The same error about another path: a file written under a temporary name and
+    /// renamed is named as the output the user asked for.
+    pub fn at(self, shown: impl Into<PathBuf>) -> Self {
+        let path = shown.into();
+        match self {
+            VdbError::File { problem, .. } => VdbError::File { path, problem },
+            VdbError::Grid { grid, problem, .. } => VdbError::Grid {
+                path,
+                grid,
+                problem,
+            },
+            VdbError::NoSuchGrid {
+                grid, available, ..
+            } => VdbError::NoSuchGrid {
+                path,
+                grid,
+                available,
+            },
+        }
+    }
 }
 
 /// Turns a panic payload into a message (the reader is run under `catch_unwind`).

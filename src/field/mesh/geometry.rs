@@ -115,8 +115,15 @@ fn cell_faces(ty: CellType) -> &'static [&'static [usize]] {
 }
 
 impl TetMesh {
-    pub fn build(mesh: &UnstructuredMesh) -> Result<TetMesh, String> {
-        let mut points: Vec<DVec3> = mesh.points.iter().map(|p| DVec3::from_array(*p)).collect();
+    /// `offset` is subtracted from every point (exactly: see [`MeshGeometry::new`]).
+    ///
+    /// [`MeshGeometry::new`]: super::MeshGeometry::new
+    pub fn build(mesh: &UnstructuredMesh, offset: DVec3) -> Result<TetMesh, String> {
+        let mut points: Vec<DVec3> = mesh
+            .points
+            .iter()
+            .map(|p| DVec3::from_array(*p) - offset)
+            .collect();
         let mut tets = Vec::with_capacity(mesh.cells());
         let mut tet_cell = Vec::with_capacity(mesh.cells());
         let mut report = LoadReport {

@@ -11,8 +11,10 @@ use glam::{DMat4, DVec3, IVec3};
 pub const BRICK: i32 = 8;
 
 pub struct Lattice {
+    /// Index → world (the mesh's offset added back).
     pub transform: IndexToWorld,
-    /// World corner of brick (0,0,0) and the world edge of a brick.
+    /// Corner of brick (0,0,0) in the mesh's coordinates (world minus its offset), and
+    /// the edge of a brick.
     pub lo: DVec3,
     pub edge: f64,
     pub dims: IVec3,
@@ -26,8 +28,54 @@ fn max_items(tets: usize) -> u64 {
     (64 * tets as u64).max(1 << 20)
 }
 
+/// Coordinates murk takes, in magnitude: the walk's exact predicates multiply three
+/// differences of them, the lattice three extents, and neither may overflow or fall
+/// into subnormals.
+const MAX_COORD: f64 = 1e80;
+/// The smallest diagonal of a mesh's bounds murk takes (see [`MAX_COORD`]).
+const MIN_EXTENT: f64 = 1e-80;
+
+/// Checks that a mesh with bounds `lo..hi` (of `n` points) can be walked, and returns
+/// the offset its points are held relative to: per axis, the centre of the bounds where
+/// it is over 1024 diagonals from the origin (there every coordinate is within a factor
+/// of 2 of it, so subtracting it is exact), else 0.
+pub(super) fn check_extent(lo: DVec3, hi: DVec3, n: usize) -> Result<DVec3, String> {
+    let far = lo.abs().max(hi.abs()).max_element();
+    if !(far <= MAX_COORD) {
+        return Err(format!(
+            "a point coordinate reaches {far:e}; murk takes coordinates up to {MAX_COORD:e} (scale the mesh down)"
+        ));
+    }
+    let ext = hi - lo;
+    let longest = ext.max_element();
+    if longest == 0.0 {
+        return Err(format!(
+            "all {n} points are the same point: the mesh has no extent"
+        ));
+    }
+    // Scaled: the squares of a tiny extent would underflow.
+    let diag = longest * (ext / longest).length();
+    if !(diag >= MIN_EXTENT) {
+        return Err(format!(
+            "the mesh is {diag:e} across; murk takes meshes at least {MIN_EXTENT:e} across (scale it up)"
+        ));
+    }
+    let mid = (lo + hi) * 0.5;
+    Ok(DVec3::select(
+        mid.abs().cmpge(DVec3::splat(1024.0 * diag)),
+        mid,
+        DVec3::ZERO,
+    ))
+}
+
+/// Bricks at most: the sizing below gives at most about 8 × 2²¹ for bounds the
+/// geometry accepts; a lattice of more is coarsened, never allocated.
+const MAX_BRICKS: u64 = 1 << 25;
+
 impl Lattice {
-    pub fn build(mesh: &TetMesh, lo: DVec3, hi: DVec3) -> Result<Lattice, String> {
+    /// The lattice over the bounds `lo..hi` of `mesh`'s points (its coordinates);
+    /// `offset` is where their origin lies in the world.
+    pub fn build(mesh: &TetMesh, lo: DVec3, hi: DVec3, offset: DVec3) -> Result<Lattice, String> {
         let n = mesh.tets.len().max(1) as f64;
         let ext = (hi - lo).max(DVec3::splat(1e-300));
         let diag = ext.length();
@@ -48,7 +96,18 @@ impl Lattice {
             })
             .collect();
         loop {
-            let dims = ((ext / edge).ceil().max(DVec3::ONE)).as_ivec3();
+            if !(edge > 0.0 && edge.is_finite()) {
+                return Err(format!(
+                    "the mesh's bounds ({:e} across) give no usable lattice",
+                    ext.length()
+                ));
+            }
+            let per_axis = (ext / edge).ceil().max(DVec3::ONE);
+            if !(per_axis.element_product() <= MAX_BRICKS as f64) {
+                edge *= 2.0;
+                continue;
+            }
+            let dims = per_axis.as_ivec3();
             let range = |a: DVec3, b: DVec3| {
                 let pad = edge * 1e-9;
                 let i0 = (((a - lo - pad) / edge).floor().as_ivec3()).clamp(IVec3::ZERO, dims - 1);
@@ -102,7 +161,7 @@ impl Lattice {
             let m = DMat4::from_scale_rotation_translation(
                 DVec3::splat(voxel),
                 glam::DQuat::IDENTITY,
-                lo,
+                lo + offset,
             );
             let transform = IndexToWorld::new(m, IVec3::ZERO)
                 .ok_or("the mesh's bounds give no usable lattice")?;
@@ -115,6 +174,13 @@ impl Lattice {
                 items,
             });
         }
+    }
+
+    /// The point in the mesh's coordinates of the index point `p` (as the transform
+    /// maps it to the world, without the offset: no precision lost to it).
+    #[inline]
+    pub fn index_to_mesh(&self, p: DVec3) -> DVec3 {
+        self.transform.linear() * p + self.lo
     }
 
     pub fn brick_count(&self) -> usize {

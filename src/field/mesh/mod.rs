@@ -23,15 +23,16 @@ pub mod geometry;
 pub mod interp;
 pub mod lattice;
 pub mod line;
+mod source;
 pub mod walk;
 
 use super::{Cell, Field, IndexBox, IndexRay, IndexToWorld, Quadrature, ValueRange};
-use crate::vtk::{CellType, MeshError, UnstructuredMesh, read_mesh};
+use crate::vtk::{CellType, UnstructuredMesh};
 pub use geometry::LoadReport;
 use geometry::TetMesh;
 use glam::{DVec3, IVec3, Vec3};
-use lattice::{BRICK, Lattice};
-use std::path::Path;
+use lattice::{BRICK, Lattice, check_extent};
+pub use source::MeshSource;
 use std::sync::Arc;
 use walk::{Line, Resume, WalkStats, Walker};
 
@@ -47,8 +48,16 @@ thread_local! {
 }
 
 /// The walkable mesh shared by the fields of one file.
+///
+/// Its points are held relative to `offset`: a mesh far from the origin compared with
+/// its size is moved near it (per axis, by the centre of its bounds, a subtraction that
+/// is exact there), so the walk's hair (1e-10 of the diagonal) still moves a point and
+/// its predicates see the mesh's own differences. World points are taken and given
+/// with the offset added back.
 pub struct MeshGeometry {
     pub tets: TetMesh,
+    /// World position of the origin of the points' coordinates.
+    pub offset: DVec3,
     pub bvh: bvh::FaceBvh,
     pub lattice: Lattice,
     /// Mesh diagonal and the walk's hair (1e-10 of it).
@@ -66,14 +75,12 @@ impl MeshGeometry {
         if mesh.cells() == 0 {
             return Err("the mesh has no cells".into());
         }
-        let tets = TetMesh::build(mesh)?;
         let (lo, hi) = mesh.bounds();
         let (lo, hi) = (DVec3::from_array(lo), DVec3::from_array(hi));
-        let diag = (hi - lo).length().max(1e-300);
-        if !diag.is_finite() {
-            return Err("point coordinates span more than a double can hold".into());
-        }
-        let lattice = Lattice::build(&tets, lo, hi)?;
+        let offset = check_extent(lo, hi, mesh.points.len())?;
+        let diag = (hi - lo).length();
+        let tets = TetMesh::build(mesh, offset)?;
+        let lattice = Lattice::build(&tets, lo - offset, hi - offset, offset)?;
         let bvh = bvh::FaceBvh::build(&tets, diag * 1e-9);
         let mut h = 0x6d75_726b_6d65_7368u64;
         for p in &mesh.points {
@@ -89,6 +96,7 @@ impl MeshGeometry {
         }
         Ok(MeshGeometry {
             tets,
+            offset,
             bvh,
             lattice,
             diag,
@@ -121,7 +129,7 @@ impl MeshGeometry {
         t1: f64,
         f: impl FnMut(u32, f64, f64),
     ) -> WalkStats {
-        let line = Line::new(o, d, self.diag.max(1e-300) / d.length().max(1e-300));
+        let line = Line::new(o - self.offset, d, self.diag / d.length().max(1e-300));
         self.walker().walk(&line, t0, t1, f)
     }
 
@@ -130,7 +138,7 @@ impl MeshGeometry {
     /// ray aimed at a vertex passes exactly through it), with the walk's counters; NaN
     /// if the pieces came out of order.
     pub fn chord_through(&self, p: DVec3, q: DVec3, t0: f64, t1: f64) -> (f64, WalkStats) {
-        let line = Line::through(p, q);
+        let line = Line::through(p - self.offset, q - self.offset);
         let mut len = 0.0;
         let mut last = f64::NEG_INFINITY;
         let mut ordered = true;
@@ -151,6 +159,11 @@ impl MeshGeometry {
     /// point on a face always gets the lattice's answer, whatever the thread did before,
     /// so images do not depend on the thread count or tiling.
     pub fn locate(&self, x: DVec3) -> Option<u32> {
+        self.locate_in_mesh(x - self.offset)
+    }
+
+    /// [`MeshGeometry::locate`] for a point in the mesh's coordinates (world − offset).
+    fn locate_in_mesh(&self, x: DVec3) -> Option<u32> {
         let me = self as *const MeshGeometry as usize;
         if let Some((g, t)) = LAST_TET.get()
             && g == me
@@ -171,15 +184,16 @@ impl MeshGeometry {
         Some(t)
     }
 
-    /// [`MeshGeometry::walk`], going on from this thread's previous walk when it was
-    /// of the same ray and ended at `t0`.
+    /// [`MeshGeometry::walk`] of a ray whose origin `o` is in the mesh's coordinates
+    /// (world − offset), going on from this thread's previous walk when it was of the
+    /// same ray and ended at `t0`.
     fn walk_continued(&self, o: DVec3, d: DVec3, t0: f64, t1: f64, f: impl FnMut(u32, f64, f64)) {
-        let line = Line::new(o, d, self.diag.max(1e-300) / d.length().max(1e-300));
+        let line = Line::new(o, d, self.diag / d.length().max(1e-300));
         let start = LAST_WALK
             .get()
             .and_then(|(lo, ld, lt, r)| (lo == o && ld == d && lt == t0).then_some(r))
             .or_else(|| {
-                Some(match self.locate(line.at(t0)) {
+                Some(match self.locate_in_mesh(line.at(t0)) {
                     Some(t) => Resume::Inside(t, 4),
                     None => Resume::Outside,
                 })
@@ -216,104 +230,6 @@ pub struct MeshField {
     name: String,
     bricks: Vec<ValueRange>,
     hash: u64,
-}
-
-/// A mesh file with its geometry, handing out fields by array name.
-pub struct MeshSource {
-    pub mesh: UnstructuredMesh,
-    pub geometry: Arc<MeshGeometry>,
-}
-
-impl MeshSource {
-    pub fn open(path: &Path) -> Result<MeshSource, MeshError> {
-        let mesh = read_mesh(path)?;
-        let geometry = MeshGeometry::new(&mesh).map_err(|e| MeshError::new(path, e))?;
-        Ok(MeshSource {
-            mesh,
-            geometry: Arc::new(geometry),
-        })
-    }
-
-    /// The array `name` (point data first, then cell data) as a field.
-    pub fn field(&self, name: &str) -> Option<MeshField> {
-        if let Some(a) = self.mesh.point_array(name) {
-            let v = (0..a.tuples()).map(|i| a.scalar(i)).collect();
-            return Some(MeshField::from_point_values(self.geometry.clone(), name, v));
-        }
-        let a = self.mesh.cell_array(name)?;
-        let v = (0..a.tuples()).map(|i| a.scalar(i)).collect();
-        Some(MeshField::from_cell_values(self.geometry.clone(), name, v))
-    }
-
-    /// [`MeshSource::component_field`] with NaN, infinite and negative values replaced
-    /// by 0, as a density must be, and how many of each there were.
-    pub fn sanitised_component(&self, name: &str, c: usize) -> Option<(MeshField, [u64; 3])> {
-        let (a, point) = match self.mesh.point_array(name) {
-            Some(a) => (a, true),
-            None => (self.mesh.cell_array(name)?, false),
-        };
-        if c >= a.components {
-            return None;
-        }
-        let mut counts = [0u64; 3];
-        let v: Vec<f64> = (0..a.tuples())
-            .map(|i| {
-                let x = a.values[i * a.components + c];
-                let bad = if x.is_nan() {
-                    0
-                } else if x.is_infinite() {
-                    1
-                } else if x < 0.0 {
-                    2
-                } else {
-                    return x;
-                };
-                counts[bad] += 1;
-                0.0
-            })
-            .collect();
-        let label = if a.components == 1 {
-            name.to_string()
-        } else {
-            format!("{name}[{c}]")
-        };
-        let f = if point {
-            MeshField::from_point_values(self.geometry.clone(), &label, v)
-        } else {
-            MeshField::from_cell_values(self.geometry.clone(), &label, v)
-        };
-        Some((f, counts))
-    }
-
-    /// Component `c` of the array `name` as a field (a colour's channel).
-    pub fn component_field(&self, name: &str, c: usize) -> Option<MeshField> {
-        let (a, point) = match self.mesh.point_array(name) {
-            Some(a) => (a, true),
-            None => (self.mesh.cell_array(name)?, false),
-        };
-        if c >= a.components {
-            return None;
-        }
-        let v = (0..a.tuples())
-            .map(|i| a.values[i * a.components + c])
-            .collect();
-        let label = format!("{name}[{c}]");
-        Some(if point {
-            MeshField::from_point_values(self.geometry.clone(), &label, v)
-        } else {
-            MeshField::from_cell_values(self.geometry.clone(), &label, v)
-        })
-    }
-
-    /// Names of every array (point data, then cell data).
-    pub fn array_names(&self) -> Vec<String> {
-        self.mesh
-            .point_data
-            .iter()
-            .chain(&self.mesh.cell_data)
-            .map(|a| a.name.clone())
-            .collect()
-    }
 }
 
 /// Three-point Gauss–Legendre nodes on [0, 1] and weights.
@@ -401,7 +317,7 @@ impl MeshField {
         &self.name
     }
 
-    /// VTK's interpolated value at world point `x` in tetrahedron `tet`.
+    /// VTK's interpolated value at the point `x` (mesh coordinates) in tetrahedron `tet`.
     fn value_in(&self, tet: u32, x: DVec3) -> f64 {
         let tm = &self.geo.tets;
         let cell = tm.tet_cell[tet as usize];
@@ -437,7 +353,8 @@ impl MeshField {
         }
     }
 
-    /// `∫ value dt` over `[a, b]` of the world ray, all in tetrahedron `tet`.
+    /// `∫ value dt` over `[a, b]` of the ray (origin in mesh coordinates), all in
+    /// tetrahedron `tet`.
     fn piece(&self, tet: u32, line_o: DVec3, d: DVec3, a: f64, b: f64) -> f64 {
         let tm = &self.geo.tets;
         let cell = tm.tet_cell[tet as usize];
@@ -456,6 +373,11 @@ impl MeshField {
 
     /// `∫ value dt` along the world ray `o + t·d` over `[t0, t1]` (t in units of d).
     pub fn integrate_world(&self, o: DVec3, d: DVec3, t0: f64, t1: f64) -> f64 {
+        self.integrate_in_mesh(o - self.geo.offset, d, t0, t1)
+    }
+
+    /// [`MeshField::integrate_world`] with `o` in mesh coordinates (world − offset).
+    fn integrate_in_mesh(&self, o: DVec3, d: DVec3, t0: f64, t1: f64) -> f64 {
         let mut sum = 0.0;
         self.geo
             .walk_continued(o, d, t0, t1, |tet, a, b| sum += self.piece(tet, o, d, a, b));
@@ -464,7 +386,12 @@ impl MeshField {
 
     /// The value at a world point (0 outside the mesh).
     pub fn value_at_world_point(&self, x: DVec3) -> f64 {
-        match self.geo.locate(x) {
+        self.value_at_mesh_point(x - self.geo.offset)
+    }
+
+    /// The value at a point in mesh coordinates (world − offset).
+    fn value_at_mesh_point(&self, x: DVec3) -> f64 {
+        match self.geo.locate_in_mesh(x) {
             Some(t) => self.value_in(t, x),
             None => 0.0,
         }
@@ -476,16 +403,20 @@ impl MeshField {
         Some(self.geo.tets.tet_cell[t as usize])
     }
 
-    fn world_ray(&self, ray: &IndexRay) -> (DVec3, DVec3) {
-        let tr = &self.geo.lattice.transform;
-        (tr.index_to_world(ray.origin), tr.linear() * ray.dir)
+    /// The index ray as a ray in mesh coordinates (world − offset).
+    fn mesh_ray(&self, ray: &IndexRay) -> (DVec3, DVec3) {
+        let lat = &self.geo.lattice;
+        (
+            lat.index_to_mesh(ray.origin),
+            lat.transform.linear() * ray.dir,
+        )
     }
 }
 
 impl Field for MeshField {
     fn value_at_index(&self, p: DVec3) -> f32 {
-        let x = self.geo.lattice.transform.index_to_world(p);
-        self.value_at_world_point(x) as f32
+        let x = self.geo.lattice.index_to_mesh(p);
+        self.value_at_mesh_point(x) as f32
     }
 
     fn transform(&self) -> &IndexToWorld {
@@ -536,14 +467,14 @@ impl Field for MeshField {
     }
 
     fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
-        let (o, d) = self.world_ray(ray);
-        self.integrate_world(o, d, t0, t1)
+        let (o, d) = self.mesh_ray(ray);
+        self.integrate_in_mesh(o, d, t0, t1)
     }
 
     fn piece_integrals(&self, ray: &IndexRay, t0: f64, ends: &[f64], out: &mut [f64]) {
         out.iter_mut().for_each(|v| *v = 0.0);
         let Some(&t_end) = ends.last() else { return };
-        let (o, d) = self.world_ray(ray);
+        let (o, d) = self.mesh_ray(ray);
         let mut i = 0usize;
         self.geo.walk_continued(o, d, t0, t_end, |tet, a, b| {
             let mut a = a;

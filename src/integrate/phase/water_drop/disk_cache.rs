@@ -6,7 +6,8 @@
 //! `water_drop-v1-<radius bits>-<grid>-<radii>.bin`: the per-wavelength tables and
 //! their Mie integrals as little-endian f64 after a header repeating the grid's nodes,
 //! so a file made with another grid, wavelength set or radius averaging is not used.
-//! Anything unreadable, short or non-finite is ignored and recomputed; a failed write
+//! Anything unreadable, short, of another size or kind (a FIFO, a device) or non-finite
+//! is ignored (never read past the expected size) and recomputed; a failed write
 //! only costs the next render the computation again. Bump the `v1` in the name when
 //! the computation itself changes (Mie code, index fit, colour weights).
 
@@ -41,9 +42,9 @@ pub fn file(dir: &std::path::Path, radius_um: f64, grid: &AngleGrid) -> PathBuf 
 
 /// The tables stored in `path` for `grid`, if it holds valid ones.
 pub fn load(path: &std::path::Path, grid: &AngleGrid) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
-    let bytes = std::fs::read(path).ok()?;
     let (n_wl, n_nodes) = (WAVELENGTHS_NM.len(), grid.nodes().len());
     let expected = MAGIC.len() + 8 * (n_nodes + n_wl + n_wl * n_nodes);
+    let bytes = read_bounded(path, expected)?;
     if bytes.len() != expected || &bytes[..MAGIC.len()] != MAGIC {
         return None;
     }
@@ -67,6 +68,25 @@ pub fn load(path: &std::path::Path, grid: &AngleGrid) -> Option<(Vec<Vec<f64>>, 
         .chain(spectral.iter().flatten())
         .all(|v| v.is_finite());
     finite.then_some((spectral, integrals))
+}
+
+/// The file's bytes when it is a regular file of exactly `len` bytes: its kind and size
+/// are checked before it is opened (a FIFO would block, a device or a huge sparse file
+/// would be read whole), and the read stops after `len + 1` bytes whatever the file
+/// turns into meanwhile.
+fn read_bounded(path: &std::path::Path, len: usize) -> Option<Vec<u8>> {
+    use std::io::Read;
+    let fits = |m: std::fs::Metadata| m.is_file() && m.len() == len as u64;
+    if !fits(std::fs::metadata(path).ok()?) {
+        return None;
+    }
+    let file = std::fs::File::open(path).ok()?;
+    if !fits(file.metadata().ok()?) {
+        return None;
+    }
+    let mut bytes = Vec::with_capacity(len);
+    file.take(len as u64 + 1).read_to_end(&mut bytes).ok()?;
+    Some(bytes)
 }
 
 /// Stores the tables in `path` (atomically); false when it could not.

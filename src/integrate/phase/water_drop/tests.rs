@@ -339,3 +339,38 @@ fn disk_cache_round_trips_and_refuses_what_does_not_fit() {
     assert!(disk_cache::load(&dir.join("missing.bin"), &grid).is_none());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `disk_cache::load` on `path`, or `None` if it has not returned within 5 s.
+fn load_within_seconds(path: &std::path::Path, grid: &AngleGrid) -> Option<bool> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let (p, g) = (path.to_owned(), grid.clone());
+    std::thread::spawn(move || {
+        let _ = tx.send(disk_cache::load(&p, &g).is_some());
+    });
+    rx.recv_timeout(std::time::Duration::from_secs(5)).ok()
+}
+
+#[test]
+fn disk_cache_checks_a_files_kind_and_size_before_reading_it() {
+    let dir = std::env::temp_dir().join(format!("murk-wd-hostile-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let grid = AngleGrid::standard();
+    // A FIFO with no writer: opening it to read would block for ever.
+    let fifo = dir.join("fifo.bin");
+    let c = std::ffi::CString::new(fifo.as_os_str().as_encoded_bytes()).unwrap();
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    assert_eq!(load_within_seconds(&fifo, &grid), Some(false), "FIFO");
+    // A symlink to an endless device: read whole, it fills the memory.
+    let zero = dir.join("zero.bin");
+    std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+    assert_eq!(load_within_seconds(&zero, &grid), Some(false), "/dev/zero");
+    // A sparse 3 GB file: no disk used, 3 GB of memory if read whole.
+    let huge = dir.join("huge.bin");
+    std::fs::File::create(&huge)
+        .unwrap()
+        .set_len(3 << 30)
+        .unwrap();
+    assert_eq!(load_within_seconds(&huge, &grid), Some(false), "3 GB");
+    let _ = std::fs::remove_dir_all(&dir);
+}
