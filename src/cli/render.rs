@@ -135,7 +135,7 @@ pub fn run_sequence_or_frame(
             &mut FrameReuse::default(),
             job,
         )
-        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
+        .map_err(|e| super::guard::name_scene(e.into(), scene, &plan.input))?;
         print_warnings(&stats.scene.warnings);
         if !quiet {
             eprintln!(
@@ -158,7 +158,7 @@ pub fn run_sequence_or_frame(
     prepare_places(&paths, &frames)?;
     let bars = super::progress::Bars::new(quiet);
     let check = |p: &RenderPlan| super::guard::check_plan(p, scene.as_deref());
-    let mut report = |frame: i64, p: &RenderPlan, outcome: &FrameOutcome| {
+    let mut report = |frame: i64, p: &RenderPlan, outcome: &FrameOutcome<anyhow::Error>| {
         let mut lines = Vec::new();
         match outcome {
             FrameOutcome::Failed(e) => lines.push(format!(
@@ -235,7 +235,7 @@ pub fn run(input: &Path, options: RenderOptions) -> Result<()> {
     let (plan, quiet) = render_plan_for(input, options)?;
     let scene = scene_of(input, &plan.input);
     let stats = render(&plan, &super::progress::Bars::new(quiet))
-        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
+        .map_err(|e| super::guard::name_scene(e.into(), scene, &plan.input))?;
     print_warnings(&stats.scene.warnings);
     if !quiet {
         eprintln!(
@@ -266,7 +266,7 @@ pub fn bake(input: &Path, options: RenderOptions, frame: Option<i64>) -> Result<
         None => plan,
     };
     let stats = bake_shadow_file(&plan, &super::progress::Bars::new(quiet))
-        .map_err(|e| super::guard::name_scene(e, scene, &plan.input))?;
+        .map_err(|e| super::guard::name_scene(e.into(), scene, &plan.input))?;
     print_warnings(&stats.scene.warnings);
     if !quiet {
         for m in &stats.scene.shadow_maps {

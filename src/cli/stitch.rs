@@ -46,7 +46,7 @@ pub struct StitchArgs {
 /// `murk stitch`.
 pub fn run(a: StitchArgs) -> Result<()> {
     let at = |p: &Path| match a.frame {
-        Some(f) => frame_path(p, f),
+        Some(f) => Ok(frame_path(p, f)?),
         None => Ok(p.to_path_buf()),
     };
     let pieces: Vec<PathBuf> = a.pieces.iter().map(|p| at(p)).collect::<Result<_>>()?;

@@ -54,7 +54,7 @@ pub enum OutputError {
         reason: String,
     },
 
-    /// The target is not one murk may replace (see [`check_target`](super::guard::check_target)).
+    /// The target is not one murk may replace (see [`check_target`](crate::files::guard::check_target)).
     #[error("{}: {reason}", path.display())]
     Refused {
         /// The target file.
@@ -119,4 +119,17 @@ pub enum OutputError {
         /// The cause.
         source: image::ImageError,
     },
+}
+
+impl From<crate::files::FileError> for OutputError {
+    fn from(e: crate::files::FileError) -> Self {
+        use crate::files::FileError as F;
+        match e {
+            F::Invalid { path, reason } => OutputError::Invalid { path, reason },
+            F::Refused { path, reason } => OutputError::Refused { path, reason },
+            F::CreateTemp { path, temp, source } => OutputError::CreateTemp { path, temp, source },
+            F::Rename { path, temp, source } => OutputError::Rename { path, temp, source },
+            F::Io { path, source } => OutputError::Io { path, source },
+        }
+    }
 }

@@ -12,8 +12,8 @@ use exr::prelude::{
 };
 
 use super::OutputError;
-use super::atomic::write_atomically;
 use super::frame::{Frame, PixelRect, is_depth_channel};
+use crate::files::write_atomically;
 
 /// EXR compression methods offered on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]

@@ -1,19 +1,20 @@
 //! Output: the rendered [`Frame`] (named float channels, Nuke-style layer
 //! names), written as one single-part scanline OpenEXR file ([`write_exr`]),
 //! as an 8-bit sRGB PNG preview ([`write_preview`]), always replacing the
-//! target atomically ([`write_atomically`], also for other writers).
+//! target atomically ([`write_atomically`], which lives in [`crate::files`] so that every
+//! stage may write files through it).
 
-mod atomic;
+pub mod attr;
 pub mod colorspace;
 mod error;
 mod exr;
 mod frame;
-pub mod guard;
-mod place;
 mod preview;
 pub mod stitch;
 
-pub use atomic::write_atomically;
+pub use crate::files::guard;
+pub use crate::files::place::{make_folder, prepare as prepare_place};
+pub use crate::files::write_atomically;
 pub use colorspace::ColorSpace;
 pub use error::OutputError;
 pub use exr::{
@@ -21,7 +22,6 @@ pub use exr::{
     half_overflow_notes, overflowing_layers, write_exr,
 };
 pub use frame::{Channel, Frame, PixelRect, is_depth_channel, names};
-pub use place::{make_folder, prepare as prepare_place};
 pub use preview::{
     Background, CHECKER_GREYS, CHECKER_SIZE, PreviewOptions, srgb_encode, to_u8, write_preview,
 };

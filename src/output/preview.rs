@@ -6,8 +6,8 @@ use std::str::FromStr;
 use image::{ImageBuffer, ImageFormat, Rgb, Rgba};
 
 use super::OutputError;
-use super::atomic::write_atomically;
 use super::frame::{Frame, names};
+use crate::files::write_atomically;
 
 /// What the premultiplied beauty is composited over.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

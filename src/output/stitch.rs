@@ -4,10 +4,10 @@
 //! piece's rows are read where their own chunk headers put them, not where its offset
 //! table points.
 
+use super::OutputError;
+use super::attr;
 use super::exr::{ExrCompression, ExrOptions, write_exr};
 use super::frame::{Frame, is_depth_channel};
-use crate::render::piece::attr;
-use anyhow::{Result, anyhow};
 use exr::block::reader::ChunksReader;
 use exr::image::read::image::{LayersReader, ReadLayers};
 use exr::image::read::layers::ReadChannels;
@@ -15,6 +15,55 @@ use exr::meta::attribute::AttributeValue;
 use exr::prelude::{FlatImage, FlatSamples, read};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+
+/// Why pieces could not be stitched; every variant names the piece (or pieces) at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum StitchError {
+    /// `murk stitch` was given no pieces.
+    #[error("no pieces to stitch")]
+    NoPieces,
+    /// A piece cannot be read, is not a piece, or does not fit the others.
+    #[error("{}: {problem}", path.display())]
+    Piece {
+        /// The piece at fault.
+        path: PathBuf,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// Two pieces claim the same place in the frame.
+    #[error("{} and {}: both are piece {index}/{count}", first.display(), second.display())]
+    Twice {
+        /// One piece.
+        first: PathBuf,
+        /// The other.
+        second: PathBuf,
+        /// The place both claim.
+        index: usize,
+        /// How many pieces the frame has.
+        count: usize,
+    },
+    /// The pieces leave rows of the frame out.
+    #[error("the pieces cover rows 0-{covered} of {height}")]
+    Rows {
+        /// The first row not covered.
+        covered: usize,
+        /// The frame's height.
+        height: usize,
+    },
+    /// The stitched frame could not be built or written.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+type Result<T> = std::result::Result<T, StitchError>;
+
+/// The error for a piece at `path`.
+fn bad(path: &Path, problem: impl Into<String>) -> StitchError {
+    StitchError::Piece {
+        path: path.to_owned(),
+        problem: problem.into(),
+    }
+}
 
 /// One piece as read.
 struct Piece {
@@ -39,20 +88,20 @@ struct Piece {
 /// would put rows at other rows' places). Every row of the data window must be stored
 /// exactly once.
 fn read_by_rows(path: &Path) -> Result<FlatImage> {
-    let name = path.display();
-    let fail = |e: exr::error::Error| anyhow!("{name}: {e}");
-    let file = std::fs::File::open(path).map_err(|e| anyhow!("{name}: {e}"))?;
+    let fail = |e: exr::error::Error| bad(path, format!("{e}"));
+    let file = std::fs::File::open(path).map_err(|e| bad(path, format!("{e}")))?;
     let reader = exr::block::read(std::io::BufReader::new(file), false).map_err(fail)?;
     let headers = reader.headers().to_vec();
     let [header] = &headers[..] else {
-        return Err(anyhow!(
-            "{name}: not a murk piece (it has {} parts)",
-            headers.len()
+        return Err(bad(
+            path,
+            format!("not a murk piece (it has {} parts)", headers.len()),
         ));
     };
     if header.deep || !matches!(header.blocks, exr::meta::BlockDescription::ScanLines) {
-        return Err(anyhow!(
-            "{name}: not a murk piece (it is stored in tiles or deep)"
+        return Err(bad(
+            path,
+            "not a murk piece (it is stored in tiles or deep)",
         ));
     }
     let attributes = header.shared_attributes.clone();
@@ -78,13 +127,15 @@ fn read_by_rows(path: &Path) -> Result<FlatImage> {
         })
         .map_err(fail)?;
     if let Some(y) = twice {
-        return Err(anyhow!(
-            "{name}: the rows from {y} of its data window are stored twice"
+        return Err(bad(
+            path,
+            format!("the rows from {y} of its data window are stored twice"),
         ));
     }
     if let Some(y) = stored.iter().position(|s| !s) {
-        return Err(anyhow!(
-            "{name}: row {y} of its data window is not stored (the file is cut short or damaged)"
+        return Err(bad(
+            path,
+            format!("row {y} of its data window is not stored (the file is cut short or damaged)"),
         ));
     }
     Ok(exr::image::Image {
@@ -94,12 +145,11 @@ fn read_by_rows(path: &Path) -> Result<FlatImage> {
 }
 
 fn read_piece(path: &Path) -> Result<Piece> {
-    let name = path.display();
     let image = read_by_rows(path)?;
     let [layer] = &image.layer_data[..] else {
-        return Err(anyhow!(
-            "{name}: not a murk piece (it has {} parts)",
-            image.layer_data.len()
+        return Err(bad(
+            path,
+            format!("not a murk piece (it has {} parts)", image.layer_data.len()),
         ));
     };
     let mut strings = HashMap::new();
@@ -115,17 +165,20 @@ fn read_piece(path: &Path) -> Result<Piece> {
     }
     let get = |key: &str| {
         strings.get(key).ok_or_else(|| {
-            anyhow!("{name}: not a piece of a `murk render --tile` (no {key} in its header)")
+            bad(
+                path,
+                format!("not a piece of a `murk render --tile` (no {key} in its header)"),
+            )
         })
     };
     let (index, count) = get(attr::TILE)?
         .split_once('/')
         .and_then(|(i, n)| Some((i.parse().ok()?, n.parse().ok()?)))
-        .ok_or_else(|| anyhow!("{name}: a malformed {} attribute", attr::TILE))?;
+        .ok_or_else(|| bad(path, format!("a malformed {} attribute", attr::TILE)))?;
     let rows = get(attr::TILE_ROWS)?
         .split_once('-')
         .and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)))
-        .ok_or_else(|| anyhow!("{name}: a malformed {} attribute", attr::TILE_ROWS))?;
+        .ok_or_else(|| bad(path, format!("a malformed {} attribute", attr::TILE_ROWS)))?;
     let display = image.attributes.display_window;
     let size = (display.size.0, display.size.1);
     let pos = layer.attributes.layer_position;
@@ -140,7 +193,7 @@ fn read_piece(path: &Path) -> Result<Piece> {
         window.0.saturating_add(window.2) <= size.0 && window.1.saturating_add(window.3) <= size.1,
     );
     if !(1..=count).contains(&index) || !rows_ok || !window_ok {
-        return Err(anyhow!("{name}: its piece attributes do not fit its image"));
+        return Err(bad(path, "its piece attributes do not fit its image"));
     }
     let channels = layer
         .channel_data
@@ -184,7 +237,7 @@ fn attribute<T: std::str::FromStr>(piece: &Piece, name: &str) -> Result<Option<T
         .get(name)
         .map(|v| {
             v.parse()
-                .map_err(|_| anyhow!("{}: a malformed {name} attribute", piece.path.display()))
+                .map_err(|_| bad(&piece.path, format!("a malformed {name} attribute")))
         })
         .transpose()
 }
@@ -201,35 +254,43 @@ fn same(pieces: &[Piece]) -> Result<()> {
     };
     let names = |p: &Piece| p.channels.iter().map(|c| c.0.clone()).collect::<Vec<_>>();
     for p in &pieces[1..] {
-        let (a, b) = (first.path.display(), p.path.display());
+        let a = first.path.display();
         if frame_of(p) != frame_of(first) {
-            return Err(anyhow!(
-                "{b}: a piece of another frame ({}) than {a} ({})",
-                frame_of(p),
-                frame_of(first)
+            return Err(bad(
+                &p.path,
+                format!(
+                    "a piece of another frame ({}) than {a} ({})",
+                    frame_of(p),
+                    frame_of(first)
+                ),
             ));
         }
         if p.size != first.size {
-            return Err(anyhow!(
-                "{b}: {}x{}, but {a} is {}x{}: pieces of different sizes",
-                p.size.0,
-                p.size.1,
-                first.size.0,
-                first.size.1
+            return Err(bad(
+                &p.path,
+                format!(
+                    "{}x{}, but {a} is {}x{}: pieces of different sizes",
+                    p.size.0, p.size.1, first.size.0, first.size.1
+                ),
             ));
         }
         if p.count != first.count {
-            return Err(anyhow!(
-                "{b}: a piece of {} but {a} is a piece of {}",
-                p.count,
-                first.count
+            return Err(bad(
+                &p.path,
+                format!(
+                    "a piece of {} but {a} is a piece of {}",
+                    p.count, first.count
+                ),
             ));
         }
         if names(p) != names(first) {
-            return Err(anyhow!(
-                "{b}: its channels ({}) are not those of {a} ({})",
-                names(p).join(","),
-                names(first).join(",")
+            return Err(bad(
+                &p.path,
+                format!(
+                    "its channels ({}) are not those of {a} ({})",
+                    names(p).join(","),
+                    names(first).join(",")
+                ),
             ));
         }
         // How the pixels are stored; the data window (attr::CROP) may differ: each
@@ -242,10 +303,13 @@ fn same(pieces: &[Piece]) -> Result<()> {
             let (x, y) = (p.strings.get(key), first.strings.get(key));
             if x != y {
                 let text = |v: Option<&String>| v.map_or("none".to_string(), |v| v.clone());
-                return Err(anyhow!(
-                    "{b}: its {what} ({key} {}) is not that of {a} ({})",
-                    text(x),
-                    text(y)
+                return Err(bad(
+                    &p.path,
+                    format!(
+                        "its {what} ({key} {}) is not that of {a} ({})",
+                        text(x),
+                        text(y)
+                    ),
                 ));
             }
         }
@@ -272,7 +336,7 @@ pub struct Stitched {
 /// Reads the pieces and checks they are every piece of one frame: the whole frame.
 pub fn stitch_frame(pieces: &[PathBuf]) -> Result<Stitched> {
     if pieces.is_empty() {
-        return Err(anyhow!("no pieces to stitch"));
+        return Err(StitchError::NoPieces);
     }
     let mut read: Vec<Piece> = pieces
         .iter()
@@ -283,12 +347,12 @@ pub fn stitch_frame(pieces: &[PathBuf]) -> Result<Stitched> {
     let count = read[0].count;
     for w in read.windows(2) {
         if w[0].index == w[1].index {
-            return Err(anyhow!(
-                "{} and {}: both are piece {}/{count}",
-                w[0].path.display(),
-                w[1].path.display(),
-                w[0].index
-            ));
+            return Err(StitchError::Twice {
+                first: w[0].path.clone(),
+                second: w[1].path.clone(),
+                index: w[0].index,
+                count,
+            });
         }
     }
     let have: Vec<usize> = read.iter().map(|p| p.index).collect();
@@ -297,28 +361,34 @@ pub fn stitch_frame(pieces: &[PathBuf]) -> Result<Stitched> {
         .map(|i| format!("{i}/{count}"))
         .collect();
     if !missing.is_empty() {
-        return Err(anyhow!(
-            "{}: missing piece{} {} of the frame",
-            read[0].path.display(),
-            if missing.len() > 1 { "s" } else { "" },
-            missing.join(", ")
+        return Err(bad(
+            &read[0].path,
+            format!(
+                "missing piece{} {} of the frame",
+                if missing.len() > 1 { "s" } else { "" },
+                missing.join(", ")
+            ),
         ));
     }
     let mut next_row = 0;
     for p in &read {
         if p.rows.0 != next_row {
-            return Err(anyhow!(
-                "{}: its rows {}-{} do not follow the previous piece's (row {next_row})",
-                p.path.display(),
-                p.rows.0,
-                p.rows.1
+            return Err(bad(
+                &p.path,
+                format!(
+                    "its rows {}-{} do not follow the previous piece's (row {next_row})",
+                    p.rows.0, p.rows.1
+                ),
             ));
         }
         next_row = p.rows.1;
     }
     let (w, h) = read[0].size;
     if next_row != h {
-        return Err(anyhow!("the pieces cover rows 0-{next_row} of {h}"));
+        return Err(StitchError::Rows {
+            covered: next_row,
+            height: h,
+        });
     }
     let mut frame = Frame::new(w, h);
     let z_empty = attribute(&read[0], attr::Z_EMPTY)?.unwrap_or(ExrOptions::default().z_empty);

@@ -3,6 +3,7 @@
 //! write, timing every stage.
 
 pub mod channels;
+mod error;
 pub mod error_budget;
 pub mod piece;
 pub mod pixels;
@@ -12,22 +13,25 @@ pub mod stats;
 pub use crate::scene::progress::{Progress, Silent};
 pub use crate::scene::{RenderOptions, RenderPlan};
 
+use crate::files::write_atomically;
 use crate::integrate::fast::{FastScattering, WithMultiple};
 use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::path::{LightTransmittance, PathSettings, PathTracer};
 use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, Integrator, ScatteringMode};
-use crate::output::{Frame, write_atomically, write_exr, write_preview};
+use crate::output::{Frame, write_exr, write_preview};
 use crate::scene::Scene;
 use crate::scene::lights::bake_maps;
 use crate::scene::plan::{GridChoice, ShadowMode};
 use crate::scene::reuse::FrameReuse;
 use crate::scene::roles::load_fields;
-use anyhow::{Context, Result, anyhow};
+pub use error::RenderError;
 use piece::Piece;
 use stats::{RenderStats, Stage};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+type Result<T> = std::result::Result<T, RenderError>;
 
 /// A rendered image, not yet written: its channels, the EXR header it will carry, and
 /// the stats so far (everything but the write stage).
@@ -64,8 +68,7 @@ fn on_plan_threads<T: Send>(
         None => work(),
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n)
-            .build()
-            .context("starting worker threads")?
+            .build()?
             .install(work),
     }
 }
@@ -169,7 +172,7 @@ fn render_image_frame_here(
     let start = Instant::now();
     let rows = match job.piece {
         Some(p) => {
-            p.check(plan.camera.height).map_err(|e| anyhow!(e))?;
+            p.check(plan.camera.height)?;
             p.rows(plan.camera.height)
         }
         None => 0..plan.camera.height,
@@ -389,13 +392,13 @@ fn bake_shadow_file_here(plan: &RenderPlan, progress: &dyn Progress) -> Result<R
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("vdb"))
     {
-        return Err(anyhow!(
-            "{}: a shadow cache is a .vdb file; name the output NAME.vdb",
-            plan.outputs.path.display()
+        return Err(RenderError::output_path(
+            &plan.outputs.path,
+            "a shadow cache is a .vdb file; name the output NAME.vdb",
         ));
     }
     if plan.lights.is_empty() {
-        return Err(anyhow!("no lights to bake shadows for"));
+        return Err(RenderError::NoLights);
     }
     let mut density_only = plan.clone();
     density_only.grids.emission = GridChoice::Off;
@@ -411,7 +414,8 @@ fn bake_shadow_file_here(plan: &RenderPlan, progress: &dyn Progress) -> Result<R
     let report = &mut st.scene;
     let source = crate::scene::source::open(&plan.input)?;
     let t = Instant::now();
-    let fields = load_fields(source.as_ref(), &density_only, false, report)?;
+    let fields =
+        load_fields(source.as_ref(), &density_only, false, report).map_err(RenderError::Scene)?;
     report
         .stages
         .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
@@ -426,11 +430,9 @@ fn bake_shadow_file_here(plan: &RenderPlan, progress: &dyn Progress) -> Result<R
     density_only.lights = plan.lights.clone();
     let density = fields.density.as_ref();
     let sigma_t = plan.medium.sigma_t();
-    let hash = density.content_hash().ok_or_else(|| {
-        anyhow!(
-            "{}: this input cannot be fingerprinted for a shadow cache",
-            plan.input.display()
-        )
+    let hash = density.content_hash().ok_or_else(|| RenderError::Input {
+        path: plan.input.clone(),
+        problem: "this input cannot be fingerprinted for a shadow cache".into(),
     })?;
     let t = Instant::now();
     let (maps, map_stats) = bake_maps(&density_only, density, hash, sigma_t, progress)?;
@@ -471,17 +473,18 @@ fn write_stats(path: &Path, st: &RenderStats) -> Result<()> {
         return out
             .write_all(text.as_bytes())
             .and_then(|_| out.write_all(b"\n"))
-            .map_err(|e| anyhow!("standard output: {e}"));
+            .map_err(RenderError::Stdout);
     }
     write_atomically(path, |tmp| {
-        std::fs::write(tmp, text.as_bytes()).map_err(|e| anyhow!("{}: {e}", path.display()))
+        std::fs::write(tmp, text.as_bytes())
+            .map_err(|e| RenderError::output_path(path, e.to_string()))
     })
 }
 
 /// Before any work: makes every output's folder if missing and checks it writable.
 fn check_output_dirs(plan: &RenderPlan) -> Result<()> {
     for path in output_paths(plan) {
-        crate::output::prepare_place(path)?;
+        crate::files::place::prepare(path)?;
     }
     Ok(())
 }

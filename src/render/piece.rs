@@ -4,22 +4,17 @@
 
 use std::ops::Range;
 
-/// The header attributes of a piece (and of a frame of a sequence).
-pub mod attr {
-    /// `I/N`: the I-th of N pieces.
-    pub const TILE: &str = "murk/tile";
-    /// `Y0-Y1`: the rows of the piece, Y1 excluded.
-    pub const TILE_ROWS: &str = "murk/tileRows";
-    /// The frame number, when the render is a frame of a sequence.
-    pub const FRAME: &str = "murk/frame";
-    /// `half` or `float`: how colour was asked to be stored (`--float`), for the stitch.
-    pub const STORAGE: &str = "murk/storage";
-    /// How the piece wrote what the stitch must write the same way: the colour space its
-    /// colour is already in (`--colorspace`), the depth where nothing is (`--z-empty`),
-    /// and whether the data window is cropped (`--crop-data-window`: `true`/`false`).
-    pub const COLORSPACE: &str = "murk/colorspace";
-    pub const Z_EMPTY: &str = "murk/zEmpty";
-    pub const CROP: &str = "murk/cropDataWindow";
+/// The header attributes of a piece, which `murk stitch` reads back.
+pub use crate::output::attr;
+
+/// A `--tile I/N` that names no piece of the frame.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("--tile {value}: {problem}")]
+pub struct PieceError {
+    /// The flag's value, as given.
+    pub value: String,
+    /// What is wrong with it.
+    pub problem: String,
 }
 
 /// The I-th (from 1) of N bands of rows.
@@ -34,8 +29,11 @@ pub const MAX_PIECES: usize = 65_536;
 
 impl Piece {
     /// Parses `I/N` (1 ≤ I ≤ N).
-    pub fn parse(s: &str) -> Result<Piece, String> {
-        let bad = |why: &str| format!("--tile {s}: {why}");
+    pub fn parse(s: &str) -> Result<Piece, PieceError> {
+        let bad = |why: &str| PieceError {
+            value: s.to_string(),
+            problem: why.to_string(),
+        };
         let (i, n) = s
             .split_once('/')
             .ok_or_else(|| bad("expected I/N, the I-th of N pieces (e.g. 2/4)"))?;
@@ -60,12 +58,12 @@ impl Piece {
     }
 
     /// Refuses more pieces than rows (a piece would be empty).
-    pub fn check(&self, height: usize) -> Result<(), String> {
+    pub fn check(&self, height: usize) -> Result<(), PieceError> {
         if self.count > height {
-            return Err(format!(
-                "--tile {}/{}: more pieces than the image's {height} rows",
-                self.index, self.count
-            ));
+            return Err(PieceError {
+                value: self.to_string(),
+                problem: format!("more pieces than the image's {height} rows"),
+            });
         }
         Ok(())
     }
@@ -101,7 +99,10 @@ mod tests {
     fn bad_pieces() {
         for bad in ["0/3", "4/3", "1/0", "3", "a/b", "-1/3"] {
             assert!(
-                Piece::parse(bad).unwrap_err().starts_with("--tile"),
+                Piece::parse(bad)
+                    .unwrap_err()
+                    .to_string()
+                    .starts_with("--tile"),
                 "{bad}"
             );
         }

@@ -4,14 +4,14 @@
 //! the next ([`FrameReuse`]), a failing frame reported and the others still written,
 //! frames already written left alone with `--skip-existing`.
 
+use super::RenderError;
 use super::piece::Piece;
 use super::stats::RenderStats;
 use super::{FrameJob, run_frame};
 use crate::scene::RenderPlan;
-use crate::scene::frames::{FramePattern, frame_ranges, parse_frames};
+use crate::scene::frames::{FramePattern, FramesError, frame_ranges, parse_frames};
 use crate::scene::progress::{Progress, Silent};
 use crate::scene::reuse::FrameReuse;
-use anyhow::{Result, anyhow};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -77,21 +77,27 @@ impl FramePaths {
 /// (`--frames 1-3` on a cache of frames 150 to 250). Some frames missing is not refused:
 /// each is reported and the others are written. A folder that cannot be listed (or a
 /// pattern in a folder name) is left to the frames to report.
-pub fn check_inputs_exist(paths: &FramePaths, plan: &RenderPlan, frames: &[i64]) -> Result<()> {
+pub fn check_inputs_exist(
+    paths: &FramePaths,
+    plan: &RenderPlan,
+    frames: &[i64],
+) -> Result<(), RenderError> {
     if !paths.input.is_pattern() || frames.iter().any(|&f| paths.input.path(f).exists()) {
         return Ok(());
     }
     let found = match paths.input.existing_frames(&plan.input) {
         Ok(found) => found,
-        Err(e) if e.contains("matches no file") => return Err(anyhow!(e)),
+        Err(e @ FramesError::NoMatch { .. }) => return Err(e.into()),
         Err(_) => return Ok(()),
     };
-    Err(anyhow!(
-        "{}: no file for --frames {}; the files found hold frames {}",
-        plan.input.display(),
-        clip(&frame_ranges(frames, "x")),
-        clip(&frame_ranges(&found, "x"))
-    ))
+    Err(RenderError::Input {
+        path: plan.input.clone(),
+        problem: format!(
+            "no file for --frames {}; the files found hold frames {}",
+            clip(&frame_ranges(frames, "x")),
+            clip(&frame_ranges(&found, "x"))
+        ),
+    })
 }
 
 /// A frame list as printed in a one-line error: at most 200 characters.
@@ -111,7 +117,7 @@ pub fn frame_is_done(plan: &RenderPlan) -> bool {
 /// Before any frame is rendered: the folder of every frame's every output made if
 /// missing and checked writable (each folder once), so that a sequence that cannot be
 /// written fails at once with one line, not once per frame after each render.
-pub fn prepare_places(paths: &FramePaths, frames: &[i64]) -> Result<()> {
+pub fn prepare_places(paths: &FramePaths, frames: &[i64]) -> Result<(), RenderError> {
     let mut seen = std::collections::HashSet::new();
     for &frame in frames {
         for (pattern, _) in paths.outputs() {
@@ -121,7 +127,7 @@ pub fn prepare_places(paths: &FramePaths, frames: &[i64]) -> Result<()> {
             }
             let folder = path.parent().map(Path::to_path_buf).unwrap_or_default();
             if seen.insert(folder) {
-                crate::output::prepare_place(&path)?;
+                crate::files::place::prepare(&path)?;
             }
         }
     }
@@ -135,7 +141,7 @@ pub fn choose_frames(
     paths: &FramePaths,
     plan: &RenderPlan,
     spec: Option<&str>,
-) -> Result<Vec<i64>> {
+) -> Result<Vec<i64>, RenderError> {
     // Every per-frame path, as given, with the flag that names it.
     let given = [
         (Some(&paths.input), "", Some(plan.input.as_path())),
@@ -164,30 +170,27 @@ pub fn choose_frames(
         if let (Some(pattern), Some(path)) = (pattern, path) {
             pattern
                 .check(&format!("{flag}{}", path.display()))
-                .map_err(|e| anyhow!(e))?;
+                .map_err(RenderError::Flag)?;
         }
     }
     let frames = match spec {
-        Some(s) => parse_frames(s).map_err(|e| anyhow!(e))?,
-        None if paths.input.is_pattern() => paths
-            .input
-            .existing_frames(&plan.input)
-            .map_err(|e| anyhow!(e))?,
+        Some(s) => parse_frames(s)?,
+        None if paths.input.is_pattern() => paths.input.existing_frames(&plan.input)?,
         None => {
-            return Err(anyhow!(
-                "{}: a frame pattern in the outputs needs --frames (or a pattern in the input)",
-                plan.outputs.path.display()
+            return Err(RenderError::output_path(
+                &plan.outputs.path,
+                "a frame pattern in the outputs needs --frames (or a pattern in the input)",
             ));
         }
     };
     if frames.len() > 1 {
         for (p, flag) in paths.outputs() {
             if !p.is_pattern() {
-                return Err(anyhow!(
+                return Err(RenderError::Flag(format!(
                     "{flag} {}: {} frames would all be written to this one file; put a frame pattern (####) in it",
                     p.path(0).display(),
                     frames.len()
-                ));
+                )));
             }
         }
     }
@@ -204,12 +207,12 @@ pub struct SequenceOptions {
     pub piece: Option<Piece>,
 }
 
-/// What became of one frame.
-pub enum FrameOutcome {
+/// What became of one frame; `E` is the error of the caller's check (and the render's).
+pub enum FrameOutcome<E> {
     Written(Box<RenderStats>),
     /// Its output already existed, complete.
     Skipped,
-    Failed(anyhow::Error),
+    Failed(E),
 }
 
 /// The whole sequence.
@@ -233,14 +236,14 @@ pub fn is_complete_exr(path: &Path) -> bool {
 /// Renders `frames` of `plan` in order, one progress bar over all of them (`progress`);
 /// `check` vets each frame's plan (outputs that would clobber an input); `on_frame`
 /// hears what became of each frame as it ends.
-pub fn render_sequence(
+pub fn render_sequence<E: From<RenderError>>(
     plan: &RenderPlan,
     paths: &FramePaths,
     frames: &[i64],
     options: SequenceOptions,
     progress: &dyn Progress,
-    check: &dyn Fn(&RenderPlan) -> Result<()>,
-    on_frame: &mut dyn FnMut(i64, &RenderPlan, &FrameOutcome),
+    check: &dyn Fn(&RenderPlan) -> Result<(), E>,
+    on_frame: &mut dyn FnMut(i64, &RenderPlan, &FrameOutcome<E>),
 ) -> SequenceSummary {
     let start = Instant::now();
     let mut reuse = FrameReuse::across_frames();
@@ -257,7 +260,7 @@ pub fn render_sequence(
                 frame: Some(frame),
                 piece: options.piece,
             };
-            match check(&fp).and_then(|_| run_frame(&fp, &Silent, &mut reuse, job)) {
+            match check(&fp).and_then(|_| Ok(run_frame(&fp, &Silent, &mut reuse, job)?)) {
                 Ok(st) => FrameOutcome::Written(Box::new(st)),
                 Err(e) => FrameOutcome::Failed(e),
             }
@@ -297,9 +300,9 @@ fn sequence_box(
 
 /// The path of frame `frame` of `pattern` (for tools that build command lines); a
 /// pattern wider than murk pads is refused.
-pub fn frame_path(pattern: &Path, frame: i64) -> Result<PathBuf> {
+pub fn frame_path(pattern: &Path, frame: i64) -> Result<PathBuf, RenderError> {
     let p = FramePattern::new(pattern);
     p.check(&pattern.display().to_string())
-        .map_err(|e| anyhow!(e))?;
+        .map_err(RenderError::Flag)?;
     Ok(p.path(frame))
 }

@@ -4,13 +4,15 @@
 //! what each second of the lattice buys beside path tracing. Bounces 1 is single
 //! scattering (no lattice); the error stops falling at the approximation's own bias.
 
-use super::converge::{Measured, bound_violations, count_nan_inf, max_alpha_error, rel_rmse};
+use super::ReportError;
+use super::measure::{Measured, bound_violations, count_nan_inf, max_alpha_error, rel_rmse};
 use crate::integrate::ScatteringMode;
 use crate::output::Frame;
 use crate::render::{RenderOptions, RenderPlan, render_image};
 use crate::scene::progress::Progress;
-use anyhow::Result;
 use std::path::Path;
+
+type Result<T> = std::result::Result<T, ReportError>;
 
 /// The swept `--bounces`.
 pub const FAST_BOUNCES: [u32; 6] = [1, 2, 4, 8, 16, 24];

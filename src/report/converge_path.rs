@@ -6,12 +6,14 @@
 //! The reference has noise of its own, `1/√(PATH_REFERENCE_SPP/spp)` of a sweep point's:
 //! at the sweep's largest spp (32) that adds 6 % to the error measured.
 
-use super::converge::{Measured, bound_violations, count_nan_inf, max_alpha_error, rel_rmse};
+use super::ReportError;
+use super::measure::{Measured, bound_violations, count_nan_inf, max_alpha_error, rel_rmse};
 use crate::integrate::ScatteringMode;
 use crate::render::{RenderOptions, RenderPlan, render_image};
 use crate::scene::progress::Progress;
-use anyhow::Result;
 use std::path::Path;
+
+type Result<T> = std::result::Result<T, ReportError>;
 
 /// The swept samples per pixel.
 pub const PATH_SPPS: [u32; 6] = [1, 2, 4, 8, 16, 32];

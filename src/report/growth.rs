@@ -2,11 +2,13 @@
 //! their log–log plot (the cost-growth benchmark, `scripts/bench_growth.sh`, measures;
 //! this fits and draws).
 
+use super::ReportError;
 use super::fit_slope;
 use super::plot::{COLOURS, draw_legend, draw_line, font, significant};
-use anyhow::{Result, anyhow};
 use plotters::prelude::*;
 use std::path::Path;
+
+type Result<T> = std::result::Result<T, ReportError>;
 
 /// `y ≈ coefficient · x^exponent`, fitted by least squares on `ln y` against `ln x`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -99,7 +101,7 @@ fn draw_panel<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    let err = |e: &dyn std::fmt::Display| anyhow!("drawing the cost-growth plot: {e}");
+    let err = |e: &dyn std::fmt::Display| ReportError::draw("the cost-growth plot", e);
     let ((x0, x1), (y0, y1)) = bounds(
         panel
             .series
@@ -148,13 +150,13 @@ where
 /// [`COLOURS`] in series order; each legend entry carries its fitted exponent.
 pub fn write_growth_plot(path: &Path, panels: &[Panel]) -> Result<bool> {
     if panels.is_empty() {
-        return Err(anyhow!("{}: nothing to plot", path.display()));
+        return Err(ReportError::write(path, "nothing to plot"));
     }
     let size = (PANEL_SIZE.0 * panels.len() as u32, PANEL_SIZE.1);
     let mut buffer = vec![0u8; (size.0 * size.1 * 3) as usize];
     let text = font();
     {
-        let err = |e: &dyn std::fmt::Display| anyhow!("drawing {}: {e}", path.display());
+        let err = |e: &dyn std::fmt::Display| ReportError::draw(path.display().to_string(), e);
         let root = BitMapBackend::with_buffer(&mut buffer, size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
         for (area, panel) in root.split_evenly((1, panels.len())).iter().zip(panels) {

@@ -6,11 +6,15 @@ pub mod converge;
 pub mod converge_fast;
 pub mod converge_path;
 pub mod converge_table;
+mod error;
 pub mod growth;
+pub mod measure;
 pub mod phase_plot;
 pub mod plot;
 pub mod stability;
 pub mod stability_rendered;
+
+pub use error::ReportError;
 
 /// Least-squares slope of `y` against `x` (e.g. log error against log step: the order
 /// of convergence). NaN with fewer than two distinct `x`.

@@ -1,14 +1,16 @@
 //! `murk phase water-drop`: a water-drop phase function as a CSV table and a PNG plot
 //! (plotters), so a user can see the bows a render will get before rendering.
 
+use super::ReportError;
 use super::plot::font;
+use crate::files::write_atomically;
 use crate::integrate::phase::PhaseFunction;
 use crate::integrate::phase::water_drop::{WAVELENGTHS_NM, WaterDrop};
-use crate::output::write_atomically;
-use anyhow::{Result, anyhow};
 use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::path::Path;
+
+type Result<T> = std::result::Result<T, ReportError>;
 
 const SIZE: (u32, u32) = (1200, 500);
 
@@ -47,7 +49,7 @@ pub fn csv_text(drop: &WaterDrop, spectral: bool) -> String {
 pub fn write_csv(path: &Path, drop: &WaterDrop, spectral: bool) -> Result<()> {
     let text = csv_text(drop, spectral);
     write_atomically(path, |tmp| {
-        std::fs::write(tmp, &text).map_err(|e| anyhow!("{}: {e}", path.display()))
+        std::fs::write(tmp, &text).map_err(|e| ReportError::write(path, e))
     })
 }
 
@@ -80,7 +82,7 @@ const CHANNELS: [(&str, RGBColor); 3] = [
 
 fn draw(drop: &WaterDrop, buffer: &mut [u8]) -> Result<bool> {
     let text = font();
-    let err = |e: &dyn std::fmt::Display| anyhow!("drawing the phase plot: {e}");
+    let err = |e: &dyn std::fmt::Display| ReportError::draw("the phase plot", e);
     let root = BitMapBackend::with_buffer(buffer, SIZE).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let (left, right) = root.split_horizontally(SIZE.0 / 2);

@@ -5,13 +5,15 @@
 //! registered. With none, the plot is drawn without text and `converge.md` names the
 //! colours.
 
+use super::ReportError;
 use super::converge::Measured;
 use super::converge_table::SWEEPS;
-use crate::output::write_atomically;
-use anyhow::{Result, anyhow};
+use crate::files::write_atomically;
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::OnceLock;
+
+type Result<T> = std::result::Result<T, ReportError>;
 
 /// Line colours, in [`SWEEPS`] order, then the `default` point.
 pub const COLOURS: [(&str, RGBColor); 7] = [
@@ -71,7 +73,7 @@ pub(crate) fn draw_line<'a, DB: DrawingBackend + 'a>(
 where
     DB::ErrorType: 'static,
 {
-    let err = |e: &dyn std::fmt::Display| anyhow!("drawing a plot: {e}");
+    let err = |e: &dyn std::fmt::Display| ReportError::draw("a plot", e);
     let drawn = chart
         .draw_series(LineSeries::new(line.clone(), colour.stroke_width(2)))
         .map_err(|e| err(&e))?;
@@ -102,7 +104,7 @@ where
         .label_font(("sans-serif", font_size))
         .position(position)
         .draw()
-        .map_err(|e| anyhow!("drawing a plot's legend: {e}"))
+        .map_err(|e| ReportError::draw("a plot's legend", &e))
 }
 
 /// Draws the plot into an RGB buffer.
@@ -121,7 +123,7 @@ fn draw(rows: &[Measured], buffer: &mut [u8]) -> Result<bool> {
         (t0, t1, e0, e1) = (1e-3, 1.0, 1e-6, 1.0);
     }
     let (t0, t1, e0, e1) = (t0 / 1.3, t1 * 1.3, e0 / 2.0, e1 * 2.0);
-    let err = |e: &dyn std::fmt::Display| anyhow!("drawing converge.png: {e}");
+    let err = |e: &dyn std::fmt::Display| ReportError::draw("converge.png", e);
     let root = BitMapBackend::with_buffer(buffer, SIZE).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let mut builder = ChartBuilder::on(&root);
@@ -177,10 +179,10 @@ pub fn write_plot(path: &Path, rows: &[Measured]) -> Result<bool> {
 /// Writes an RGB buffer of `size` as a PNG, atomically.
 pub(crate) fn write_png(path: &Path, size: (u32, u32), buffer: Vec<u8>) -> Result<()> {
     let image = image::RgbImage::from_raw(size.0, size.1, buffer)
-        .ok_or_else(|| anyhow!("{}: plot buffer of the wrong size", path.display()))?;
+        .ok_or_else(|| ReportError::write(path, "plot buffer of the wrong size"))?;
     write_atomically(path, |tmp| {
         image
             .save_with_format(tmp, image::ImageFormat::Png)
-            .map_err(|e| anyhow!("{}: {e}", path.display()))
+            .map_err(|e| ReportError::write(path, e))
     })
 }

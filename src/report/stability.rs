@@ -7,6 +7,7 @@
 //! `.vdb` to a temporary directory and render it from a plan, as `murk render` would
 //! ([`super::stability_rendered`]).
 
+use super::ReportError;
 use super::check::{CaseResult, Check, scatter_bound};
 use super::stability_rendered::{
     Scratchpad, bad_voxels, empty_grid, hot_temperature, single_voxel, translated,
@@ -21,8 +22,9 @@ use crate::integrate::{
 use crate::scene::light::Light;
 use crate::scene::lights::{LightShadow, SceneLights};
 use crate::shadow::ShadowQuadrature;
-use anyhow::Result;
 use glam::{DMat4, DVec3, IVec3};
+
+type Result<T> = std::result::Result<T, ReportError>;
 
 fn grey_medium(sigma_a: f64, sigma_s: f64, g: f64) -> Medium {
     Medium {
@@ -317,7 +319,7 @@ fn camera_inside() -> CaseResult {
 pub fn run_battery() -> Result<Vec<CaseResult>> {
     let pad = Scratchpad::new()?;
     let mut results = vec![stiff_slab(), thin_media()];
-    let failed = |name: &str, e: anyhow::Error| CaseResult {
+    let failed = |name: &str, e: ReportError| CaseResult {
         name: name.into(),
         what: "could not run".into(),
         pass: false,
@@ -329,7 +331,7 @@ pub fn run_battery() -> Result<Vec<CaseResult>> {
         radiance_bound: 0.0,
         max_error: f64::INFINITY,
         tolerance: 0.0,
-        detail: format!("{e:#}"),
+        detail: e.to_string(),
     };
     type Case<'a> = (&'a str, Box<dyn Fn() -> Result<CaseResult> + 'a>);
     let cases: Vec<Case> = vec![

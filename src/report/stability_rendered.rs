@@ -2,14 +2,16 @@
 //! with [`render_image`], as `murk render` would: bad voxels, a translated grid, an
 //! empty grid, a single voxel, a very hot temperature grid.
 
+use super::ReportError;
 use super::check::{CaseResult, Check, plan_scatter_bound};
 use crate::integrate::blackbody::BlackbodyTable;
 use crate::output::Frame;
 use crate::render::{RenderOptions, RenderPlan, render_image};
 use crate::vdb::{FloatGridOut, write_float_grids};
-use anyhow::{Context, Result};
 use glam::{DMat4, DVec3, IVec3};
 use std::path::{Path, PathBuf};
+
+type Result<T> = std::result::Result<T, ReportError>;
 
 /// A temporary directory for the rendered cases, removed when dropped.
 pub struct Scratchpad(PathBuf);
@@ -18,7 +20,7 @@ impl Scratchpad {
     pub fn new() -> Result<Self> {
         let dir = std::env::temp_dir().join(format!("murk-stability-{}", std::process::id()));
         std::fs::create_dir_all(&dir)
-            .with_context(|| format!("{}: cannot create", dir.display()))?;
+            .map_err(|e| ReportError::write(&dir, format!("cannot create: {e}")))?;
         Ok(Scratchpad(dir))
     }
     fn vdb(&self, name: &str, grids: Vec<FloatGridOut>) -> Result<PathBuf> {

@@ -60,7 +60,7 @@ impl FramePattern {
 
     /// The frames whose files exist: the pattern must be in the file name (not in a
     /// folder); files are matched by name in its folder, sorted by frame.
-    pub fn existing_frames(&self, shown: &Path) -> Result<Vec<i64>, String> {
+    pub fn existing_frames(&self, shown: &Path) -> Result<Vec<i64>, FramesError> {
         let whole = self.path_text();
         let path = Path::new(&whole);
         let dir = match path.parent() {
@@ -68,14 +68,16 @@ impl FramePattern {
             _ => PathBuf::from("."),
         };
         if FramePattern::new(&dir).is_pattern() {
-            return Err(format!(
-                "{}: a frame pattern in a folder name needs --frames",
-                shown.display()
-            ));
+            return Err(FramesError::PatternInFolder {
+                pattern: shown.to_owned(),
+            });
         }
         let (name, _) = parse(&path.file_name().unwrap_or_default().to_string_lossy());
-        let entries = std::fs::read_dir(&dir)
-            .map_err(|e| format!("{}: cannot list {}: {e}", shown.display(), dir.display()))?;
+        let entries = std::fs::read_dir(&dir).map_err(|e| FramesError::Unlisted {
+            pattern: shown.to_owned(),
+            folder: dir.clone(),
+            problem: e.to_string(),
+        })?;
         let mut frames: Vec<i64> = entries
             .filter_map(|e| e.ok())
             .filter_map(|e| e.file_name().to_str().and_then(|n| match_name(&name, n)))
@@ -83,7 +85,9 @@ impl FramePattern {
         frames.sort_unstable();
         frames.dedup();
         if frames.is_empty() {
-            return Err(format!("{}: the pattern matches no file", shown.display()));
+            return Err(FramesError::NoMatch {
+                pattern: shown.to_owned(),
+            });
         }
         Ok(frames)
     }
@@ -188,14 +192,53 @@ fn match_name(pieces: &[Piece], name: &str) -> Option<i64> {
     if rest.is_empty() { frame } else { None }
 }
 
+/// A frame list (`--frames`) that cannot be read, or an input pattern whose frames
+/// cannot be found; each names the flag or the pattern.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FramesError {
+    /// `--frames SPEC` is not a frame list.
+    #[error("--frames {spec}: {problem}")]
+    List {
+        /// The list as given.
+        spec: String,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// The pattern is in a folder's name, where murk does not look for frames.
+    #[error("{}: a frame pattern in a folder name needs --frames", pattern.display())]
+    PatternInFolder {
+        /// The input pattern as given.
+        pattern: PathBuf,
+    },
+    /// The pattern's folder cannot be listed.
+    #[error("{}: cannot list {}: {problem}", pattern.display(), folder.display())]
+    Unlisted {
+        /// The input pattern as given.
+        pattern: PathBuf,
+        /// Its folder.
+        folder: PathBuf,
+        /// The system's reason.
+        problem: String,
+    },
+    /// No file in the folder matches the pattern.
+    #[error("{}: the pattern matches no file", pattern.display())]
+    NoMatch {
+        /// The input pattern as given.
+        pattern: PathBuf,
+    },
+}
+
 /// The most frames a list may hold (a typo like `1-1000000000` is refused, not allocated).
 pub const MAX_FRAMES: usize = 1_000_000;
 
 /// Parses a frame list: comma-separated `A`, `A-B` or `A-BxSTEP` (frames A, A+STEP, ... up
 /// to B). Returns the frames in ascending order. Refuses reversed ranges, a step of 0, and
 /// lists naming a frame twice (overlapping ranges).
-pub fn parse_frames(spec: &str) -> Result<Vec<i64>, String> {
-    let bad = |why: String| format!("--frames {spec}: {why}");
+pub fn parse_frames(spec: &str) -> Result<Vec<i64>, FramesError> {
+    let bad = |why: String| FramesError::List {
+        spec: spec.to_string(),
+        problem: why,
+    };
     let mut frames: Vec<i64> = Vec::new();
     for item in spec.split(',').map(str::trim) {
         if item.is_empty() {
@@ -206,7 +249,7 @@ pub fn parse_frames(spec: &str) -> Result<Vec<i64>, String> {
                 "`{item}`: write a range as A-B, with a step as A-BxSTEP (e.g. 1-10,20,30-40x2)"
             )));
         }
-        let num = |t: &str| -> Result<i64, String> {
+        let num = |t: &str| -> Result<i64, FramesError> {
             t.trim().parse::<i64>().ok().filter(|v| *v >= 0).ok_or_else(|| {
                 bad(format!(
                     "`{item}`: `{t}` is not a frame number (0 or more); a list reads 1-10,20,30-40x2"
@@ -369,12 +412,12 @@ mod tests {
         for bad in [
             "5-1", "1-5,3", "1-5,5-9", "1-5x0", "", "a", "1-", "3x2", "-1", "1,,2",
         ] {
-            let e = parse_frames(bad).unwrap_err();
+            let e = parse_frames(bad).unwrap_err().to_string();
             assert!(e.starts_with("--frames"), "{bad}: {e}");
         }
         assert!(parse_frames("0-99999999999").is_err());
         for other_syntax in ["1..10", "1:10"] {
-            let e = parse_frames(other_syntax).unwrap_err();
+            let e = parse_frames(other_syntax).unwrap_err().to_string();
             assert!(e.contains("write a range as A-B"), "{e}");
         }
     }

@@ -6,6 +6,7 @@ use super::plan::{RenderPlan, ShadowMode};
 use super::progress::Progress;
 use crate::field::Field;
 use crate::integrate::Illumination;
+use crate::shadow::cache::CacheError;
 use crate::shadow::{
     BakeSettings, ShadowMap, ShadowMapStats, ShadowQuadrature, bake, cache, density_integral,
     verify,
@@ -67,7 +68,7 @@ pub fn bake_maps(
     density_hash: u64,
     sigma_t: DVec3,
     progress: &dyn Progress,
-) -> anyhow::Result<(Vec<ShadowMap>, Vec<ShadowMapStats>)> {
+) -> Result<(Vec<ShadowMap>, Vec<ShadowMapStats>), CacheError> {
     let settings = BakeSettings::new(plan.shadows.dsm_tolerance, sigma_t);
     progress.start("baking shadow maps", plan.lights.len() as u64, "lights");
     let cached = match &plan.shadows.cache {

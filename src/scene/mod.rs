@@ -6,10 +6,10 @@
 
 pub mod camera;
 pub mod conventions;
+mod error;
 pub mod frames;
 pub mod light;
 pub mod lights;
-pub mod mesh_source;
 pub mod options;
 pub mod plan;
 pub mod progress;
@@ -94,8 +94,8 @@ use crate::integrate::ground::Ground;
 use crate::integrate::phase::PhaseFunction;
 use crate::integrate::{ColorTint, Companion, Emission, Medium, Volume};
 use crate::shadow::ShadowMap;
-use anyhow::{Result, anyhow};
 use camera::{Camera, Projection};
+pub use error::SceneError;
 use glam::DVec3;
 use lights::{SceneLights, bake_maps, light_shadows};
 use plan::{EmissionPlan, GridChoice, ShadowMode};
@@ -104,6 +104,8 @@ use report::{SceneReport, Stage};
 use roles::{SceneFields, load_fields};
 use std::sync::Arc;
 use std::time::Instant;
+
+type Result<T, E = SceneError> = std::result::Result<T, E>;
 
 /// A scene ready to render.
 pub struct Scene {
@@ -311,9 +313,9 @@ impl Scene {
             let density = self.fields.density.as_ref();
             let hash = density.content_hash();
             if hash.is_none() && plan.shadows.cache.is_some() {
-                return Err(anyhow!(
-                    "{}: this input cannot be fingerprinted, so a shadow cache cannot be checked against it",
-                    plan.input.display()
+                return Err(SceneError::input(
+                    &plan.input,
+                    "this input cannot be fingerprinted, so a shadow cache cannot be checked against it",
                 ));
             }
             let kept = hash.and_then(|h| reuse.shadow_maps(plan, h, sigma_t));

@@ -2,6 +2,7 @@
 //! colour (named, or detected from the names Houdini, Blender and EmberGen use), decoded
 //! only when the render needs them.
 
+use super::SceneError;
 use super::conventions::{
     TemperatureMapping, Tool, UpAxis, UpAxisChoice, detect_tool, temperature_mapping, up_from_data,
 };
@@ -12,7 +13,8 @@ use super::source::{FieldKind, FieldSource, Loaded};
 use crate::field::color3::ChannelColor;
 use crate::field::{ColorField, Field};
 use crate::integrate::blackbody::BlackbodyTable;
-use anyhow::{Result, anyhow};
+
+type Result<T, E = SceneError> = std::result::Result<T, E>;
 
 /// Half floats round values below this to 0: half the smallest subnormal, 2⁻²⁵.
 pub const HALF_ZERO: f64 = 2.980_232_238_769_531_2e-8;
@@ -86,11 +88,12 @@ fn choose_color(source: &dyn FieldSource, choice: &GridChoice) -> Result<Option<
     let scalar = |n: &str| -> Result<String> {
         let g = source.field(n)?;
         if g.kind != FieldKind::Scalar {
-            return Err(anyhow!(
-                "{}: grid \"{}\" ({}) cannot be a colour channel: it must hold float values",
-                source.path().display(),
-                g.unique_name,
-                g.type_name
+            return Err(SceneError::input(
+                source.path(),
+                format!(
+                    "grid \"{}\" ({}) cannot be a colour channel: it must hold float values",
+                    g.unique_name, g.type_name
+                ),
             ));
         }
         Ok(g.unique_name.clone())
@@ -99,9 +102,11 @@ fn choose_color(source: &dyn FieldSource, choice: &GridChoice) -> Result<Option<
         GridChoice::Named(list) if list.contains(',') => {
             let names: Vec<&str> = list.split(',').map(str::trim).collect();
             let [r, g, b] = names.as_slice() else {
-                return Err(anyhow!(
-                    "--color-grid \"{list}\": a list names three float grids, red,green,blue"
-                ));
+                return Err(SceneError::Flag {
+                    flag: "--color-grid",
+                    value: list.clone(),
+                    problem: "a list names three float grids, red,green,blue".into(),
+                });
             };
             Ok(Some(ColorSource::Channels([
                 scalar(r)?,
@@ -160,11 +165,12 @@ fn choose(
                 } else {
                     "float"
                 };
-                return Err(anyhow!(
-                    "{}: grid \"{}\" ({}) cannot be the {role} grid: it must hold {want} values",
-                    source.path().display(),
-                    g.unique_name,
-                    g.type_name
+                return Err(SceneError::input(
+                    source.path(),
+                    format!(
+                        "grid \"{}\" ({}) cannot be the {role} grid: it must hold {want} values",
+                        g.unique_name, g.type_name
+                    ),
                 ));
             }
             Ok(Some(g.unique_name.clone()))
@@ -183,7 +189,7 @@ fn choose(
 
 /// Why no density was found: a grid of a density's name that holds other values (a
 /// vec3 `density`) is named as the reason, else the file's fields are listed.
-fn no_density(source: &dyn FieldSource, input: &std::path::Path) -> anyhow::Error {
+fn no_density(source: &dyn FieldSource, input: &std::path::Path) -> SceneError {
     let named = DENSITY_NAMES.iter().find_map(|n| {
         source
             .fields()
@@ -205,20 +211,24 @@ fn no_density(source: &dyn FieldSource, input: &std::path::Path) -> anyhow::Erro
         )
     };
     match named {
-        Some(g) => anyhow!(
-            "{}: grid \"{}\" holds {} values ({}), but a density must be a float grid; {instead}",
-            input.display(),
-            g.unique_name,
-            match g.kind {
-                FieldKind::Vector => "vec3",
-                _ => "non-float",
-            },
-            g.type_name
+        Some(g) => SceneError::input(
+            input,
+            format!(
+                "grid \"{}\" holds {} values ({}), but a density must be a float grid; {instead}",
+                g.unique_name,
+                match g.kind {
+                    FieldKind::Vector => "vec3",
+                    _ => "non-float",
+                },
+                g.type_name
+            ),
         ),
-        None => anyhow!(
-            "{}: no density grid found (the file has: {}); name one with --density-grid",
-            input.display(),
-            source.field_list()
+        None => SceneError::input(
+            input,
+            format!(
+                "no density grid found (the file has: {}); name one with --density-grid",
+                source.field_list()
+            ),
         ),
     }
 }
@@ -287,11 +297,13 @@ pub fn load_fields(
     if d.class == "level set" {
         // A level set holds a surface's signed distance, negative inside: read as
         // density it is a rounded box of sanitised values, not the shape.
-        return Err(anyhow!(
-            "{}: grid \"{}\" is a level set (a surface's signed distance), not a fog volume; convert it first, e.g. vdb_tool -read {} -ls2fog name=density -write fog.vdb",
-            plan.input.display(),
-            d.unique_name,
-            plan.input.display()
+        return Err(SceneError::input(
+            &plan.input,
+            format!(
+                "grid \"{}\" is a level set (a surface's signed distance), not a fog volume; convert it first, e.g. vdb_tool -read {} -ls2fog name=density -write fog.vdb",
+                d.unique_name,
+                plan.input.display()
+            ),
         ));
     }
     let emission_name = choose(

@@ -88,7 +88,7 @@ fn edit_distance(a: &str, b: &str) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::RenderOptions;
+    use crate::scene::RenderOptions;
 
     fn problem(text: &str) -> String {
         describe(&toml::from_str::<RenderOptions>(text).unwrap_err(), text)

@@ -20,6 +20,7 @@
 
 use super::BakeReport;
 use super::cache_check::{GridMeta, check_bake_charts, check_consistent, shown};
+pub use super::cache_error::CacheError;
 use super::chart::{Chart, ChartKind, LateralBlend};
 use super::map::{
     BRICK, BakedBrick, BrickForm, BrickSamples, ChartMap, ChartSelect, LEVELS, ShadowMap, side,
@@ -28,10 +29,11 @@ use super::map::{
 use super::{CachedLight, ShadowMapStats};
 use crate::field::{Field, VoxelGrid};
 use crate::vdb::{FloatGridOut, VdbFile, write_float_grids};
-use anyhow::{Result, anyhow};
 use glam::{DMat4, DVec3, IVec3};
 use std::collections::BTreeMap;
 use std::path::Path;
+
+type Result<T> = std::result::Result<T, CacheError>;
 
 fn vec_text(v: DVec3) -> String {
     format!("{:?},{:?},{:?}", v.x, v.y, v.z)
@@ -256,8 +258,8 @@ pub fn write(
         "creator".to_string(),
         format!("murk {}", env!("CARGO_PKG_VERSION")),
     )];
-    crate::output::write_atomically(path, |tmp| {
-        write_float_grids(tmp, &grids, &file_meta).map_err(|e| anyhow!(e.at(path)))
+    crate::files::write_atomically(path, |tmp| {
+        write_float_grids(tmp, &grids, &file_meta).map_err(|e| CacheError::Read(e.at(path)))
     })
 }
 
@@ -271,7 +273,10 @@ pub fn read(
     lights: &[impl CachedLight],
 ) -> Result<Vec<(ShadowMap, BakeReport)>> {
     let file = VdbFile::open(path)?;
-    let bad = |what: String| anyhow!("{}: {what}", path.display());
+    let bad = |problem: String| CacheError::Unusable {
+        path: path.to_owned(),
+        problem,
+    };
     // light name → grid name → metadata
     let mut by_light: BTreeMap<String, Vec<(String, GridMeta)>> = BTreeMap::new();
     for g in file.grids() {

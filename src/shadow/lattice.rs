@@ -2,9 +2,9 @@
 //! the light's charts around them, and bounds on the density cells the light columns
 //! cross — what keeps a bake's work bounded whatever the grid's size or voxel shape.
 
-use super::bake::LightGeometry;
 use super::chart::Chart;
 use super::map::{BRICK, ChartSelect, side};
+use super::settings::LightGeometry;
 use crate::accel::nonzero_blocks;
 use crate::field::Field;
 use glam::{DVec3, IVec3};

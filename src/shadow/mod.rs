@@ -9,6 +9,7 @@ pub mod bake;
 pub mod brick;
 pub mod cache;
 mod cache_check;
+mod cache_error;
 pub mod chart;
 pub mod columns;
 mod lattice;
@@ -16,11 +17,13 @@ mod level_checks;
 pub mod map;
 pub mod march;
 mod refine;
+pub mod settings;
 pub mod verify;
 
-pub use bake::{BakeReport, BakeSettings, LightGeometry, bake};
+pub use bake::bake;
 pub use map::ShadowMap;
 pub use march::{ShadowQuadrature, density_integral};
+pub use settings::{BakeReport, BakeSettings, LightGeometry};
 pub use verify::{VerifyReport, verify};
 
 /// A light as a shadow map and its cache know it: a name (the cache's grids carry it)

@@ -1,9 +1,9 @@
 //! Measures a baked map against marched shadow rays (exact optical depth) at random
 //! points where the density is not zero: the numbers `--dsm-verify` reports.
 
-use super::bake::LightGeometry;
 use super::map::ShadowMap;
 use super::march::{ShadowQuadrature, density_integral};
+use super::settings::LightGeometry;
 use crate::field::Field;
 use crate::field::random::SplitMix64;
 use glam::DVec3;

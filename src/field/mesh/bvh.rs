@@ -5,7 +5,7 @@
 //! line test would accept; the decision itself is the exact one of [`super::walk`].
 
 use super::geometry::{NONE, TetMesh};
-use super::walk::{Line, crossing};
+use super::line::{Line, crossing};
 use glam::DVec3;
 
 #[derive(Clone, Copy)]

@@ -22,6 +22,7 @@ pub mod bvh;
 pub mod geometry;
 pub mod interp;
 pub mod lattice;
+pub mod line;
 mod source;
 pub mod walk;
 

@@ -110,8 +110,8 @@ pub fn store(
     {
         return false;
     }
-    crate::output::write_atomically(path, |tmp| {
-        std::fs::write(tmp, &bytes).map_err(|source| crate::output::OutputError::Io {
+    crate::files::write_atomically(path, |tmp| {
+        std::fs::write(tmp, &bytes).map_err(|source| crate::files::FileError::Io {
             path: path.to_owned(),
             source,
         })

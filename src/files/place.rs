@@ -5,7 +5,7 @@
 use std::fs;
 use std::path::Path;
 
-use super::OutputError;
+use super::FileError;
 
 /// The folder of `path` (`.` for a bare file name).
 fn folder_of(path: &Path) -> &Path {
@@ -17,12 +17,12 @@ fn folder_of(path: &Path) -> &Path {
 
 /// Makes `path`'s folder (and the folders above it) if missing. Errors name `path` and
 /// the folder that could not be made.
-pub fn make_folder(path: &Path) -> Result<(), OutputError> {
+pub fn make_folder(path: &Path) -> Result<(), FileError> {
     let dir = folder_of(path);
     if dir.is_dir() {
         return Ok(());
     }
-    fs::create_dir_all(dir).map_err(|e| OutputError::Invalid {
+    fs::create_dir_all(dir).map_err(|e| FileError::Invalid {
         path: path.to_owned(),
         reason: format!("cannot create the folder {}: {e}", dir.display()),
     })
@@ -31,10 +31,10 @@ pub fn make_folder(path: &Path) -> Result<(), OutputError> {
 /// Makes `path`'s folder if missing and checks that a file can be created in it (by
 /// creating and removing a hidden probe file named like murk's temporary files), and
 /// that `path` is not a folder. What is already at `path` is left as it is.
-pub fn prepare(path: &Path) -> Result<(), OutputError> {
+pub fn prepare(path: &Path) -> Result<(), FileError> {
     make_folder(path)?;
     if path.is_dir() {
-        return Err(OutputError::Invalid {
+        return Err(FileError::Invalid {
             path: path.to_owned(),
             reason: "it is a folder".into(),
         });
@@ -51,7 +51,7 @@ pub fn prepare(path: &Path) -> Result<(), OutputError> {
             Ok(())
         }
         Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
-        Err(e) => Err(OutputError::Invalid {
+        Err(e) => Err(FileError::Invalid {
             path: path.to_owned(),
             reason: format!("the folder {} is not writable: {e}", dir.display()),
         }),

@@ -9,7 +9,7 @@
 //! replace the link rather than what it points to, and over an input it would destroy
 //! what the next frame or the next run reads.
 
-use super::OutputError;
+use super::FileError;
 use std::collections::HashMap;
 use std::ffi::CString;
 use std::os::unix::ffi::OsStrExt;
@@ -74,8 +74,8 @@ pub fn protect(inputs: &[Role]) {
     }
 }
 
-fn refused(path: &Path, reason: String) -> OutputError {
-    OutputError::Refused {
+fn refused(path: &Path, reason: String) -> FileError {
+    FileError::Refused {
         path: path.to_owned(),
         reason,
     }
@@ -83,7 +83,7 @@ fn refused(path: &Path, reason: String) -> OutputError {
 
 /// Refuses a target that is not absent or a writable regular file, or whose folder is
 /// not writable.
-pub fn check_replaceable(path: &Path) -> Result<(), OutputError> {
+pub fn check_replaceable(path: &Path) -> Result<(), FileError> {
     if path.file_name().is_none() {
         return Err(refused(path, "does not name a file".into()));
     }
@@ -134,7 +134,7 @@ fn writable(dir: &Path) -> bool {
 
 /// The check [`write_atomically`](super::write_atomically) runs on its target:
 /// [`check_replaceable`], and not an input marked by [`protect`].
-pub fn check_target(path: &Path) -> Result<(), OutputError> {
+pub fn check_target(path: &Path) -> Result<(), FileError> {
     check_replaceable(path)?;
     let id = Identity::of(path);
     let guard = PROTECTED.lock().unwrap_or_else(|e| e.into_inner());
@@ -153,7 +153,7 @@ pub fn check_target(path: &Path) -> Result<(), OutputError> {
 /// regular file in a writable folder ([`check_replaceable`]); then marks the inputs with
 /// [`protect`]. Run it on every output of a command before its work (every frame of a
 /// pattern expanded), so that a refusal costs nothing.
-pub fn check_outputs(inputs: &[Role], outputs: &[Role]) -> Result<(), OutputError> {
+pub fn check_outputs(inputs: &[Role], outputs: &[Role]) -> Result<(), FileError> {
     let mut seen: HashMap<Identity, &Role> = HashMap::with_capacity(inputs.len());
     for r in inputs {
         seen.entry(Identity::of(&r.path)).or_insert(r);

@@ -3,13 +3,14 @@
 //! component arrays scalar, three-component ones colours. All share the mesh's walkable
 //! geometry, built once when the file is opened.
 
-use super::report::Sanitised;
-use super::source::{FieldKind, FieldSource, Loaded, SourceField};
+use super::field_source::{FieldKind, FieldSource, Loaded, SourceError, SourceField};
 use crate::field::mesh::{MeshField, MeshSource};
 use crate::field::{ColorField, Field, IndexToWorld};
-use anyhow::{Result, anyhow};
+use crate::scene::report::Sanitised;
 use glam::{DVec3, Vec3};
 use std::path::{Path, PathBuf};
+
+type Result<T> = std::result::Result<T, SourceError>;
 
 pub struct MeshFieldSource {
     path: PathBuf,
@@ -49,16 +50,21 @@ impl MeshFieldSource {
         })
     }
 
+    fn too_few_components(&self, name: &str, components: usize) -> SourceError {
+        SourceError::Components {
+            path: self.path.clone(),
+            name: name.to_owned(),
+            components,
+            have: self.field_list(),
+        }
+    }
+
     /// Component `c` of `name` with NaN, infinite and negative values replaced by 0.
     fn component(&self, name: &str, c: usize) -> Result<(MeshField, Sanitised)> {
-        let (field, s) = self.source.sanitised_component(name, c).ok_or_else(|| {
-            anyhow!(
-                "{}: no array {name} with {} components (the file has: {})",
-                self.path.display(),
-                c + 1,
-                self.field_list()
-            )
-        })?;
+        let (field, s) = self
+            .source
+            .sanitised_component(name, c)
+            .ok_or_else(|| self.too_few_components(name, c + 1))?;
         Ok((
             field,
             Sanitised {
@@ -97,13 +103,15 @@ impl FieldSource for MeshFieldSource {
         &self.fields
     }
     fn field(&self, name: &str) -> Result<&SourceField> {
-        self.fields.iter().find(|f| f.name == name).ok_or_else(|| {
-            anyhow!(
-                "{}: no array {name} (the file has: {})",
-                self.path.display(),
-                self.field_list()
-            )
-        })
+        self.fields
+            .iter()
+            .find(|f| f.name == name)
+            .ok_or_else(|| SourceError::NoField {
+                path: self.path.clone(),
+                what: "array",
+                name: name.to_owned(),
+                have: self.field_list(),
+            })
     }
     fn load_scalar(&self, name: &str) -> Result<Loaded<Box<dyn Field>>> {
         let (field, sanitised) = self.component(name, 0)?;
@@ -125,7 +133,9 @@ impl FieldSource for MeshFieldSource {
             ch.push(f);
         }
         let memory_bytes = ch[0].memory_bytes();
-        let channels: [MeshField; 3] = ch.try_into().map_err(|_| anyhow!("three channels"))?;
+        let channels: [MeshField; 3] = ch
+            .try_into()
+            .map_err(|_| self.too_few_components(name, 3))?;
         Ok(Loaded {
             name: name.to_string(),
             sanitised: total,

@@ -1,18 +1,84 @@
-//! Atomic file replacement: write a temporary file next to the target, then
-//! rename it over the target, so readers never see a half-written file.
+//! Writing files: atomic file replacement (write a temporary file next to the target, then
+//! rename it over the target, so readers never see a half-written file).
+//!
+//! This module sits below every stage of the pipeline: the EXR writer, the shadow cache,
+//! the water-drop table cache and the reports all write through it. It imports no other
+//! module of the crate.
+
+pub mod guard;
+pub mod place;
 
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::OutputError;
+/// What can go wrong while writing a file; every variant names the target file.
+#[derive(Debug, thiserror::Error)]
+pub enum FileError {
+    /// The path cannot be written (it names no file, ...).
+    #[error("cannot write {}: {reason}", path.display())]
+    Invalid {
+        /// The target file.
+        path: PathBuf,
+        /// The problem.
+        reason: String,
+    },
+
+    /// The target is not one murk may replace (see [`check_target`](guard::check_target)).
+    #[error("{}: {reason}", path.display())]
+    Refused {
+        /// The target file.
+        path: PathBuf,
+        /// Why not.
+        reason: String,
+    },
+
+    /// The temporary file next to the target could not be created.
+    #[error(
+        "cannot write {}: cannot create temporary file {}: {source}",
+        path.display(),
+        temp.display()
+    )]
+    CreateTemp {
+        /// The target file.
+        path: PathBuf,
+        /// The temporary file.
+        temp: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+
+    /// The finished temporary file could not be renamed over the target.
+    #[error(
+        "cannot write {}: cannot rename temporary file {} over it: {source}",
+        path.display(),
+        temp.display()
+    )]
+    Rename {
+        /// The target file.
+        path: PathBuf,
+        /// The temporary file.
+        temp: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+
+    /// Any other I/O error while writing the file.
+    #[error("cannot write {}: {source}", path.display())]
+    Io {
+        /// The target file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
 
 static COUNTER: AtomicU64 = AtomicU64::new(0);
 
 /// The temporary file used for writing `path`: `.<name>.tmp-<pid>-<n>` in the
 /// same directory (so the final rename stays on one file system).
-fn temp_path_for(path: &Path) -> Result<PathBuf, OutputError> {
-    let name = path.file_name().ok_or_else(|| OutputError::Invalid {
+fn temp_path_for(path: &Path) -> Result<PathBuf, FileError> {
+    let name = path.file_name().ok_or_else(|| FileError::Invalid {
         path: path.to_owned(),
         reason: "the path does not name a file".to_owned(),
     })?;
@@ -68,23 +134,24 @@ fn remove_stale_temporaries(path: &Path) {
 /// rename) the temporary file is removed and an existing target is left
 /// untouched. The target's folder is made if missing. No fsync is done.
 ///
-/// First the target passes [`check_target`](super::guard::check_target): a device,
+/// First the target passes [`check_target`](guard::check_target): a device,
 /// FIFO, symbolic link, folder, read-only file or folder, or an input the command
 /// protected is refused, and nothing is written.
 ///
-/// Errors produced here are [`OutputError`]s naming `path`; `write`'s own
-/// error type only needs `From<OutputError>` (so `OutputError` itself works).
+/// Errors produced here are [`FileError`]s naming `path`; `write`'s own
+/// error type only needs `From<FileError>` (so `FileError` itself works, and so does
+/// `OutputError`).
 pub fn write_atomically<T, E, F>(path: &Path, write: F) -> Result<T, E>
 where
     F: FnOnce(&Path) -> Result<T, E>,
-    E: From<OutputError>,
+    E: From<FileError>,
 {
     let temp = temp_path_for(path)?;
-    super::guard::check_target(path)?;
-    super::make_folder(path)?;
+    guard::check_target(path)?;
+    place::make_folder(path)?;
     remove_stale_temporaries(path);
     if let Err(source) = fs::File::create(&temp) {
-        return Err(OutputError::CreateTemp {
+        return Err(FileError::CreateTemp {
             path: path.to_owned(),
             temp,
             source,
@@ -100,7 +167,7 @@ where
     };
     if let Err(source) = fs::rename(&temp, path) {
         let _ = fs::remove_file(&temp);
-        return Err(OutputError::Rename {
+        return Err(FileError::Rename {
             path: path.to_owned(),
             temp,
             source,
@@ -151,8 +218,8 @@ mod tests {
         for f in [&stale, &live, &other, &odd] {
             fs::write(f, "partial").unwrap();
         }
-        let r: Result<(), OutputError> = write_atomically(&target, |tmp| {
-            fs::write(tmp, "new").map_err(|source| OutputError::Io {
+        let r: Result<(), FileError> = write_atomically(&target, |tmp| {
+            fs::write(tmp, "new").map_err(|source| FileError::Io {
                 path: tmp.into(),
                 source,
             })
@@ -175,8 +242,8 @@ mod tests {
         let dir = scratch_dir("ok");
         let target = dir.join("f.txt");
         fs::write(&target, "old").unwrap();
-        let r: Result<u32, OutputError> = write_atomically(&target, |tmp| {
-            fs::write(tmp, "new").map_err(|source| OutputError::Io {
+        let r: Result<u32, FileError> = write_atomically(&target, |tmp| {
+            fs::write(tmp, "new").map_err(|source| FileError::Io {
                 path: tmp.into(),
                 source,
             })?;
@@ -193,9 +260,9 @@ mod tests {
         let dir = scratch_dir("fail");
         let target = dir.join("f.txt");
         fs::write(&target, "old").unwrap();
-        let r: Result<(), OutputError> = write_atomically(&target, |tmp| {
+        let r: Result<(), FileError> = write_atomically(&target, |tmp| {
             fs::write(tmp, "partial").unwrap();
-            Err(OutputError::Invalid {
+            Err(FileError::Invalid {
                 path: target.clone(),
                 reason: "boom".into(),
             })
@@ -211,7 +278,7 @@ mod tests {
         let dir = scratch_dir("rename");
         let target = dir.join("sub");
         // A folder appears at the target while the file is written: the rename fails.
-        let r: Result<(), OutputError> = write_atomically(&target, |_| {
+        let r: Result<(), FileError> = write_atomically(&target, |_| {
             fs::create_dir(&target).unwrap();
             fs::write(target.join("keep"), "x").unwrap();
             Ok(())
@@ -233,10 +300,10 @@ mod tests {
         std::os::unix::fs::symlink(dir.join("elsewhere.exr"), &link).unwrap();
         let input = dir.join("in.vdb");
         fs::write(&input, "keep").unwrap();
-        super::super::guard::protect(&[super::super::guard::Role::new(&input, "the input")]);
+        super::guard::protect(&[super::guard::Role::new(&input, "the input")]);
         let write = |target: &Path| -> String {
-            let r: Result<(), OutputError> = write_atomically(target, |tmp| {
-                fs::write(tmp, "new").map_err(|source| OutputError::Io {
+            let r: Result<(), FileError> = write_atomically(target, |tmp| {
+                fs::write(tmp, "new").map_err(|source| FileError::Io {
                     path: tmp.into(),
                     source,
                 })
@@ -263,8 +330,8 @@ mod tests {
     fn missing_folders_are_made_and_a_folder_that_cannot_be_names_the_path() {
         let dir = scratch_dir("folders");
         let target = dir.join("seqA/b/out.png");
-        let r: Result<(), OutputError> = write_atomically(&target, |tmp| {
-            fs::write(tmp, "new").map_err(|source| OutputError::Io {
+        let r: Result<(), FileError> = write_atomically(&target, |tmp| {
+            fs::write(tmp, "new").map_err(|source| FileError::Io {
                 path: tmp.into(),
                 source,
             })
@@ -273,7 +340,7 @@ mod tests {
         assert_eq!(fs::read_to_string(&target).unwrap(), "new");
         // Under a file no folder can be made, even as root.
         let target = dir.join("seqA/b/out.png/x/out.png");
-        let r: Result<(), OutputError> = write_atomically(&target, |_| Ok(()));
+        let r: Result<(), FileError> = write_atomically(&target, |_| Ok(()));
         let msg = r.unwrap_err().to_string();
         assert!(msg.contains(&target.display().to_string()), "{msg}");
         fs::remove_dir_all(&dir).unwrap();
