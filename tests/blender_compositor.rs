@@ -2,9 +2,12 @@
 //! Blender's compositor: `scripts/blender_compositor.py` runs in `blender -b` (Debian's
 //! `blender`, 3.4.1; `.ci/run` installs it), feeds the file's alpha through an Image
 //! node to the Composite node and writes it out; the plane must equal the alpha murk
-//! wrote, pixel for pixel. Where Blender is not installed the test says it skipped.
+//! wrote, pixel for pixel. Where Blender is not installed the test is skipped.
 //! A cropped dataWindow (`--crop-data-window`) is measured too and reported: Blender
 //! 3.4 misplaces it, which is why it is not the default.
+
+mod common;
+use common::tools;
 
 use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
 use std::path::{Path, PathBuf};
@@ -54,7 +57,7 @@ fn full_channel(path: &Path, name: &str) -> Vec<f32> {
 fn blender_sees(exr: &Path, dir: &Path, name: &str) -> (serde_json::Value, Vec<f32>) {
     let json = dir.join(format!("{name}.json"));
     let alpha = dir.join(format!("{name}_alpha.exr"));
-    let out = Command::new("blender")
+    let out = tools::command(&tools::BLENDER)
         .args(["-b", "--factory-startup", "-noaudio", "--python"])
         .arg(root().join("scripts/blender_compositor.py"))
         .arg("--")
@@ -95,12 +98,7 @@ fn render(dir: &Path, name: &str, extra: &[&str]) -> PathBuf {
 
 #[test]
 fn blenders_compositor_places_the_default_exr_and_sees_its_passes() {
-    if Command::new("blender").arg("--version").output().is_err() {
-        eprintln!(
-            "skipped: blender is not installed (apt-get install blender; .ci/run installs it)"
-        );
-        return;
-    }
+    need!(tools::BLENDER);
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("blender_compositor");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();

@@ -4,34 +4,15 @@
 
 mod common;
 use common::frames::*;
+use common::tools;
 
 use std::fs;
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn openjd() -> Option<PathBuf> {
-    let candidates = [
-        std::env::var_os("MURK_OPENJD").map(PathBuf::from),
-        Some(PathBuf::from("/opt/murk-venv/bin/openjd")),
-    ];
-    candidates
-        .into_iter()
-        .flatten()
-        .find(|p| p.is_file())
-        .or_else(|| {
-            Command::new("openjd")
-                .arg("--help")
-                .output()
-                .ok()
-                .filter(|o| o.status.success())
-                .map(|_| PathBuf::from("openjd"))
-        })
-}
+use std::path::Path;
 
 /// Runs `openjd` from elsewhere (the defaults are relative to the template's folder);
 /// fails the test when it fails.
-fn run_openjd(openjd: &Path, args: &[&str]) {
-    let out = Command::new(openjd)
+fn run_openjd(args: &[&str]) {
+    let out = tools::command(&tools::OPENJD)
         .current_dir(std::env::temp_dir())
         .args(args)
         .output()
@@ -43,16 +24,6 @@ fn run_openjd(openjd: &Path, args: &[&str]) {
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     );
-}
-
-fn find_openjd() -> Option<PathBuf> {
-    let found = openjd();
-    if found.is_none() {
-        eprintln!(
-            "SKIPPED: openjd (openjd-cli from PyPI) not found in MURK_OPENJD, /opt/murk-venv/bin or PATH; .ci/run installs it"
-        );
-    }
-    found
 }
 
 /// The largest difference of two PNGs' 8-bit codes (same size required).
@@ -72,9 +43,7 @@ fn png_difference(a: &Path, b: &Path) -> u8 {
 
 #[test]
 fn the_openjd_job_runs_and_its_frames_equal_direct_renders() {
-    let Some(openjd) = find_openjd() else {
-        return;
-    };
+    need!(tools::IDIFF, tools::OPENJD);
     for tiles in ["1", "3"] {
         let dir = scratch(&format!("openjd-{tiles}"));
         // The job lives at the project's root, above the cache and the renders; the
@@ -126,8 +95,8 @@ fn the_openjd_job_runs_and_its_frames_equal_direct_renders() {
         );
         let job_path = dir.join("job.yaml");
         let j = job_path.to_str().unwrap();
-        run_openjd(&openjd, &["check", j]);
-        run_openjd(&openjd, &["run", j, "--step", last, "--run-dependencies"]);
+        run_openjd(&["check", j]);
+        run_openjd(&["run", j, "--step", last, "--run-dependencies"]);
         for f in 2..=4 {
             same_image(
                 &direct(&dir, f),
@@ -169,9 +138,7 @@ fn the_openjd_job_runs_and_its_frames_equal_direct_renders() {
 /// 1,100 frames was refused by `openjd check`.
 #[test]
 fn more_than_1024_frames_make_a_valid_job() {
-    let Some(openjd) = find_openjd() else {
-        return;
-    };
+    need!(tools::OPENJD);
     let dir = scratch("openjd-many");
     std::os::unix::fs::symlink(seq(""), dir.join("cache")).unwrap();
     ok(
@@ -195,7 +162,7 @@ fn more_than_1024_frames_make_a_valid_job() {
     let frames = &job["steps"][0]["parameterSpace"]["taskParameterDefinitions"][0]["range"];
     assert_eq!(frames, "1001-2100,2200-2300:10");
     let job_path = dir.join("job.yaml");
-    run_openjd(&openjd, &["check", job_path.to_str().unwrap()]);
+    run_openjd(&["check", job_path.to_str().unwrap()]);
 }
 
 #[test]

@@ -1,13 +1,21 @@
 //! The committed fixtures still match what OpenVDB computes: regenerate them into a
-//! temporary directory with `scripts/make_fixtures.py` (Debian's python3-openvdb) and
-//! compare with `fixtures/reference.json`.
+//! temporary directory with `scripts/make_fixtures.py` (Debian's python3-openvdb and
+//! libopenvdb-tools; meshio, vtk and miepython from PyPI) and compare with
+//! `fixtures/reference.json`.
 
-use std::process::Command;
+mod common;
+use common::tools;
 
 #[test]
 fn fixtures_match_a_fresh_openvdb_run() {
+    need!(
+        tools::PYOPENVDB,
+        tools::VDB_TOOL,
+        tools::VDB_PRINT,
+        tools::PYPI_REFERENCES
+    );
     let root = env!("CARGO_MANIFEST_DIR");
-    let out = Command::new("/usr/bin/python3")
+    let out = tools::command(&tools::PYOPENVDB)
         .arg(format!("{root}/scripts/make_fixtures.py"))
         .arg("--check")
         .arg(format!("{root}/fixtures"))

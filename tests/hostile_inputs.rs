@@ -1,6 +1,9 @@
 //! Hostile inputs (found by fuzzing): each ends with exit 0 or 2 within seconds, and a
 //! refusal is one line naming the file or flag and the problem.
 
+mod common;
+use common::tools;
+
 use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -338,10 +341,11 @@ fn temperature_offset_must_be_finite() {
 
 #[test]
 fn a_vec3_density_is_named_as_such() {
+    need!(tools::PYOPENVDB);
     let dir = scratch("vec3");
     let path = dir.join("vec3_density.vdb");
     let script = "import pyopenvdb as vdb, sys\ng = vdb.Vec3SGrid()\ng.name = 'density'\ng.copyFromArray(__import__('numpy').ones((4, 4, 4, 3), dtype='float32'))\nvdb.write(sys.argv[1], grids=[g])\n";
-    let o = Command::new("/usr/bin/python3")
+    let o = tools::command(&tools::PYOPENVDB)
         .args(["-c", script])
         .arg(&path)
         .output()

@@ -6,6 +6,7 @@
 //! come from `fixtures/reference.json`, which OpenVDB computed.
 
 mod common;
+use common::tools;
 
 use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
 use serde_json::Value;
@@ -236,6 +237,7 @@ fn dense_all_active_grid_frames_its_plume_not_its_box() {
 
 #[test]
 fn exr_defaults_place_right_and_z_survives_a_filtered_resize() {
+    need!(tools::EXRHEADER, tools::OIIOTOOL);
     let dir = scratch("exr");
     let (exr, _) = render(&dir, "cloud.vdb", "c", &[]);
     let header = common::exrheader(&exr);
@@ -419,6 +421,7 @@ fn light_names_become_safe_layer_names_and_collisions_are_refused() {
 
 #[test]
 fn acescg_output_is_the_published_matrix_times_rec709_with_its_chromaticities() {
+    need!(tools::EXRHEADER);
     let dir = scratch("aces");
     let (lin, _) = render(&dir, "pyro.vdb", "lin", &["--float"]);
     let (aces, _) = render(

@@ -4,6 +4,9 @@
 //! plus a plume no tool marked, a level set and a short smoke sequence. Each rendered
 //! with no flag a new user would not think to add, asserted from the EXR and the stats.
 
+mod common;
+use common::tools;
+
 use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -273,6 +276,7 @@ fn temperature_glows_only_where_the_cache_has_fire() {
 
 #[test]
 fn a_level_set_is_refused_with_what_to_do_and_doing_it_works() {
+    need!(tools::VDB_TOOL);
     let dir = scratch("levelset");
     let out = dir.join("l.exr").display().to_string();
     let input = cache("levelset_sphere.vdb");
@@ -287,7 +291,7 @@ fn a_level_set_is_refused_with_what_to_do_and_doing_it_works() {
     assert!(!Path::new(&out).exists());
     // The conversion it names, run as written, gives a file that renders: a sphere.
     let fog = dir.join("fog.vdb");
-    let converted = Command::new("vdb_tool")
+    let converted = tools::command(&tools::VDB_TOOL)
         .args(["-read", &input, "-ls2fog", "name=density", "-write"])
         .arg(&fog)
         .output()

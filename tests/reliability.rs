@@ -4,6 +4,7 @@
 //! of the fuzz campaign of issue 11 and fails on the code before its fix.
 
 mod common;
+use common::tools;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -87,6 +88,7 @@ fn s(p: &Path) -> &str {
 /// limit is generous for a machine shared with other builds.
 #[test]
 fn default_render_of_root_tiles_finishes() {
+    need!(tools::EXRHEADER);
     let dir = scratch("tiles");
     let out = dir.join("t.exr");
     let o = murk_within(
@@ -372,6 +374,7 @@ fn oiio_stats(path: &Path) -> Vec<(String, f64, f64, u64, u64)> {
 
 #[test]
 fn emission_beyond_half_range_is_written_as_float_and_said() {
+    need!(tools::EXRHEADER, tools::OIIOTOOL);
     let dir = scratch("half-overflow");
     let out = dir.join("hot.exr");
     let stats = dir.join("hot.json");
@@ -527,7 +530,7 @@ fn pyopenvdb_write(path: &Path, script: &str) {
     let full = format!(
         "import pyopenvdb as vdb, numpy as np, sys\n{script}\nvdb.write(sys.argv[1], grids=[g])\n"
     );
-    let o = Command::new("/usr/bin/python3")
+    let o = tools::command(&tools::PYOPENVDB)
         .args(["-c", &full, s(path)])
         .output()
         .expect("/usr/bin/python3 with pyopenvdb (Debian package python3-openvdb) is required");
@@ -536,6 +539,7 @@ fn pyopenvdb_write(path: &Path, script: &str) {
 
 #[test]
 fn file_text_is_escaped_and_huge_numbers_are_compact() {
+    need!(tools::PYOPENVDB);
     let dir = scratch("messages");
     let file = dir.join("esc.vdb");
     pyopenvdb_write(
@@ -615,6 +619,7 @@ fn needle_grid(path: &Path, edge: f64) {
 /// shape; voxels of 10:1 still render.
 #[test]
 fn needle_voxels_are_refused_at_once() {
+    need!(tools::PYOPENVDB);
     let dir = scratch("needle");
     let needle = dir.join("needle.vdb");
     needle_grid(&needle, 1e-8);

@@ -7,6 +7,7 @@
 mod common;
 use common::exrheader;
 use common::frames::*;
+use common::tools;
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -14,6 +15,7 @@ use std::process::Command;
 
 #[test]
 fn every_pattern_style_renders_the_sequence_as_direct_renders() {
+    need!(tools::EXRHEADER, tools::IDIFF);
     let dir = scratch("styles");
     let styles = [
         ("fluid_####.vdb", "a_####.exr", "a_{:04}.exr"),
@@ -67,6 +69,7 @@ fn every_pattern_style_renders_the_sequence_as_direct_renders() {
 
 #[test]
 fn a_missing_or_unreadable_frame_is_one_line_and_the_others_are_written() {
+    need!(tools::IDIFF);
     let dir = scratch("missing");
     let cache = dir.join("cache");
     fs::create_dir(&cache).unwrap();
@@ -126,6 +129,7 @@ fn a_missing_or_unreadable_frame_is_one_line_and_the_others_are_written() {
 
 #[test]
 fn skip_existing_resumes_a_killed_run() {
+    need!(tools::IDIFF);
     let dir = scratch("resume");
     let input = seq("fluid_####.vdb");
     let mut args = vec![
@@ -206,6 +210,7 @@ fn pieces_of_frame_3(dir: &Path, pieces: usize, extra: &[&str]) -> Vec<PathBuf> 
 
 #[test]
 fn stitched_pieces_equal_the_one_piece_render() {
+    need!(tools::EXRHEADER, tools::IDIFF);
     let dir = scratch("stitch");
     let written_as = [
         "--colorspace",
@@ -420,6 +425,7 @@ fn bad_pieces_and_sequences_are_one_line_and_exit_2() {
 
 #[test]
 fn a_scene_file_may_hold_the_frames() {
+    need!(tools::IDIFF);
     let dir = scratch("scene");
     let scene = dir.join("shot.toml");
     fs::write(

@@ -4,6 +4,7 @@
 
 mod common;
 use common::frames::*;
+use common::tools;
 
 use std::fs;
 use std::path::Path;
@@ -108,6 +109,7 @@ fn altered_shadow_cache_metadata_is_refused() {
 /// control characters, written by pyopenvdb, prints as 40 characters and its length.
 #[test]
 fn binary_names_in_a_cache_are_escaped_and_cut() {
+    need!(tools::PYOPENVDB);
     let d = scratch("shadow-binary");
     let script = "import pyopenvdb as vdb, numpy as np, sys\n\
         g = vdb.FloatGrid()\n\
@@ -116,7 +118,7 @@ fn binary_names_in_a_cache_are_escaped_and_cut() {
         g['murk:light'] = ''.join(chr(1 + i % 30) for i in range(650))\n\
         vdb.write(sys.argv[1], grids=[g])\n";
     let cache = d.join("odd.vdb");
-    let o = std::process::Command::new("/usr/bin/python3")
+    let o = tools::command(&tools::PYOPENVDB)
         .args(["-c", script, cache.to_str().unwrap()])
         .output()
         .expect("/usr/bin/python3 with pyopenvdb (Debian package python3-openvdb) is required");

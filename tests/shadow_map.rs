@@ -4,6 +4,9 @@
 //! Notation: σ the extinction per unit density, ρ the density, μ = cos θ of the sun's
 //! angle to the slab normal, h a thickness.
 
+mod common;
+use common::tools;
+
 use glam::DVec3;
 use murk::field::shapes::ConstantBox;
 use murk::field::{Field, VoxelGrid};
@@ -240,6 +243,7 @@ fn tighter_tolerance_refines_below_half_a_voxel_and_lowers_the_error() {
 /// own `vdb_print`, and is refused for another light or another density grid.
 #[test]
 fn shadow_cache_round_trips_and_refuses_a_mismatch() {
+    need!(tools::PYOPENVDB, tools::VDB_PRINT);
     let dir = std::env::temp_dir().join(format!("murk-cache-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("shadows.vdb");
@@ -282,7 +286,7 @@ fn shadow_cache_round_trips_and_refuses_a_mismatch() {
         }
     }
     // OpenVDB reads it.
-    let out = std::process::Command::new("vdb_print")
+    let out = tools::command(&tools::VDB_PRINT)
         .arg(&path)
         .output()
         .expect("vdb_print (Debian package libopenvdb-tools) is required");
@@ -312,7 +316,7 @@ fn shadow_cache_round_trips_and_refuses_a_mismatch() {
         path.to_str().unwrap(),
         old.to_str().unwrap()
     );
-    let py = std::process::Command::new("/usr/bin/python3")
+    let py = tools::command(&tools::PYOPENVDB)
         .args(["-c", &script])
         .status()
         .expect("/usr/bin/python3 with pyopenvdb (Debian package python3-openvdb) is required");

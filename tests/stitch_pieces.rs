@@ -3,6 +3,7 @@
 
 mod common;
 use common::frames::*;
+use common::tools;
 
 use exr::prelude::read_all_flat_layers_from_file;
 use std::fs;
@@ -42,6 +43,7 @@ fn misdirect_row(path: &Path, from: usize, to: usize) {
 
 #[test]
 fn a_piece_s_rows_are_read_by_their_own_y_not_its_offset_table() {
+    need!(tools::IDIFF);
     let d = scratch("stitch-offsets");
     for i in 1..=3 {
         render(&d, &format!("p{i}.exr"), &["--tile", &format!("{i}/3")]);
@@ -71,6 +73,7 @@ fn a_piece_s_rows_are_read_by_their_own_y_not_its_offset_table() {
 
 #[test]
 fn cropped_and_uncropped_pieces_stitch_into_the_cropped_frame() {
+    need!(tools::IDIFF);
     let d = scratch("stitch-crop");
     render(&d, "whole.exr", &["--crop-data-window"]);
     render(&d, "p1.exr", &["--tile", "1/3", "--crop-data-window"]);

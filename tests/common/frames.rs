@@ -86,7 +86,7 @@ pub fn direct(dir: &Path, frame: u32) -> PathBuf {
 /// The two images are the same: idiff with no tolerance, and every sample, channel,
 /// storage type and window equal as read by the `exr` crate.
 pub fn same_image(a: &Path, b: &Path) {
-    let out = Command::new("idiff")
+    let out = super::tools::command(&super::tools::IDIFF)
         .args(["-fail", "0", "-warn", "0"])
         .args([a, b])
         .output()
@@ -127,7 +127,7 @@ pub fn same_image(a: &Path, b: &Path) {
 }
 
 pub fn differs(a: &Path, b: &Path) -> bool {
-    !Command::new("idiff")
+    !super::tools::command(&super::tools::IDIFF)
         .args(["-fail", "0", "-warn", "0", "-q"])
         .args([a, b])
         .status()

@@ -1,18 +1,21 @@
 //! Helpers shared by the integration tests: tools nobody here wrote (exrheader,
-//! oiiotool) run as a reader would, failing the test when a tool is missing.
+//! oiiotool) run as a reader would. A test that runs one starts with `need!` (see
+//! `tools`), which skips it where the tool is missing.
 #![allow(dead_code)]
 
 pub mod frames;
 pub mod march;
+pub mod tools;
 
 use std::path::Path;
-use std::process::Command;
 
-/// Runs an external tool; a missing tool or a failure fails the test.
+/// Runs an external tool, which the test asked for with `need!` (`tools`); a failure
+/// fails the test.
 pub fn tool(tool: &str, args: &[&str], package: &str) -> String {
-    let out = Command::new(tool).args(args).output().unwrap_or_else(|e| {
-        panic!("cannot run `{tool}` ({e}): it is required; install the Debian package `{package}`")
-    });
+    let out = tools::command_named(tool)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run `{tool}` (Debian package `{package}`): {e}"));
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(
         out.status.success(),
