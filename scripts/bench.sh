@@ -7,7 +7,7 @@
 #         benches/make_big_grid.py. murk's VdbFile::open + VoxelGrid::load against
 #         pyopenvdb.readAll (time, peak RSS), each in a fresh process; then trilinear
 #         samples per second, murk's value_at_index against OpenVDB-rs's BoxSampler with
-#         a cached ValueAccessor (benches/grid.rs). Then the memory part (#14 target 3,
+#         a cached ValueAccessor (benches/grid.rs). Then the memory part (target: 3x the density,
 #         both figures in the same run).
 # memory: the large cloud (benches/make_cloud.py --size BENCH_MEMORY_SIZE, 480: 27.6 M
 #         active voxels) rendered with murk's defaults at 480x270: the whole process's peak
@@ -18,7 +18,7 @@
 #         per voxel / voxel size) and primary step in voxels; alpha error of both against a
 #         fine-step murk reference; whole-process wall time and peak RSS; the shadow map's
 #         bake time and memory against the density structure's.
-# shadow: the deep shadow map's targets (#14 target 2) on the demo cloud at 960x540 and a
+# shadow: the deep shadow map's targets on the demo cloud at 960x540 and a
 #         generated large cloud (benches/make_big_grid.py, BENCH_SHADOW_SIZE³ voxels, all
 #         active) at 480x270, murk's default camera and medium: the map's memory against
 #         the density structure's (target ≤ 2×), the bake's share of the whole run (≤ 25 %),
@@ -32,7 +32,7 @@
 #         same run, at BENCH_EMISSION_RES with BENCH_EMISSION_THREADS threads, for each of
 #         BENCH_EMISSION_SCATTERING; CPU and wall seconds of the whole process and the
 #         render stage, samples, and the ratio with/without against the 1.5× target.
-# speed:  #14 target 1 as the issue states it: the fBm cloud of benches/make_cloud.py at
+# speed:  the speed target against vdb_render: the fBm cloud of benches/make_cloud.py at
 #         192³ (1.8 M voxels) rendered at 960x540 and at 480³ (27.6 M) at 480x270, the
 #         same camera, σ (σa 1.92, σs 5.76 per world unit; per voxel for vdb_render) and
 #         sun for both renderers. Rows: vdb_render with its defaults (step 1, shadow step
@@ -154,7 +154,7 @@ for line in sys.stdin:
     done
 }
 
-# The large cloud's peak memory (#14 target 3): the whole process against the density
+# The large cloud's peak memory (target: 3x the density): the whole process against the density
 # structure murk keeps for the render.
 bench_memory() {
     log "building murk (cargo build --release)"
@@ -199,7 +199,7 @@ murk_render() { # OUT.exr STATS.json STEP SHADOWS [extra flags]
 }
 
 # murk choosing its own step, tolerance and termination for a relative radiance error of
-# 1e-2 against its --reference (#14): OUT.exr STATS.json. Single scattering, as
+# 1e-2 against its --reference: OUT.exr STATS.json. Single scattering, as
 # vdb_render (murk's default adds the fast multiple-scattering lattice).
 murk_render_budget() {
     "$MURK" render "$CLOUD" -o "$1" --res "$RES" --eye "$EYE" --look-at "$LOOK" --fov "$FOV" \
@@ -373,7 +373,7 @@ bench_emission() {
 }
 
 # ------------------------------------------------------------------ E. speed
-# #14 target 1. make_cloud.py's cloud fills the world cube [-4.8, 4.8]³ at every size.
+# The speed target. make_cloud.py's cloud fills the world cube [-4.8, 4.8]³ at every size.
 SPEED_EYE=0,1,18
 SPEED_LOOK=0,-0.4,0
 SPEED_FOV=40

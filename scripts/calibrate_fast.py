@@ -11,7 +11,7 @@ DRJIT_LIBLLVM_PATH names an LLVM ≥ 16, else `scalar_rgb`) and Debian's python3
 for /usr/bin/python3 (the dense copy of the grid). Mitsuba references are cached in
 --out (keyed by case and spp), so re-running to measure a change of murk is quick.
 
-How murk is matched to Mitsuba (measured; see issue 15): OpenVDB values sit on integer
+How murk is matched to Mitsuba (measured): OpenVDB values sit on integer
 index points and Mitsuba's gridvolume at cell centres, so the dense copy is padded with
 one zero voxel and the unit cube maps to index [lo−0.5, lo+n−0.5]; Mitsuba's
 directional light points the way light travels; `volpath` with max_depth 2 is single

@@ -1,4 +1,4 @@
-//! The reference mode against closed forms (issue "report error against run time").
+//! The reference mode against closed forms (murk reports its own error against run time).
 //!
 //! Orthographic rays through pixel centres (jitter 0.5), `p` the phase value, `E` the
 //! sun's irradiance, `a = σs/σt`, `μv` the cosine between the view ray and the slab

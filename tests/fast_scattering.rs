@@ -208,7 +208,7 @@ fn white_slab_reflects_no_more_than_it_receives() {
         .sum();
     // Measured 1.108: the lattice's cells here are 3.6 mean free paths deep, so the
     // in-radiance just under the surface, which grazing views see, is interpolated
-    // across the boundary layer (README: where fast is worst).
+    // across the boundary layer (docs/how-it-works.md: where fast is worst).
     eprintln!("reflected flux {flux:.4} of 1");
     assert!(flux <= 1.15 && flux > 0.85, "reflected flux {flux}");
 }

@@ -20,7 +20,9 @@ fn fixtures_match_a_fresh_openvdb_run() {
         .arg("--check")
         .arg(format!("{root}/fixtures"))
         .output()
-        .expect("cannot run /usr/bin/python3: install Debian's python3-openvdb (see README)");
+        .expect(
+            "cannot run /usr/bin/python3: install Debian's python3-openvdb (see docs/testing.md)",
+        );
     let text = format!(
         "{}{}",
         String::from_utf8_lossy(&out.stdout),

@@ -1286,7 +1286,7 @@ fn mutated_fixtures_end_cleanly() {
     run_all("default", &f, m, DEFAULT_RENDER_STEP);
 }
 
-/// The long run (README, "Reliability", says how long it takes).
+/// The long run (docs/testing.md says how long it takes).
 #[test]
 #[ignore = "long: tens of thousands of mutants; run with --ignored"]
 fn mutated_fixtures_end_cleanly_long() {

@@ -7,7 +7,7 @@
 //! line `murk: error: ...` naming the scene or a file it names, and nothing written.
 //!
 //! `cargo test --release --test mutation_scenes -- --nocapture` runs the default set and
-//! prints a summary; `-- --ignored` runs the long one (README, "Reliability").
+//! prints a summary; `-- --ignored` runs the long one (docs/testing.md).
 
 use murk::field::random::SplitMix64;
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
-//! What murk promises whatever it is given (README, "Reliability"): it ends, with exit 0
+//! What murk promises whatever it is given (docs/guide.md, "What murk promises"): it ends, with exit 0
 //! or 2 and one line; it never writes a non-finite value or over its own inputs; a kill
 //! leaves nothing that the next run does not clean. Each test here reproduces one finding
-//! of the fuzz campaign of issue 11 and fails on the code before its fix.
+//! of a fuzz campaign and fails on the code before its fix.
 
 mod common;
 use common::tools;

@@ -370,7 +370,7 @@ fn ground_plane_receives_the_sphere_shadow() {
 
 /// When the sample budget stops refinement the map says so, with how many bricks and
 /// what error to expect, and the error it names is honest: marched shadow rays find no
-/// larger error than about that. (At production scale, #14 measured 125,745 bricks
+/// larger error than about that. (At production scale, the benchmarks measured 125,745 bricks
 /// stopped this way with nothing said.) With the default budget and tolerance, the cloud's
 /// map meets the tolerance and says nothing.
 #[test]
@@ -484,7 +484,7 @@ fn bricks_kept_at_one_voxel_over_the_tolerance_name_the_error_to_expect() {
     }
 }
 
-/// Compact bricks (#14): the demo cloud under the default sun: its smooth bricks hold τ alone, trilinear in 16 bits. The map is smaller than
+/// Compact bricks: the demo cloud under the default sun: its smooth bricks hold τ alone, trilinear in 16 bits. The map is smaller than
 /// with every brick Hermite, still meets the tolerance against marched rays, and the
 /// cache gives the same map back. (Its bricks are never dark: the density's least value
 /// over a brick of this sparse cloud is 0 almost everywhere, so the bound that makes a
