@@ -508,10 +508,20 @@ mod tests {
             };
             let mut raw = vec![input.display().to_string(), format!("--{long}")];
             if arg.get_action().takes_values() {
+                // A value clap takes: a listed one, the first word of a value name
+                // such as `hg|water-drop`, else a number.
                 let value = arg
                     .get_possible_values()
                     .first()
-                    .map_or_else(|| "1".to_string(), |v| v.get_name().to_string());
+                    .map(|v| v.get_name().to_string())
+                    .or_else(|| {
+                        let names = arg.get_value_names()?;
+                        let word = names.first()?.split('|').next()?;
+                        word.chars()
+                            .all(|c| c.is_ascii_lowercase() || c == '-')
+                            .then(|| word.to_string())
+                    })
+                    .unwrap_or_else(|| "1".to_string());
                 raw.push(value);
             }
             raw.extend(["-o", "render/f_####.exr", "--job", "job.yaml"].map(String::from));
