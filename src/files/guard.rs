@@ -69,8 +69,13 @@ pub fn protect(inputs: &[Role]) {
     let mut guard = PROTECTED.lock().unwrap_or_else(|e| e.into_inner());
     let map = guard.get_or_insert_with(HashMap::new);
     for r in inputs {
-        map.entry(Identity::of(&r.path))
-            .or_insert_with(|| r.clone());
+        let id = Identity::of(&r.path);
+        // An entry for this inode whose file is gone (a deleted input's number, reused)
+        // is stale: this file takes it.
+        let stale = map.get(&id).is_none_or(|old| Identity::of(&old.path) != id);
+        if stale {
+            map.insert(id, r.clone());
+        }
     }
 }
 
@@ -188,6 +193,24 @@ mod tests {
         let _ = fs::remove_dir_all(&dir);
         fs::create_dir_all(&dir).unwrap();
         dir
+    }
+
+    /// A protected file that is gone leaves its inode's entry stale; a file that comes to
+    /// hold that inode (here by a rename; a new file can reuse a freed number) is
+    /// protected when marked. Unit tests run side by side in one process, so this once
+    /// let a write over a protected input through.
+    #[test]
+    fn a_file_on_a_stale_entrys_inode_is_protected() {
+        let dir = scratch("stale");
+        let a = dir.join("a.vdb");
+        fs::write(&a, "x").unwrap();
+        protect(&[Role::new(&a, "the old input")]);
+        let b = dir.join("b.vdb");
+        fs::rename(&a, &b).unwrap();
+        protect(&[Role::new(&b, "the input")]);
+        let e = check_target(&b).unwrap_err().to_string();
+        assert!(e.contains("would overwrite the input"), "{e}");
+        fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
