@@ -140,8 +140,10 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                 )
             };
             let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
+            let mut ray = WorldRay::new(o, d);
+            (ray.t_min, ray.t_max) = job.camera.clip(&frame, ray.dir);
             let sample = CameraSample {
-                ray: WorldRay::new(o, d),
+                ray,
                 depth_rate: d.dot(frame.forward),
             };
             let mut rng = SampleRng::new(job.seed, x, y, stream);

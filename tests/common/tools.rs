@@ -82,6 +82,15 @@ pub const PYPI_REFERENCES: Tool = Tool {
         "meshio, vtk, miepython",
     ),
 };
+/// Pixar's USD (`from pxr import Usd`), the reference of the USD camera reader.
+pub const USD_CORE: Tool = Tool {
+    name: "usd-core",
+    package: "pip package usd-core, in /opt/murk-venv as .ci/run makes it",
+    probe: Probe::Python(
+        &["/opt/murk-venv/bin/python", "/usr/bin/python3"],
+        "pxr.Usd, pxr.UsdGeom",
+    ),
+};
 pub const OPENJD: Tool = Tool {
     name: "openjd",
     package: "pip package openjd-cli in /opt/murk-venv, or MURK_OPENJD",
@@ -98,7 +107,7 @@ macro_rules! need {
     };
 }
 
-const ALL: [&Tool; 9] = [
+const ALL: [&Tool; 10] = [
     &EXRHEADER,
     &OIIOTOOL,
     &IDIFF,
@@ -108,6 +117,7 @@ const ALL: [&Tool; 9] = [
     &PYOPENVDB,
     &PYPI_REFERENCES,
     &OPENJD,
+    &USD_CORE,
 ];
 
 thread_local! {

@@ -10,6 +10,7 @@ mod lighting;
 mod look;
 mod outputs;
 mod quality;
+mod shot;
 mod values;
 
 pub use camera::{CameraPlan, CameraRequest};
@@ -18,6 +19,7 @@ pub use lighting::{ShadowMode, ShadowPlan, safe_layer_name};
 pub use look::{EmissionPlan, GridChoice, GridRoles};
 pub use outputs::{OutputPlan, ProductionPlan};
 pub use quality::{MarchPlan, SamplingPlan};
+pub use shot::{ShotCameraAt, ShotPlan};
 
 use super::PlanError;
 use super::light::Light;
