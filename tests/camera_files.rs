@@ -1,10 +1,13 @@
 //! The shot's camera from files: USD stages read as Pixar's usd-core reads them, a Nuke
 //! `.chan` of the same camera giving the same image bit for bit, the scene file's keyed
 //! `[camera]` table, a moving camera over a static cache writing its camera into each
-//! frame's header, Cycles' image through the same camera, and bad camera files refused
-//! in one line.
+//! frame's header, pieces and farm jobs carrying it, and bad camera files refused in one
+//! line. Cycles' image through the same camera: `camera_cycles.rs`.
 
 mod common;
+use common::camera::{
+    CHAN, author_stages, fixture, render_frames, samples, scratch, world_to_camera,
+};
 use common::frames::{murk, ok, refused, same_image};
 use common::tools;
 use glam::{DMat4, DVec3};
@@ -12,38 +15,7 @@ use murk::scene::film::FilmBack;
 use murk::scene::shot::{CameraTrack, FileRequest, RotationOrder};
 use serde_json::Value;
 use std::fs;
-use std::path::{Path, PathBuf};
-
-fn fixture(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("fixtures")
-        .join(name)
-        .display()
-        .to_string()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("camera-{name}"));
-    let _ = fs::remove_dir_all(&dir);
-    fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// The stages of scripts/usd_camera.py, authored by usd-core in `dir`.
-fn author_stages(dir: &Path) {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/usd_camera.py");
-    let out = tools::command(&tools::USD_CORE)
-        .arg(&script)
-        .arg(dir)
-        .arg(fixture("cloud.vdb"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
+use std::path::Path;
 
 fn open(path: &Path) -> CameraTrack {
     CameraTrack::open(&FileRequest {
@@ -123,39 +95,6 @@ fn usd_cameras_read_as_usd_core_reads_them() {
     }
 }
 
-/// `murk render` of `input` (a .vdb or a scene) at frames 1 to 3 into `name.####.exr`.
-fn render_frames(dir: &Path, input: &str, name: &str, extra: &[&str]) -> Vec<PathBuf> {
-    let out = dir.join(format!("{name}.####.exr"));
-    let mut args = vec![
-        "render",
-        input,
-        "-o",
-        out.to_str().unwrap(),
-        "--frames",
-        "1-3",
-        "--res",
-        "48x32",
-        "--quiet",
-    ];
-    args.extend(extra);
-    ok(dir, &args);
-    (1..=3)
-        .map(|f| dir.join(format!("{name}.{f:04}.exr")))
-        .collect()
-}
-
-/// The header's worldToCamera (as stored: m44f, row by row).
-fn world_to_camera(exr: &Path) -> [f32; 16] {
-    let meta = exr::meta::MetaData::read_from_file(exr, false).unwrap();
-    let m = meta.headers[0]
-        .own_attributes
-        .world_to_camera
-        .unwrap_or_else(|| panic!("{}: no worldToCamera", exr.display()));
-    let mut out = [0f32; 16];
-    out.copy_from_slice(&m[..]);
-    out
-}
-
 #[test]
 fn a_chan_of_the_usd_camera_gives_the_same_images_bit_for_bit() {
     need!(tools::USD_CORE, tools::IDIFF);
@@ -183,27 +122,6 @@ fn a_chan_of_the_usd_camera_gives_the_same_images_bit_for_bit() {
         assert_ne!(world_to_camera(&usd[0]), world_to_camera(&usd[2]));
     }
 }
-
-/// The exact samples of the EXR's channels, for comparing two images without a tool.
-fn samples(exr: &Path) -> Vec<(String, Vec<u32>)> {
-    use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
-    let img = read_all_flat_layers_from_file(exr).unwrap();
-    img.layer_data[0]
-        .channel_data
-        .list
-        .iter()
-        .map(|c| {
-            let bits = match &c.sample_data {
-                FlatSamples::F16(v) => v.iter().map(|h| h.to_bits() as u32).collect(),
-                FlatSamples::F32(v) => v.iter().map(|f| f.to_bits()).collect(),
-                FlatSamples::U32(v) => v.clone(),
-            };
-            (c.name.to_string(), bits)
-        })
-        .collect()
-}
-
-const CHAN: &str = "1 0.2 0.3 6.5 -3 5 0 30\n2 0.5 0.4 6.2 -4 9 2 32\n3 0.8 0.5 5.9 -5 13 4 34\n";
 
 #[test]
 fn a_moving_camera_over_a_static_cache_writes_each_frame_with_its_camera() {
@@ -429,6 +347,11 @@ fn bad_camera_files_are_refused_in_one_line() {
     )
     .unwrap();
     render("flat.usda", &[], "singular");
+    // A binary stage cut short and filled with nonsense after its magic.
+    let mut usdc = b"PXR-USDC\x00\x08\x00\x00\x00\x00\x00\x00".to_vec();
+    usdc.extend(std::iter::repeat_n(0xffu8, 200));
+    fs::write(dir.join("broken.usdc"), usdc).unwrap();
+    render("broken.usdc", &[], "broken.usdc: ");
     fs::write(dir.join("short.chan"), "1 0 0 5 0 0\n").unwrap();
     render("short.chan", &[], "short.chan: line 1: 6 columns");
     fs::write(dir.join("shot.fbx"), "").unwrap();
@@ -446,101 +369,6 @@ fn bad_camera_files_are_refused_in_one_line() {
         &["render", &vdb, "-o", "x.exr", "--camera-prim", "/World/Cam"],
         "--camera-prim needs a camera",
     );
-}
-
-/// Mean |ΔA| and the alpha centroid's shift between two alpha images (row-major).
-fn compare_alpha(a: &[f32], b: &[f32], w: usize) -> (f64, f64) {
-    let mean = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs() as f64)
-        .sum::<f64>()
-        / a.len() as f64;
-    let centroid = |img: &[f32]| {
-        let (mut s, mut x, mut y) = (0f64, 0f64, 0f64);
-        for (i, v) in img.iter().enumerate() {
-            let v = *v as f64;
-            s += v;
-            x += v * (i % w) as f64;
-            y += v * (i / w) as f64;
-        }
-        DVec3::new(x / s, y / s, 0.0)
-    };
-    (mean, (centroid(a) - centroid(b)).length())
-}
-
-fn alpha_of(exr: &Path) -> Vec<f32> {
-    use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
-    let img = read_all_flat_layers_from_file(exr).unwrap();
-    let layer = &img.layer_data[0];
-    let ch = layer
-        .channel_data
-        .list
-        .iter()
-        .find(|c| c.name.to_string() == "A")
-        .unwrap_or_else(|| panic!("{}: no A", exr.display()));
-    match &ch.sample_data {
-        FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
-        FlatSamples::F32(v) => v.clone(),
-        FlatSamples::U32(v) => v.iter().map(|u| *u as f32).collect(),
-    }
-}
-
-#[test]
-fn a_usd_camera_sees_what_cycles_sees_through_it() {
-    need!(tools::USD_CORE, tools::BLENDER);
-    let dir = scratch("cycles");
-    author_stages(&dir);
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/cycles_camera.py");
-    let (w, h) = (48, 32);
-    for (name, stage) in [("yup", "yup.usda"), ("zup", "zup.usdc")] {
-        let ours = render_frames(
-            &dir,
-            &fixture("cloud.vdb"),
-            &format!("{name}_murk"),
-            &[
-                "--camera-file",
-                stage,
-                "--sigma-a",
-                "1,1,1",
-                "--sigma-s",
-                "0,0,0",
-                "--no-lights",
-                "--float",
-            ],
-        );
-        let out = tools::command(&tools::BLENDER)
-            .args(["-b", "--factory-startup", "-noaudio", "--python"])
-            .arg(&script)
-            .arg("--")
-            .arg(dir.join(format!("{name}.json")))
-            .arg(fixture("cloud.vdb"))
-            // cloud.vdb's voxel size (fixtures/README.md).
-            .arg("0.05")
-            .arg(dir.join(format!("{name}_cycles_")))
-            .arg(format!("{w}x{h}"))
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        for (i, ours) in ours.iter().enumerate() {
-            let theirs = dir.join(format!("{name}_cycles_{}.exr", i + 1));
-            let (mean, shift) = compare_alpha(&alpha_of(ours), &alpha_of(&theirs), w);
-            eprintln!(
-                "{name} frame {}: mean |dA| {mean:.4}, centroid shift {shift:.3} px",
-                i + 1
-            );
-            assert!(mean <= 0.01, "{name} frame {}: mean |dA| {mean}", i + 1);
-            assert!(
-                shift <= 0.5,
-                "{name} frame {}: centroid moved {shift} px",
-                i + 1
-            );
-        }
-    }
 }
 
 #[test]

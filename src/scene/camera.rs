@@ -56,10 +56,11 @@ impl Camera {
                 Err(format!("{{ortho_width}} {width} must be a positive number"))
             }
             Projection::Film(w)
-                if ![w.left, w.right, w.bottom, w.top]
-                    .iter()
-                    .all(|v| v.is_finite())
-                    || !(w.right > w.left && w.top > w.bottom) =>
+                if !(w.right > w.left
+                    && w.top > w.bottom
+                    && [w.left, w.right, w.bottom, w.top]
+                        .iter()
+                        .all(|v| v.is_finite())) =>
             {
                 Err("the camera's film window is empty".into())
             }

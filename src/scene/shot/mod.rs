@@ -114,9 +114,12 @@ impl CameraTrack {
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase);
         match ext.as_deref() {
-            Some("usd" | "usda" | "usdc" | "usdz") => Ok(CameraTrack::Usd(Box::new(
-                UsdCamera::open(&req.path, req.prim.as_deref())?,
-            ))),
+            Some("usd" | "usda" | "usdc" | "usdz") => {
+                let opened =
+                    crate::vdb::without_panics(|| UsdCamera::open(&req.path, req.prim.as_deref()))
+                        .map_err(|e| ShotError::new(&req.path, e))??;
+                Ok(CameraTrack::Usd(Box::new(opened)))
+            }
             Some("chan") => Ok(CameraTrack::Keys(chan::read(
                 &req.path,
                 req.rotation_order,
@@ -132,7 +135,7 @@ impl CameraTrack {
     /// The camera at frame `time`.
     pub fn at(&self, time: f64) -> Result<ShotCamera, String> {
         match self {
-            CameraTrack::Usd(u) => u.at(time),
+            CameraTrack::Usd(u) => crate::vdb::without_panics(|| u.at(time))?,
             CameraTrack::Keys(k) => k.at(time),
         }
     }

@@ -325,20 +325,6 @@ impl UsdCamera {
 }
 
 /// The camera's attributes that may be animated.
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn samples_are_linear_between_and_held_outside() {
-        let s = [(1.0, 32.0), (3.0, 40.0)];
-        assert_eq!(super::lerp_samples(&s, 0.0), 32.0);
-        assert_eq!(super::lerp_samples(&s, 1.0), 32.0);
-        assert_eq!(super::lerp_samples(&s, 2.0), 36.0);
-        assert_eq!(super::lerp_samples(&s, 3.0), 40.0);
-        assert_eq!(super::lerp_samples(&s, 9.0), 40.0);
-        assert_eq!(super::lerp_samples(&[(5.0, 1.0)], 2.0), 1.0);
-    }
-}
-
 const ATTRS: [&str; 7] = [
     "focalLength",
     "horizontalAperture",
@@ -393,4 +379,18 @@ fn quat(v: &Value) -> Option<DQuat> {
         _ => return None,
     };
     (q.length() > 0.0).then(|| q.normalize())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn samples_are_linear_between_and_held_outside() {
+        let s = [(1.0, 32.0), (3.0, 40.0)];
+        assert_eq!(super::lerp_samples(&s, 0.0), 32.0);
+        assert_eq!(super::lerp_samples(&s, 1.0), 32.0);
+        assert_eq!(super::lerp_samples(&s, 2.0), 36.0);
+        assert_eq!(super::lerp_samples(&s, 3.0), 40.0);
+        assert_eq!(super::lerp_samples(&s, 9.0), 40.0);
+        assert_eq!(super::lerp_samples(&[(5.0, 1.0)], 2.0), 1.0);
+    }
 }
