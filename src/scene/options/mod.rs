@@ -105,8 +105,9 @@ render_options! {
     camera_file: Option<PathBuf> = (Camera, "FILE", NoDefault, Render);
     /// The USD camera prim to render through.
     camera_prim: Option<String> = (Camera, "/PATH", Described("the stage's only camera"), Render);
-    /// Euler order of a .chan's (and the [camera] table's) rotations, first axis first.
-    camera_rotation_order: Option<String> = (Camera, "xyz|xzy|yxz|yzx|zxy|zyx", Described("zxy, Nuke's"), Render);
+    /// Euler order of a .chan's (and the [camera] table's) rotations, first axis first:
+    /// xyz, xzy, yxz, yzx, zxy or zyx.
+    camera_rotation_order: Option<String> = (Camera, "ORDER", Described("zxy, Nuke's"), Render);
     /// How a camera file's film gate fits the image: horizontal, vertical, fill or
     /// overscan.
     film_fit: Option<String> = (Camera, "FIT", Described("horizontal; vertical for a .chan"), Render);
@@ -253,6 +254,12 @@ render_options! {
 pub enum CameraSetting {
     Kind(String),
     Table(Box<crate::scene::shot::table::CameraTable>),
+}
+
+impl From<&str> for CameraSetting {
+    fn from(kind: &str) -> Self {
+        CameraSetting::Kind(kind.to_string())
+    }
 }
 
 impl FlagValue for CameraSetting {

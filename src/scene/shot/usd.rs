@@ -184,8 +184,8 @@ impl UsdCamera {
     /// samples where USD interpolates the float.
     fn value(&self, prim: &sdf::Path, name: &str, time: f64) -> Result<Option<Value>, String> {
         let attr = self.stage.prim(prim.clone()).attribute(name);
-        let failed = |e: anyhow::Error| format!("{}.{name}: {}", prim.as_str(), line(e));
-        if let Some(samples) = attr.time_samples().map_err(failed)? {
+        let failed = |e: String| format!("{}.{name}: {e}", prim.as_str());
+        if let Some(samples) = attr.time_samples().map_err(|e| failed(line(e)))? {
             let numbers: Option<Vec<(f64, f64)>> = samples
                 .iter()
                 .map(|(t, v)| number(v).map(|x| (*t, x)))
@@ -195,7 +195,7 @@ impl UsdCamera {
             }
         }
         attr.get_at::<Value>(Some(TimeCode::new(time)))
-            .map_err(failed)
+            .map_err(|e| failed(line(e)))
     }
 
     /// The camera at frame `time`.
