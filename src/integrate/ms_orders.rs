@@ -171,6 +171,30 @@ pub(super) fn solve<const C: usize>(
                 source: vec![[0f32; C]; grid.len],
             });
         }
+        // The source toward direction `k`: the true phase for the first order,
+        // isotropic after it.
+        let fill_source = |k: usize, s: &mut [[f32; C]]| {
+            if first {
+                let p_at = |n: usize| phases[n].weight(k);
+                let p0 = if uniform_travel { p_at(0) } else { 0.0 };
+                for (n, (s, v)) in s.iter_mut().zip(&rho_j).enumerate() {
+                    let p = if uniform_travel {
+                        p0
+                    } else if v.iter().any(|x| *x > 0.0) {
+                        p_at(n)
+                    } else {
+                        0.0
+                    };
+                    *s = v.map(|x| x * p);
+                }
+            } else {
+                s.copy_from_slice(&rho_j);
+            }
+        };
+        // With more threads than groups, each group sweeps its directions in parallel too
+        // (a source and a radiance buffer each), summing them in the same order: the
+        // same bits, more memory only where there are the threads to use it.
+        let spread = rayon::current_num_threads() > n_groups;
         buffers[..n_groups]
             .par_iter_mut()
             .zip(dirs.par_chunks(DIRECTION_GROUP))
@@ -184,27 +208,7 @@ pub(super) fn solve<const C: usize>(
                 } = buf;
                 acc.iter_mut().for_each(|v| *v = [0.0; C]);
                 acc_g.iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
-                for (di, d) in group.iter().enumerate() {
-                    let k = gi * DIRECTION_GROUP + di;
-                    // The source for this direction: isotropic after the first order,
-                    // the true phase toward d for the first.
-                    if first {
-                        let p_at = |n: usize| phases[n].weight(k);
-                        let p0 = if uniform_travel { p_at(0) } else { 0.0 };
-                        for (n, (s, v)) in s.iter_mut().zip(&rho_j).enumerate() {
-                            let p = if uniform_travel {
-                                p0
-                            } else if v.iter().any(|x| *x > 0.0) {
-                                p_at(n)
-                            } else {
-                                0.0
-                            };
-                            *s = v.map(|x| x * p);
-                        }
-                    } else {
-                        s.copy_from_slice(&rho_j);
-                    }
-                    sweep(grid, rho, s, *d, c.sigma_t, albedo, c.h, radiance);
+                let mut add_direction = |d: &DVec3, radiance: &[[f32; C]]| {
                     for (a, r) in acc.iter_mut().zip(radiance.iter()) {
                         for ch in 0..C {
                             a[ch] += r[ch];
@@ -217,6 +221,28 @@ pub(super) fn solve<const C: usize>(
                                 *g += r[ch] * dk;
                             }
                         }
+                    }
+                };
+                if spread {
+                    let swept: Vec<Vec<[f32; C]>> = group
+                        .par_iter()
+                        .enumerate()
+                        .map(|(di, d)| {
+                            let mut s = vec![[0f32; C]; grid.len];
+                            let mut radiance = vec![[0f32; C]; grid.len];
+                            fill_source(gi * DIRECTION_GROUP + di, &mut s);
+                            sweep(grid, rho, &s, *d, c.sigma_t, albedo, c.h, &mut radiance);
+                            radiance
+                        })
+                        .collect();
+                    for (d, radiance) in group.iter().zip(&swept) {
+                        add_direction(d, radiance);
+                    }
+                } else {
+                    for (di, d) in group.iter().enumerate() {
+                        fill_source(gi * DIRECTION_GROUP + di, s);
+                        sweep(grid, rho, s, *d, c.sigma_t, albedo, c.h, radiance);
+                        add_direction(d, radiance);
                     }
                 }
             });
