@@ -194,7 +194,9 @@ fn main() {
     }
 
     // Error against CPU time.
-    let mut curves: BTreeMap<String, BTreeMap<String, (Vec<f64>, Vec<f64>)>> = BTreeMap::new();
+    // Per renderer and setting: the runs' CPU seconds and errors.
+    type Curve = BTreeMap<String, (Vec<f64>, Vec<f64>)>;
+    let mut curves: BTreeMap<String, Curve> = BTreeMap::new();
     for r in rows.iter().filter(|r| r["kind"] == "error") {
         let renderer = r["renderer"].as_str().unwrap_or("?").to_owned();
         let setting = if renderer == "murk" {

@@ -92,6 +92,9 @@ struct GroupBuffers<const C: usize> {
     acc_g: Vec<[[f32; 3]; C]>,
 }
 
+/// One direction's source and radiance over the lattice.
+type SweptBuffers<const C: usize> = (Vec<[f32; C]>, Vec<[f32; C]>);
+
 /// Nodes per task when a wave's radiances are added to their groups' sums.
 const ADD_CHUNK: usize = 4096;
 
@@ -132,7 +135,7 @@ pub(super) fn solve<const C: usize>(
     let mut buffers: Vec<GroupBuffers<C>> = Vec::new();
     // A source and a radiance buffer per direction swept at once: one per thread.
     let wave = rayon::current_num_threads().max(1);
-    let mut swept: Vec<(Vec<[f32; C]>, Vec<[f32; C]>)> = Vec::new();
+    let mut swept: Vec<SweptBuffers<C>> = Vec::new();
     for order in 0..it.orders {
         let dirs = (it.dirs_for)(order);
         let first = order == 0;
