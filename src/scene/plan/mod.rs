@@ -17,7 +17,7 @@ pub use defaults::{MAX_FRAME_BYTES, MAX_LIGHTS, MAX_THREADS, MIN_STEP_VOXELS};
 pub use lighting::{ShadowMode, ShadowPlan, safe_layer_name};
 pub use look::{EmissionPlan, GridChoice, GridRoles};
 pub use outputs::{OutputPlan, ProductionPlan};
-pub use quality::{MarchPlan, SamplingPlan};
+pub use quality::{Device, MarchPlan, SamplingPlan};
 
 use super::PlanError;
 use super::light::Light;
