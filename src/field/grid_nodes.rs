@@ -80,9 +80,11 @@ impl VoxelGrid {
         let own = |k: IVec3| {
             let r = k - IVec3::ONE;
             let d = dims - IVec3::splat(2);
-            (r.cmpge(IVec3::ZERO).all() && r.cmplt(d).all())
-                .then(|| entries[((r.x * d.y + r.y) * d.z + r.z) as usize])
-                .unwrap_or(0)
+            if r.cmpge(IVec3::ZERO).all() && r.cmplt(d).all() {
+                entries[((r.x * d.y + r.y) * d.z + r.z) as usize]
+            } else {
+                0
+            }
         };
         let root: Vec<u32> = (0..(dims.x * dims.y * dims.z) as usize)
             .map(|i| own(at(dims, i)))

@@ -96,7 +96,9 @@ impl Gpu {
 
     /// The most bytes one storage buffer may bind.
     pub fn max_binding(&self) -> u64 {
-        u64::from(self.limits.max_storage_buffer_binding_size).min(self.limits.max_buffer_size)
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
     }
 
     /// Marches `samples` (each [`SAMPLE_FLOATS`] floats) through the uploaded scene;

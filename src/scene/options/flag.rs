@@ -216,5 +216,5 @@ macro_rules! word_flag_values {
 word_flag_values!(
     crate::integrate::ScatteringMode,
     crate::integrate::phase::PhaseKind,
-    crate::scene::plan::Device
+    crate::scene::plan::device::Device
 );

@@ -108,20 +108,7 @@ pub struct SamplingPlan {
     pub seed: u64,
     pub threads: Option<usize>,
     /// `--device`: where the pixels are computed.
-    pub device: Device,
-}
-
-/// `--device cpu|gpu|auto`: where the pixel loop runs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Device {
-    /// The CPU's threads. The default.
-    #[default]
-    Cpu,
-    /// A GPU through wgpu; a scene it cannot render is an error.
-    Gpu,
-    /// A GPU when one is found and it renders every feature of the scene, else the CPU.
-    Auto,
+    pub device: super::device::Device,
 }
 
 impl SamplingPlan {
