@@ -35,8 +35,8 @@ pub fn plan_inputs(plan: &RenderPlan, scene: Option<&Path>, frame: Option<i64>) 
     inputs
 }
 
-/// What a render or bake writes: the output, the stats (unless `-`, standard output) and
-/// the preview, named after `frame` when it is one frame of a sequence.
+/// What a render or bake writes: the output, the stats (unless `-`, standard output), the
+/// preview and the deep EXR, named after `frame` when it is one frame of a sequence.
 pub fn plan_outputs(plan: &RenderPlan, frame: Option<i64>) -> Vec<Role> {
     let of = |what: &str| match frame {
         Some(f) => format!("frame {f}'s {what}"),
@@ -48,6 +48,9 @@ pub fn plan_outputs(plan: &RenderPlan, frame: Option<i64>) -> Vec<Role> {
     }
     if let Some((p, _)) = &plan.outputs.preview {
         outputs.push(Role::new(p, of("preview")));
+    }
+    if let Some(d) = &plan.outputs.deep {
+        outputs.push(Role::new(&d.path, of("deep EXR (--deep)")));
     }
     outputs
 }

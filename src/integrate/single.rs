@@ -1,6 +1,7 @@
 //! Single scattering: emission, absorption and light scattered once toward the camera,
 //! by the ray march ([`march`]), with an optional ground plane behind the volume.
 
+use super::deep::DeepTrace;
 use super::ground::{ALBEDO, Ground};
 use super::integrator::{CameraSample, Integrator, SampleRng};
 use super::march::{Illumination, MarchSettings, Scratch, Volume, march};
@@ -18,6 +19,8 @@ pub struct SingleScattering<'a> {
     ground: Option<(Ground, &'a dyn Illumination)>,
     settings: MarchSettings,
     passes: ScatterPasses,
+    /// Deep output: every camera ray keeps its record.
+    deep: bool,
 }
 
 impl<'a> SingleScattering<'a> {
@@ -45,7 +48,14 @@ impl<'a> SingleScattering<'a> {
             ground,
             settings,
             passes,
+            deep: false,
         }
+    }
+
+    /// With `on`, every camera ray keeps its deep record ([`Integrator::deep_trace`]).
+    pub fn with_deep(mut self, on: bool) -> Self {
+        self.deep = on;
+        self
     }
 }
 
@@ -57,7 +67,15 @@ impl Integrator for SingleScattering<'_> {
     }
 
     fn scratch(&self) -> Scratch {
-        Scratch::new(self.lights.map_or(0, |l| l.light_count()))
+        let mut s = Scratch::new(self.lights.map_or(0, |l| l.light_count()));
+        if self.deep {
+            s.deep = Some(DeepTrace::default());
+        }
+        s
+    }
+
+    fn deep_trace<'s>(&self, scratch: &'s Scratch) -> Option<&'s DeepTrace> {
+        scratch.deep.as_ref()
     }
 
     fn sample(
@@ -95,6 +113,11 @@ impl Integrator for SingleScattering<'_> {
             // An opaque grey floor behind the volume.
             let radiance = light.irradiance * (ALBEDO / std::f64::consts::PI);
             p.add_ground(acc, r.transmittance * radiance);
+            if let Some(tr) = scratch.deep.as_mut() {
+                // The opaque floor: a sample of no depth that ends the ray.
+                let (a0, c0) = tr.last();
+                tr.segment(t, t, a0, c0, 1.0, c0 + r.transmittance * radiance);
+            }
             p.add_alpha(acc, 1.0);
             half_t = half_t.or(Some(t));
         } else {

@@ -19,7 +19,7 @@ use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::path::{LightTransmittance, PathSettings, PathTracer};
 use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, Integrator, ScatteringMode};
-use crate::output::{Frame, write_exr, write_preview};
+use crate::output::{DeepExrOptions, DeepImage, Frame, write_deep_exr, write_exr, write_preview};
 use crate::scene::Scene;
 use crate::scene::lights::bake_maps;
 use crate::scene::plan::{GridChoice, ShadowMode};
@@ -39,6 +39,8 @@ pub struct RenderedImage {
     pub frame: Frame,
     pub exr: crate::output::ExrOptions,
     pub stats: RenderStats,
+    /// With `--deep`: the deep image.
+    pub deep: Option<DeepImage>,
 }
 
 /// Which frame of a sequence a render is, and which piece of it (none: a whole image).
@@ -95,6 +97,7 @@ fn run_frame_here(
         frame,
         mut exr,
         stats: mut st,
+        deep,
     } = render_image_frame_here(plan, progress, reuse, job)?;
     let t = Instant::now();
     exr.render_time_seconds = Some(start.elapsed().as_secs_f64());
@@ -106,6 +109,11 @@ fn run_frame_here(
     let result = (|| -> Result<()> {
         write_exr(&plan.outputs.path, &frame, &exr)?;
         written.push(&plan.outputs.path);
+        if let (Some(d), Some(image)) = (&plan.outputs.deep, &deep) {
+            let summary = write_deep_exr(&d.path, image, &deep_options(&exr, d.tolerance))?;
+            written.push(&d.path);
+            st.scene.notes.push(deep_note(image, summary.bytes));
+        }
         if let Some((path, opts)) = &plan.outputs.preview {
             write_preview(path, &frame, opts)?;
             written.push(path);
@@ -170,6 +178,12 @@ fn render_image_frame_here(
     job: FrameJob,
 ) -> Result<RenderedImage> {
     let start = Instant::now();
+    if plan.outputs.deep.is_some() && job.piece.is_some() {
+        return Err(RenderError::Flag(
+            "--deep is not rendered in pieces (a deep image is not stitched): render the whole frame".into(),
+        ));
+    }
+    let deep = plan.outputs.deep.as_ref().map(|d| d.tolerance);
     let rows = match job.piece {
         Some(p) => {
             p.check(plan.camera.height)?;
@@ -196,7 +210,7 @@ fn render_image_frame_here(
     // Seconds the fast mode's lattice took (a stage of its own in the stats).
     let mut multiple_seconds = None;
     // The integrator of the plan's scattering mode.
-    let (frame, render_seconds) = match plan.transport.mode {
+    let (frame, render_seconds, deep_image) = match plan.transport.mode {
         ScatteringMode::Single => {
             let make = |march| {
                 SingleScattering::new(
@@ -207,8 +221,17 @@ fn render_image_frame_here(
                     march,
                 )
             };
-            let integrator = make(march_settings(plan, &scene, &mut st, make));
-            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+            let integrator =
+                make(march_settings(plan, &scene, &mut st, make)).with_deep(deep.is_some());
+            render_frame(
+                &integrator,
+                &scene,
+                plan,
+                rows.clone(),
+                deep,
+                progress,
+                &mut st,
+            )?
         }
         ScatteringMode::Path => {
             let names = scene.lights.iter().map(|l| l.name.clone()).collect();
@@ -231,7 +254,15 @@ fn render_image_frame_here(
                 },
             )
             .with_opacity_samples(PATH_OPACITY_SAMPLES, plan.sampling.spp);
-            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+            render_frame(
+                &integrator,
+                &scene,
+                plan,
+                rows.clone(),
+                None,
+                progress,
+                &mut st,
+            )?
         }
         ScatteringMode::Fast => {
             // Multiple scattering: the lattice of every light, solved before the pixels.
@@ -258,8 +289,17 @@ fn render_image_frame_here(
                     march,
                 )
             };
-            let integrator = make(march_settings(plan, &scene, &mut st, make));
-            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+            let integrator =
+                make(march_settings(plan, &scene, &mut st, make)).with_deep(deep.is_some());
+            render_frame(
+                &integrator,
+                &scene,
+                plan,
+                rows.clone(),
+                deep,
+                progress,
+                &mut st,
+            )?
         }
     };
     let mut exr = plan.outputs.exr.clone();
@@ -320,7 +360,31 @@ fn render_image_frame_here(
         frame,
         exr,
         stats: st,
+        deep: deep_image,
     })
+}
+
+/// The deep file's header: the flat file's camera matrices and murk's strings.
+fn deep_options(exr: &crate::output::ExrOptions, tolerance: f64) -> DeepExrOptions {
+    let mut extra_strings = exr.extra_strings.clone();
+    extra_strings.push(("murk/deepTolerance".into(), tolerance.to_string()));
+    DeepExrOptions {
+        world_to_camera: exr.world_to_camera,
+        world_to_ndc: exr.world_to_ndc,
+        extra_strings,
+        colorspace: exr.colorspace,
+    }
+}
+
+/// The stats' note on the deep file: its samples and size.
+fn deep_note(image: &DeepImage, bytes: u64) -> String {
+    let covered = image.pixels.iter().filter(|p| !p.is_empty()).count();
+    let samples = image.sample_count();
+    format!(
+        "deep: {samples} samples, {:.1} per covered pixel ({covered} pixels), at most {}; {bytes} bytes",
+        samples as f64 / covered.max(1) as f64,
+        image.pixels.iter().map(Vec::len).max().unwrap_or(0)
+    )
 }
 
 /// The camera march's settings: the plan's, or with `--max-error` those a pilot
@@ -354,9 +418,10 @@ fn render_frame<I: Integrator>(
     scene: &Scene,
     plan: &RenderPlan,
     rows: std::ops::Range<usize>,
+    deep: Option<f64>,
     progress: &dyn Progress,
     st: &mut RenderStats,
-) -> Result<(Frame, f64)> {
+) -> Result<(Frame, f64, Option<DeepImage>)> {
     let t = Instant::now();
     let job = pixels::PixelJob {
         integrator,
@@ -365,16 +430,33 @@ fn render_frame<I: Integrator>(
         seed: plan.sampling.seed,
         rows,
         antialias: plan.sampling.antialias,
+        deep,
     };
     progress.start("rendering", job.tiles() as u64, "tiles");
     // On the plan's threads: the caller runs inside `on_plan_threads`.
-    let passes = pixels::render_pixels(&job, progress);
+    let mut passes = pixels::render_pixels(&job, progress);
     progress.finish();
     let render_seconds = t.elapsed().as_secs_f64();
     st.rays = passes.rays;
     st.samples = passes.samples;
     st.samples_per_second = passes.samples as f64 / render_seconds.max(1e-9);
-    Ok((channels::assemble(&passes)?, render_seconds))
+    let deep = passes.deep.take().map(|pixels| DeepImage {
+        width: passes.width,
+        height: passes.height,
+        pixels: pixels
+            .into_iter()
+            .map(|px| {
+                px.into_iter()
+                    .map(|s| crate::output::DeepSample {
+                        z: s.z,
+                        z_back: s.z_back,
+                        rgba: [s.rgb[0], s.rgb[1], s.rgb[2], s.alpha],
+                    })
+                    .collect()
+            })
+            .collect(),
+    });
+    Ok((channels::assemble(&passes)?, render_seconds, deep))
 }
 
 /// `murk bake-shadows`: bakes the deep shadow map of every light of `plan` over its
@@ -495,6 +577,7 @@ pub fn output_paths(plan: &RenderPlan) -> impl Iterator<Item = &Path> {
         Some(&plan.outputs.path),
         plan.outputs.preview.as_ref().map(|p| &p.0),
         plan.outputs.stats.as_ref().filter(|p| p.as_os_str() != "-"),
+        plan.outputs.deep.as_ref().map(|d| &d.path),
     ]
     .into_iter()
     .flatten()

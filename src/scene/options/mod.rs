@@ -206,6 +206,12 @@ render_options! {
     float: bool = (Image, "", NoDefault, Render);
     /// Write an 8-bit sRGB PNG of the beauty pass.
     preview: Option<PathBuf> = (Image, "FILE.png", NoDefault, Render);
+    /// Also write a deep scanline EXR: the volume as samples in depth (Z..ZBack,
+    /// premultiplied R,G,B,A), for deep compositing. Not with --scattering path.
+    deep: Option<PathBuf> = (Image, "FILE.exr", NoDefault, Render);
+    /// Largest error in opacity (and in colour, relative to the pixel's) that merging
+    /// deep samples may make at any depth inside a merged sample: larger, fewer samples.
+    deep_tolerance: Option<f64> = (Image, "T", Value("0.01"), Render);
     /// Preview exposure in stops.
     exposure: Option<f32> = (Image, "STOPS", Value("0"), Render);
     /// Preview background: transparent, black, checker or r,g,b.
@@ -282,6 +288,7 @@ impl RenderOptions {
             &mut o.output,
             &mut o.stats,
             &mut o.preview,
+            &mut o.deep,
             &mut o.shadow_cache,
         ]
         .into_iter()
