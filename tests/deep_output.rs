@@ -283,3 +283,203 @@ fn a_deep_output_in_a_read_only_folder_fails_before_rendering() {
     assert!(t.elapsed().as_secs_f64() < 5.0, "it rendered first");
     std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o755)).unwrap();
 }
+
+/// A one-channel float image `name` of `w`×`h` with `depth(x, y)`.
+fn depth_image(
+    path: &Path,
+    w: usize,
+    h: usize,
+    name: &str,
+    depth: impl Fn(usize, usize) -> f32 + Sync,
+) {
+    use exr::prelude::*;
+    let channels = SpecificChannels::build()
+        .with_channel(name)
+        .with_pixel_fn(|p: Vec2<usize>| (depth(p.x(), p.y()),));
+    Image::from_channels((w, h), channels)
+        .write()
+        .to_file(path)
+        .unwrap();
+}
+
+const SLAB_VIEW: [&str; 18] = [
+    "--res",
+    "16x16",
+    "--camera",
+    "ortho",
+    "--eye",
+    "0,0,5",
+    "--look-at",
+    "0,0,0",
+    "--up",
+    "0,1,0",
+    "--ortho-width",
+    "1",
+    "--no-lights",
+    "--sigma-a",
+    "3",
+    "--sigma-s",
+    "0",
+    "--float",
+];
+
+#[test]
+fn a_holdout_cuts_the_slab_where_its_closed_form_says() {
+    // As above: inside the slab α(d) = 1 − e^{−3 (d − 4.025)}; the holdout's left half
+    // at depth 4.4, its right half empty (+inf).
+    let dir = scratch("holdout-slab");
+    let z = dir.join("cg.exr");
+    depth_image(&z, 16, 16, "depth.Z", |x, _| {
+        if x < 8 { 4.4 } else { f32::INFINITY }
+    });
+    let out = dir.join("cut.exr");
+    let mut args = vec!["render", "fixtures/slab.vdb", "-o", out.to_str().unwrap()];
+    args.extend_from_slice(&SLAB_VIEW);
+    args.extend(["--holdout-depth", z.to_str().unwrap(), "--quiet"]);
+    let o = Command::new(MURK)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(&args)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let a = &flat_channels(&out)["A"];
+    let cut = 1.0 - (-3.0f64 * (4.4 - 4.025)).exp();
+    let whole = 1.0 - (-3.0f64).exp();
+    for y in 0..16 {
+        let (l, r) = (a[y * 16 + 3] as f64, a[y * 16 + 12] as f64);
+        assert!((l - cut).abs() < 1e-4, "row {y}: {l} against {cut}");
+        assert!((r - whole).abs() < 1e-4, "row {y}: {r} against {whole}");
+    }
+}
+
+#[test]
+fn deep_volume_merged_with_a_deep_card_is_the_holdout_render_over_the_card() {
+    need!(tools::OIIOTOOL);
+    // A card of colour (0.2, 0.5, 0.8) inside the cloud: OpenImageIO merges it with
+    // murk's deep volume and flattens; murk renders the same cut with the card's depth
+    // as the holdout, and the card goes under it. The card lies on a sample boundary of
+    // each pixel (the middle sample's front) and comes first in the merge: OpenImageIO
+    // orders samples of equal Z by the order they came in (its sort compares Z twice),
+    // so a volume sample it split at the card's depth would go in front of the card.
+    // Pixel centres only: the cut changes which pixels are silhouettes, and so which
+    // are sampled again.
+    let dir = scratch("holdout-card");
+    let (w, h) = (96, 54);
+    let (_, deep) = render(
+        &dir,
+        &fixture("cloud.vdb"),
+        &[
+            "--res",
+            "96x54",
+            "--deep-tolerance",
+            "0.001",
+            "--antialias",
+            "1",
+        ],
+    );
+    let flat = flat_channels(&dir.join("flat.exr"));
+    let d = read_deep(&deep);
+    let depths: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let z = d.channel(i, "Z");
+            if z.is_empty() { 10.7 } else { z[z.len() / 2] }
+        })
+        .collect();
+    let card = dir.join("card.exr");
+    {
+        use exr::prelude::*;
+        let channels = SpecificChannels::build()
+            .with_channel("A")
+            .with_channel("B")
+            .with_channel("G")
+            .with_channel("R")
+            .with_channel("Z")
+            .with_channel("ZBack")
+            .with_pixel_fn(|p: Vec2<usize>| {
+                let z = depths[p.y() * w + p.x()];
+                (1.0f32, 0.8f32, 0.5f32, 0.2f32, z, z)
+            });
+        Image::from_channels((w, h), channels)
+            .write()
+            .to_file(&card)
+            .unwrap();
+    }
+    let merged = dir.join("merged.exr");
+    common::tool(
+        "oiiotool",
+        &[
+            card.to_str().unwrap(),
+            "--deepen",
+            deep.to_str().unwrap(),
+            "--deepmerge",
+            "--flatten",
+            "-d",
+            "float",
+            "-o",
+            merged.to_str().unwrap(),
+        ],
+        "openimageio-tools",
+    );
+    let m = flat_channels(&merged);
+    let cut = dir.join("cut.exr");
+    let o = Command::new(MURK)
+        .args(["render", &fixture("cloud.vdb"), "-o", cut.to_str().unwrap()])
+        .args(["--res", "96x54", "--antialias", "1", "--float", "--quiet"])
+        .arg("--holdout-depth")
+        .arg(format!("{}:Z", card.display()))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let c = flat_channels(&cut);
+    let card_rgb = [0.2, 0.5, 0.8];
+    let mut worst: f64 = 0.0;
+    for (k, ch) in ["R", "G", "B"].iter().enumerate() {
+        for i in 0..w * h {
+            let want = c[*ch][i] as f64 + (1.0 - c["A"][i] as f64) * card_rgb[k];
+            worst = worst.max((m[*ch][i] as f64 - want).abs());
+        }
+    }
+    // The cut makes a difference where the card is.
+    let cut_pixels = (0..w * h)
+        .filter(|&i| flat["A"][i] - c["A"][i] > 0.05)
+        .count();
+    assert!(cut_pixels > 100, "{cut_pixels} pixels cut");
+    assert!(worst < 2e-3, "merged and flattened differs by {worst}");
+}
+
+#[test]
+fn a_bad_holdout_is_refused_in_one_line() {
+    let dir = scratch("holdout-refusals");
+    let cloud = fixture("cloud.vdb");
+    depth_image(&dir.join("small.exr"), 8, 8, "Z", |_, _| 5.0);
+    depth_image(&dir.join("other.exr"), 16, 16, "Y", |_, _| 5.0);
+    depth_image(&dir.join("nan.exr"), 16, 16, "Z", |x, y| {
+        if (x, y) == (3, 4) { f32::NAN } else { 5.0 }
+    });
+    let base = [
+        "render",
+        &cloud,
+        "-o",
+        "a.exr",
+        "--res",
+        "16x16",
+        "--holdout-depth",
+    ];
+    let with = |h: &str| {
+        let mut v = base.to_vec();
+        v.push(h);
+        v.iter().map(|s| s.to_string()).collect::<Vec<_>>()
+    };
+    for (h, needle) in [
+        ("small.exr", "8x8"),
+        ("other.exr", "no depth channel"),
+        ("other.exr:Q", "no channel `Q`"),
+        ("nan.exr", "NaN depths (the first at pixel 3,4)"),
+        ("missing.exr", "missing.exr"),
+    ] {
+        let args = with(h);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        refused(&dir, &args, needle);
+    }
+    assert!(!dir.join("a.exr").exists());
+}

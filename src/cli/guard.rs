@@ -18,7 +18,8 @@ pub fn check_plan(plan: &RenderPlan, scene: Option<&Path>) -> Result<()> {
     check_outputs(&plan_inputs(plan, scene, None), &plan_outputs(plan, None))
 }
 
-/// What a render or bake reads: the input, the scene file and the shadow cache, named
+/// What a render or bake reads: the input, the scene file, the shadow cache and the
+/// holdout, named
 /// after `frame` when it is one frame of a sequence.
 pub fn plan_inputs(plan: &RenderPlan, scene: Option<&Path>, frame: Option<i64>) -> Vec<Role> {
     let of = |what: &str| match frame {
@@ -31,6 +32,9 @@ pub fn plan_inputs(plan: &RenderPlan, scene: Option<&Path>, frame: Option<i64>) 
     }
     if let Some(c) = &plan.shadows.cache {
         inputs.push(Role::new(c, of("shadow cache")));
+    }
+    if let Some(h) = &plan.production.holdout {
+        inputs.push(Role::new(&h.path, "the holdout (--holdout-depth)"));
     }
     inputs
 }

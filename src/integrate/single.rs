@@ -96,6 +96,8 @@ impl Integrator for SingleScattering<'_> {
                 g.light_at(ray.origin + ray.dir * t, n, lights, sigma_t),
             ))
         });
+        // A ground behind the ray's end (a holdout) is not seen, and shadows nothing here.
+        let hit = hit.filter(|(_, t, _)| *t <= ray.t_max);
         let visible = hit.filter(|(g, _, _)| g.visible);
         if let Some((_, t, _)) = visible {
             ray.t_max = t;

@@ -191,6 +191,23 @@ fn render_image_frame_here(
         }
         None => 0..plan.camera.height,
     };
+    // The holdout first: a wrong one is refused before anything is built.
+    let holdout = match &plan.production.holdout {
+        Some(spec) => Some(
+            crate::scene::holdout::load(spec, plan.camera.width, plan.camera.height).map_err(
+                |problem| RenderError::Input {
+                    path: spec.path.clone(),
+                    problem,
+                },
+            )?,
+        ),
+        None => None,
+    };
+    let extent = Extent {
+        rows: rows.clone(),
+        deep,
+        holdout: holdout.as_ref().map(|h| h.depths.as_slice()),
+    };
     let scene = Scene::build_reusing(plan, progress, reuse)?;
     let traversal = scene.traversal();
     let volume = scene.volume(&traversal);
@@ -223,15 +240,7 @@ fn render_image_frame_here(
             };
             let integrator =
                 make(march_settings(plan, &scene, &mut st, make)).with_deep(deep.is_some());
-            render_frame(
-                &integrator,
-                &scene,
-                plan,
-                rows.clone(),
-                deep,
-                progress,
-                &mut st,
-            )?
+            render_frame(&integrator, &scene, plan, &extent, progress, &mut st)?
         }
         ScatteringMode::Path => {
             let names = scene.lights.iter().map(|l| l.name.clone()).collect();
@@ -258,8 +267,10 @@ fn render_image_frame_here(
                 &integrator,
                 &scene,
                 plan,
-                rows.clone(),
-                None,
+                &Extent {
+                    deep: None,
+                    ..extent.clone()
+                },
                 progress,
                 &mut st,
             )?
@@ -291,15 +302,7 @@ fn render_image_frame_here(
             };
             let integrator =
                 make(march_settings(plan, &scene, &mut st, make)).with_deep(deep.is_some());
-            render_frame(
-                &integrator,
-                &scene,
-                plan,
-                rows.clone(),
-                deep,
-                progress,
-                &mut st,
-            )?
+            render_frame(&integrator, &scene, plan, &extent, progress, &mut st)?
         }
     };
     let mut exr = plan.outputs.exr.clone();
@@ -411,14 +414,22 @@ fn march_settings<I: Integrator>(
     march
 }
 
+/// Which pixels a render computes and what it keeps of them: its rows, deep samples
+/// (with their merge tolerance) and the holdout's depth per pixel.
+#[derive(Clone)]
+struct Extent<'a> {
+    rows: std::ops::Range<usize>,
+    deep: Option<f64>,
+    holdout: Option<&'a [f32]>,
+}
+
 /// Runs the pixel loop of `integrator` over the scene's camera on the plan's threads,
 /// and assembles the frame from its passes. Returns it and the loop's seconds.
 fn render_frame<I: Integrator>(
     integrator: &I,
     scene: &Scene,
     plan: &RenderPlan,
-    rows: std::ops::Range<usize>,
-    deep: Option<f64>,
+    extent: &Extent,
     progress: &dyn Progress,
     st: &mut RenderStats,
 ) -> Result<(Frame, f64, Option<DeepImage>)> {
@@ -428,9 +439,10 @@ fn render_frame<I: Integrator>(
         camera: &scene.camera,
         spp: plan.sampling.spp,
         seed: plan.sampling.seed,
-        rows,
+        rows: extent.rows.clone(),
         antialias: plan.sampling.antialias,
-        deep,
+        deep: extent.deep,
+        holdout: extent.holdout,
     };
     progress.start("rendering", job.tiles() as u64, "tiles");
     // On the plan's threads: the caller runs inside `on_plan_threads`.

@@ -50,6 +50,8 @@ pub struct PixelJob<'a, I: Integrator> {
     /// Deep output with this merge tolerance (`--deep-tolerance`): the integrator must
     /// keep its rays' records ([`Integrator::deep_trace`]).
     pub deep: Option<f64>,
+    /// `--holdout-depth`: per pixel, the camera-space depth at which its rays stop.
+    pub holdout: Option<&'a [f32]>,
 }
 
 impl<I: Integrator> PixelJob<'_, I> {
@@ -148,10 +150,17 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                 )
             };
             let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
-            let sample = CameraSample {
+            let mut sample = CameraSample {
                 ray: WorldRay::new(o, d),
                 depth_rate: d.dot(frame.forward),
             };
+            if let Some(depth) = job.holdout.and_then(|h| h.get(y * w + x)) {
+                // Depth is t × depth_rate along the ray.
+                let t = *depth as f64 / sample.depth_rate;
+                if t < sample.ray.t_max {
+                    sample.ray.t_max = t.max(0.0);
+                }
+            }
             let mut rng = SampleRng::new(job.seed, x, y, stream);
             n_samples += job.integrator.sample(&sample, &mut rng, scratch, acc);
             if job.deep.is_some()
@@ -382,6 +391,7 @@ mod tests {
             rows,
             antialias,
             deep: None,
+            holdout: None,
         };
         render_pixels(&job, &Silent)
     }

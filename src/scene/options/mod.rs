@@ -226,6 +226,10 @@ render_options! {
     /// Crop the EXR's dataWindow to the non-empty pixels (a smaller file; Blender's
     /// compositor misplaces a cropped dataWindow). Off: dataWindow = displayWindow.
     crop_data_window: bool = (Production, "", NoDefault, Render);
+    /// Cut the volume where a depth image from the same camera says (the CG render's Z):
+    /// FILE.exr[:CHANNEL], channel Z, depth.Z or Depth.Z when not named. Rays stop at its
+    /// depth, so alpha, light and every layer are cut; the lights' shadows are not.
+    holdout_depth: Option<String> = (Production, "FILE.exr[:CHANNEL]", NoDefault, Render);
     /// Colour space of the EXR's colour channels: lin_rec709 or acescg (converted, with
     /// chromaticities to match).
     colorspace: Option<String> = (Production, "lin_rec709|acescg", Value("lin_rec709"), Render);
@@ -283,6 +287,11 @@ impl RenderOptions {
         let mut o: RenderOptions =
             toml::from_str(&text).map_err(|e| bad(super::scene_file::describe(&e, &text)))?;
         let dir = path.parent().unwrap_or(std::path::Path::new("."));
+        if let Some(h) = &mut o.holdout_depth
+            && std::path::Path::new(h.as_str()).is_relative()
+        {
+            *h = dir.join(h.as_str()).display().to_string();
+        }
         for p in [
             &mut o.input,
             &mut o.output,

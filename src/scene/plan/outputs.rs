@@ -124,6 +124,8 @@ pub struct ProductionPlan {
     pub temperature_explicit: bool,
     /// The scene names no light: the default sun, which follows the up axis.
     pub default_light: bool,
+    /// `--holdout-depth`: the depth image that cuts the volume.
+    pub holdout: Option<crate::scene::holdout::HoldoutSpec>,
 }
 
 impl ProductionPlan {
@@ -133,6 +135,11 @@ impl ProductionPlan {
             up_explicit: o.up.is_some(),
             temperature_explicit: o.temperature_scale.is_some() || o.temperature_offset.is_some(),
             default_light: !o.no_lights && o.lights.is_empty() && o.light.is_empty(),
+            holdout: o
+                .holdout_depth
+                .as_deref()
+                .map(crate::scene::holdout::HoldoutSpec::parse)
+                .transpose()?,
         })
     }
 }
