@@ -17,6 +17,7 @@ use super::OutputError;
 use crate::files::write_atomically;
 use flate2::Compression;
 use flate2::write::ZlibEncoder;
+use rayon::prelude::*;
 use std::io::Write;
 use std::path::Path;
 
@@ -239,11 +240,16 @@ fn encode(image: &DeepImage, opts: &DeepExrOptions) -> Result<(Vec<u8>, DeepWrit
     file.extend_from_slice(&hd.0);
     let table_at = file.len();
     file.resize(table_at + 8 * h, 0);
-    for y in 0..h {
+    // Scan lines compress independently: on every thread.
+    let chunks: Vec<Vec<u8>> = (0..h)
+        .into_par_iter()
+        .map(|y| chunk(y, &image.pixels[y * w..(y + 1) * w]))
+        .collect::<std::io::Result<_>>()
+        .map_err(|e| e.to_string())?;
+    for (y, c) in chunks.iter().enumerate() {
         let offset = file.len() as u64;
         file[table_at + 8 * y..][..8].copy_from_slice(&offset.to_le_bytes());
-        let c = chunk(y, &image.pixels[y * w..(y + 1) * w]).map_err(|e| e.to_string())?;
-        file.extend_from_slice(&c);
+        file.extend_from_slice(c);
     }
     let summary = DeepWriteSummary {
         bytes: file.len() as u64,
