@@ -229,12 +229,12 @@ render_options! {
     /// Cut the volume where a depth image from the same camera says (the CG render's Z):
     /// FILE.exr[:CHANNEL], channel Z, depth.Z or Depth.Z when not named. Rays stop at its
     /// depth, so alpha, light and every layer are cut; the lights' shadows are not.
-    holdout_depth: Option<String> = (Production, "FILE.exr[:CHANNEL]", NoDefault, Render);
+    holdout_depth: Option<String> = (Production, "FILE[:CHANNEL]", NoDefault, Render);
     /// Colour space of the EXR's colour channels: lin_rec709 or acescg (converted, with
     /// chromaticities to match).
     colorspace: Option<String> = (Production, "lin_rec709|acescg", Value("lin_rec709"), Render);
 
-    /// Frames to render, e.g. 1-10,20,30-40x2. INPUT, -o, --preview, --stats and
+    /// Frames to render, e.g. 1-10,20,30-40x2. INPUT, -o, --preview, --stats, --deep and
     /// --shadow-cache may hold a frame pattern: #### (one # per digit), %04d, $F4 or $F.
     frames: Option<String> = (Sequence, "LIST", Described("every frame the input pattern finds"), Render);
 
