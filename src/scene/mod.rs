@@ -8,6 +8,7 @@ pub mod camera;
 pub mod conventions;
 mod error;
 pub mod frames;
+pub mod holdout;
 pub mod light;
 pub mod lights;
 pub mod options;

@@ -206,6 +206,12 @@ render_options! {
     float: bool = (Image, "", NoDefault, Render);
     /// Write an 8-bit sRGB PNG of the beauty pass.
     preview: Option<PathBuf> = (Image, "FILE.png", NoDefault, Render);
+    /// Also write a deep scanline EXR: the volume as samples in depth (Z..ZBack,
+    /// premultiplied R,G,B,A), for deep compositing. Not with --scattering path.
+    deep: Option<PathBuf> = (Image, "FILE.exr", NoDefault, Render);
+    /// Largest error in opacity (and in colour, relative to the pixel's) that merging
+    /// deep samples may make at any depth inside a merged sample: larger, fewer samples.
+    deep_tolerance: Option<f64> = (Image, "T", Value("0.01"), Render);
     /// Preview exposure in stops.
     exposure: Option<f32> = (Image, "STOPS", Value("0"), Render);
     /// Preview background: transparent, black, checker or r,g,b.
@@ -220,11 +226,15 @@ render_options! {
     /// Crop the EXR's dataWindow to the non-empty pixels (a smaller file; Blender's
     /// compositor misplaces a cropped dataWindow). Off: dataWindow = displayWindow.
     crop_data_window: bool = (Production, "", NoDefault, Render);
+    /// Cut the volume where a depth image from the same camera says (the CG render's Z):
+    /// FILE.exr[:CHANNEL], channel Z, depth.Z or Depth.Z when not named. Rays stop at its
+    /// depth, so alpha, light and every layer are cut; the lights' shadows are not.
+    holdout_depth: Option<String> = (Production, "FILE[:CHANNEL]", NoDefault, Render);
     /// Colour space of the EXR's colour channels: lin_rec709 or acescg (converted, with
     /// chromaticities to match).
     colorspace: Option<String> = (Production, "lin_rec709|acescg", Value("lin_rec709"), Render);
 
-    /// Frames to render, e.g. 1-10,20,30-40x2. INPUT, -o, --preview, --stats and
+    /// Frames to render, e.g. 1-10,20,30-40x2. INPUT, -o, --preview, --stats, --deep and
     /// --shadow-cache may hold a frame pattern: #### (one # per digit), %04d, $F4 or $F.
     frames: Option<String> = (Sequence, "LIST", Described("every frame the input pattern finds"), Render);
 
@@ -281,11 +291,17 @@ impl RenderOptions {
         let mut o: RenderOptions =
             toml::from_str(&text).map_err(|e| bad(super::scene_file::describe(&e, &text)))?;
         let dir = path.parent().unwrap_or(std::path::Path::new("."));
+        if let Some(h) = &mut o.holdout_depth
+            && std::path::Path::new(h.as_str()).is_relative()
+        {
+            *h = dir.join(h.as_str()).display().to_string();
+        }
         for p in [
             &mut o.input,
             &mut o.output,
             &mut o.stats,
             &mut o.preview,
+            &mut o.deep,
             &mut o.shadow_cache,
         ]
         .into_iter()

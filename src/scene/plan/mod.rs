@@ -18,7 +18,7 @@ pub use defaults::{MAX_FRAME_BYTES, MAX_LIGHTS, MAX_THREADS, MIN_STEP_VOXELS};
 pub use device::Device;
 pub use lighting::{ShadowMode, ShadowPlan, safe_layer_name};
 pub use look::{EmissionPlan, GridChoice, GridRoles};
-pub use outputs::{OutputPlan, ProductionPlan};
+pub use outputs::{DeepPlan, OutputPlan, ProductionPlan};
 pub use quality::{MarchPlan, SamplingPlan};
 
 use super::PlanError;
@@ -68,6 +68,9 @@ impl RenderPlan {
         let (lights, environment) = lighting::lights(o)?;
         outputs::check_frame_size(camera.width, camera.height, lights.len())?;
         let transport = TransportPlan::new(o, environment)?;
+        if outputs.deep.is_some() && transport.mode == crate::integrate::ScatteringMode::Path {
+            return Err("{deep} needs --scattering single or fast: the path tracer keeps no record of its rays in depth".into());
+        }
         let shadow_mode = ShadowMode::from_options(o)?;
         let march = MarchPlan::from_options(o, shadow_mode, transport.mode)?;
         Ok(RenderPlan {
