@@ -21,6 +21,7 @@ pub mod nonzero;
 pub mod procedural;
 pub mod random;
 pub mod shapes;
+pub mod sum;
 #[cfg(test)]
 mod test_support;
 pub mod transform;
