@@ -65,7 +65,7 @@ fn channel(path: &Path, name: &str) -> Vec<f32> {
 
 /// The plan of a scene file's text (its volumes named relative to nothing).
 fn plan_of(text: &str) -> RenderPlan {
-    let o: RenderOptions = toml::from_str(text).unwrap();
+    let o: RenderOptions = toml::from_str(&format!("output = \"x.exr\"\n{text}")).unwrap();
     RenderPlan::new(&o, PathBuf::from("a.vdb")).unwrap()
 }
 
@@ -130,57 +130,97 @@ fn overlapping_boxes_of_two_media_give_the_summed_medium() {
 
 /// The slab fixture (∫ρ dz = 1 world unit straight down) placed twice, the second 0.5
 /// higher, of one albedo (0.75) and σt 1.2 and 2.4: α = 1 − e^{−3.6} and single
-/// scattering p·E·a(1 − e^{−7.2})/2 in every pixel of the EXR, whatever the overlap.
+/// scattering p·E·a(1 − e^{−7.2})/2 in every pixel of the EXR, whatever the overlap — with
+/// marched shadows, and with the deep shadow map baked over both (its tolerance, 1e-3 of
+/// transmittance, allowed).
 #[test]
 fn two_placed_slabs_render_the_summed_medium() {
     let dir = scratch("two-slabs");
-    let scene = dir.join("scene.toml");
+    for (shadows, tol) in [("march", 2e-3), ("dsm", 6e-3)] {
+        let scene = dir.join(format!("{shadows}.toml"));
+        fs::write(
+            &scene,
+            format!(
+                "res = \"8x6\"\ncamera = \"ortho\"\northo_width = 0.5\neye = \"0.01,0.02,4\"\n\
+                 look_at = \"0.01,0.02,0\"\nup = \"0,1,0\"\nlight = [\"sun:0,0,1:1,1,1:2\"]\n\
+                 scattering = \"single\"\nshadows = \"{shadows}\"\nfloat = true\nantialias = 1\n\
+                 [[volume]]\nfile = \"{0}\"\nsigma_a = \"0.3\"\nsigma_s = \"0.9\"\n\
+                 [[volume]]\nname = \"upper\"\nfile = \"{0}\"\nsigma_a = \"0.6\"\nsigma_s = \"1.8\"\n\
+                 translate = [0, 0, 0.5]\n",
+                slab()
+            ),
+        )
+        .unwrap();
+        let out = dir.join(format!("{shadows}.exr"));
+        let stats = dir.join(format!("{shadows}.json"));
+        let r = murk(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--stats",
+            stats.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        let tau: f64 = 1.2 + 2.4;
+        let alpha_want = -(-tau).exp_m1();
+        let l_want = hg(-1.0, 0.0) * 2.0 * 0.75 * -(-2.0 * tau).exp_m1() / 2.0;
+        for a in channel(&out, "A") {
+            assert!(rel(a as f64, alpha_want) <= 1e-5, "{shadows}: α {a} vs {alpha_want}");
+        }
+        for l in channel(&out, "R") {
+            assert!(rel(l as f64, l_want) <= tol, "{shadows}: L {l} vs {l_want}");
+        }
+        let text = fs::read_to_string(&stats).unwrap();
+        assert!(
+            text.contains("2 volumes placed from 1 decoded density grid"),
+            "{text}"
+        );
+    }
+}
+
+/// The fast multiple-scattering lattice over two placed slabs: the image has the summed
+/// medium's alpha, and scattering at least the single-scattering closed form (the later
+/// orders add to it) and below the albedo-1 bound p·E-free energy conservation allows.
+#[test]
+fn the_fast_lattice_covers_every_volume() {
+    let dir = scratch("fast");
+    let scene = dir.join("fast.toml");
     fs::write(
         &scene,
         format!(
             "res = \"8x6\"\ncamera = \"ortho\"\northo_width = 0.5\neye = \"0.01,0.02,4\"\n\
              look_at = \"0.01,0.02,0\"\nup = \"0,1,0\"\nlight = [\"sun:0,0,1:1,1,1:2\"]\n\
-             scattering = \"single\"\nshadows = \"march\"\nfloat = true\nantialias = 1\n\
+             float = true\nantialias = 1\n\
              [[volume]]\nfile = \"{0}\"\nsigma_a = \"0.3\"\nsigma_s = \"0.9\"\n\
-             [[volume]]\nname = \"upper\"\nfile = \"{0}\"\nsigma_a = \"0.6\"\nsigma_s = \"1.8\"\n\
+             [[volume]]\nfile = \"{0}\"\nsigma_a = \"0.6\"\nsigma_s = \"1.8\"\n\
              translate = [0, 0, 0.5]\n",
             slab()
         ),
     )
     .unwrap();
-    let out = dir.join("out.exr");
-    let stats = dir.join("stats.json");
-    let r = murk(&[
-        "render",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--stats",
-        stats.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let out = dir.join("fast.exr");
+    let r = murk(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--quiet"]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    let tau: f64 = 1.2 + 2.4;
+    let tau: f64 = 3.6;
     let alpha_want = -(-tau).exp_m1();
-    let l_want = hg(-1.0, 0.0) * 2.0 * 0.75 * -(-2.0 * tau).exp_m1() / 2.0;
+    let single = hg(-1.0, 0.0) * 2.0 * 0.75 * -(-2.0 * tau).exp_m1() / 2.0;
     for a in channel(&out, "A") {
         assert!(rel(a as f64, alpha_want) <= 1e-5, "α {a} vs {alpha_want}");
     }
     for l in channel(&out, "R") {
-        assert!(rel(l as f64, l_want) <= 2e-3, "L {l} vs {l_want}");
+        let l = l as f64;
+        // Reflected light cannot exceed the sun's irradiance over π (a white Lambertian).
+        assert!(l > single * 1.05 && l < 2.0 / std::f64::consts::PI, "L {l}, single {single}");
     }
-    let text = fs::read_to_string(&stats).unwrap();
-    assert!(
-        text.contains("2 volumes placed from 1 decoded density grid"),
-        "{text}"
-    );
 }
 
 /// A scene of one `[[volume]]` renders as the same file given as `input`, bit for bit.
 #[test]
 fn one_volume_renders_as_its_input() {
     let dir = scratch("one");
-    let common = "res = \"24x16\"\nscattering = \"single\"\nfloat = true\n";
+    let common = "res = \"24x16\"\nfloat = true\n";
     let a = dir.join("a.toml");
     let b = dir.join("b.toml");
     fs::write(&a, format!("{common}input = \"{}\"\n", slab())).unwrap();
@@ -203,12 +243,13 @@ fn one_volume_renders_as_its_input() {
 fn a_file_placed_many_times_is_read_once() {
     let dir = scratch("instances");
     let run = |n: usize| -> serde_json::Value {
-        let mut text = String::from("res = \"16x12\"\nscattering = \"single\"\n");
+        let mut text = String::from("res = \"16x12\"\nscattering = \"single\"\nshadows = \"none\"\n");
         for i in 0..n {
             text.push_str(&format!(
-                "[[volume]]\nfile = \"{}\"\ntranslate = [{}, 0, 0]\n",
+                "[[volume]]\nfile = \"{}\"\ntranslate = [{}, {}, 0]\n",
                 slab(),
-                5 * i
+                0.25 * (i % 4) as f64,
+                0.25 * (i / 4) as f64
             ));
         }
         let scene = dir.join(format!("scene{n}.toml"));
@@ -231,10 +272,10 @@ fn a_file_placed_many_times_is_read_once() {
     let bytes = |s: &serde_json::Value, k: &str| s[k].as_u64().unwrap_or_else(|| panic!("{k}: {s}"));
     assert!(bytes(&one, "grid_memory_bytes") > 100_000);
     assert_eq!(bytes(&one, "grid_memory_bytes"), bytes(&many, "grid_memory_bytes"));
-    // The density the render holds (with its shadow map): one copy + O(N).
+    // The density the render holds: one copy and a placement (a few hundred bytes) each.
     let (d1, d16) = (bytes(&one, "density_memory_bytes"), bytes(&many, "density_memory_bytes"));
     assert!(d1 >= bytes(&one, "grid_memory_bytes"), "{d1}");
-    assert!(d16 <= d1 + 16 * 256, "{d16} vs {d1}");
+    assert!(d16 <= d1 + 16 * 512, "{d16} vs {d1}");
 }
 
 /// Bad tables: one line naming the scene file and the problem, exit 2.

@@ -25,6 +25,8 @@ pub struct Member {
     shift: DVec3,
     /// `Some(offset)` when the member is on the sum's lattice (`linear` is the identity).
     aligned: Option<IVec3>,
+    /// The box (the sum's local index space) outside which the member is zero.
+    bounds: IndexBox,
 }
 
 impl Member {
@@ -68,6 +70,111 @@ impl Member {
         }
         // One voxel of slack for the rounding of the map.
         IndexBox::new(lo - Vec3::ONE, hi + Vec3::ONE)
+    }
+
+    /// The member's active bounds in the local index space of `sum` (the sum's map).
+    fn bounds_in(&self, sum: &IndexToWorld) -> IndexBox {
+        let own = self.field.active_bounds();
+        if own.is_empty() {
+            return IndexBox::EMPTY;
+        }
+        if let Some(o) = self.aligned {
+            return IndexBox::new(own.min - o.as_vec3(), own.max - o.as_vec3());
+        }
+        let (lo, hi) = self.transform.index_box_to_world(&own);
+        let (mut a, mut z) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for c in 0..8 {
+            let w = DVec3::new(
+                if c & 1 == 0 { lo.x } else { hi.x },
+                if c & 2 == 0 { lo.y } else { hi.y },
+                if c & 4 == 0 { lo.z } else { hi.z },
+            );
+            let q = sum.world_to_index(w).as_vec3();
+            a = a.min(q);
+            z = z.max(q);
+        }
+        IndexBox::new(a - Vec3::ONE, z + Vec3::ONE)
+    }
+
+    /// Whether the member can be non-zero in the sum's index box `b`.
+    #[inline]
+    fn touches(&self, b: &IndexBox) -> bool {
+        !b.is_empty()
+            && !self.bounds.is_empty()
+            && b.min.cmple(self.bounds.max).all()
+            && b.max.cmpge(self.bounds.min).all()
+    }
+
+    /// Whether the member can be non-zero at the sum's index point `p` (half a voxel of
+    /// slack for rounding).
+    #[inline]
+    fn holds(&self, p: DVec3) -> bool {
+        let (lo, hi) = (self.bounds.min.as_dvec3(), self.bounds.max.as_dvec3());
+        p.cmpge(lo - 0.5).all() && p.cmple(hi + 0.5).all()
+    }
+
+    /// Whether the ray (the sum's index space) can meet the member over `[t0, t1]`.
+    fn crossed(&self, ray: &IndexRay, t0: f64, t1: f64) -> bool {
+        if self.bounds.is_empty() {
+            return false;
+        }
+        let (mut a, mut b) = (t0.min(t1), t0.max(t1));
+        for k in 0..3 {
+            let (o, d) = (ray.origin[k], ray.dir[k]);
+            let (lo, hi) = (self.bounds.min[k] as f64 - 0.5, self.bounds.max[k] as f64 + 0.5);
+            if d == 0.0 {
+                if o < lo || o > hi {
+                    return false;
+                }
+                continue;
+            }
+            let (mut ta, mut tb) = ((lo - o) / d, (hi - o) / d);
+            if ta > tb {
+                std::mem::swap(&mut ta, &mut tb);
+            }
+            a = a.max(ta);
+            b = b.min(tb);
+            if a > b {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// The coarsest cell of the sum's lattice around `ijk` (sizes 4096 down to 1, aligned)
+    /// over which this member, not on the sum's lattice, is bounded by one of its own
+    /// cells: the member's cell holding the voxel's centre, if the sum's cell maps inside
+    /// it; else the member's range over the voxel.
+    fn foreign_cell(&self, ijk: IVec3) -> (IVec3, i32, ValueRange) {
+        const SIZES: [i32; 6] = [4096, 128, 8, 4, 2, 1];
+        let (origin, b) = FieldSum::aligned(ijk, SIZES[0]);
+        if !self.touches(&b) {
+            return (origin, SIZES[0], ValueRange::ZERO);
+        }
+        let q = self.map(ijk.as_dvec3() + 0.5);
+        let lim = (1i64 << 30) as f64;
+        let c = self
+            .field
+            .cell_at(q.floor().clamp(DVec3::splat(-lim), DVec3::splat(lim)).as_ivec3());
+        let (lo, hi) = (c.origin.as_dvec3(), c.origin.as_dvec3() + c.size as f64);
+        for s in SIZES {
+            let (origin, _) = FieldSum::aligned(ijk, s);
+            let o = origin.as_dvec3();
+            let fits = (0..8).all(|k| {
+                let corner = o + DVec3::new(
+                    (k & 1) as f64,
+                    ((k >> 1) & 1) as f64,
+                    ((k >> 2) & 1) as f64,
+                ) * s as f64;
+                let p = self.map(corner);
+                p.cmpge(lo).all() && p.cmple(hi).all()
+            });
+            if fits {
+                return (origin, s, c.range);
+            }
+        }
+        let (origin, b) = FieldSum::aligned(ijk, 1);
+        (origin, 1, self.field.range_over(&self.map_box(&b)))
     }
 
     fn weighted(&self, r: ValueRange) -> ValueRange {
@@ -141,14 +248,17 @@ impl FieldSum {
                 // member index = inv_i · (lin_0 · p + t_0 − t_i)
                 let linear = transform.inverse_linear() * first.linear();
                 let shift = transform.world_to_index(first.index_to_world(DVec3::ZERO));
-                Member {
+                let mut m = Member {
                     field,
                     transform,
                     weight,
                     linear,
                     shift,
                     aligned,
-                }
+                    bounds: IndexBox::EMPTY,
+                };
+                m.bounds = m.bounds_in(&first);
+                m
             })
             .collect();
         Ok(FieldSum {
@@ -191,7 +301,7 @@ fn inside(o: IVec3, s: i32, outer_o: IVec3, outer_s: i32) -> bool {
 impl Field for FieldSum {
     fn value_at_index(&self, p: DVec3) -> f32 {
         let mut v = 0.0f64;
-        for m in &self.members {
+        for m in self.members.iter().filter(|m| m.holds(p)) {
             v += m.weight * m.field.value_at_index(m.map(p)) as f64;
         }
         v as f32
@@ -202,33 +312,9 @@ impl Field for FieldSum {
     }
 
     fn active_bounds(&self) -> IndexBox {
-        let mut b = IndexBox::EMPTY;
-        for m in &self.members {
-            let own = m.field.active_bounds();
-            if own.is_empty() {
-                continue;
-            }
-            let back = match m.aligned {
-                Some(o) => IndexBox::new(own.min - o.as_vec3(), own.max - o.as_vec3()),
-                None => {
-                    let (lo, hi) = m.transform.index_box_to_world(&own);
-                    let (mut a, mut z) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-                    for c in 0..8 {
-                        let w = DVec3::new(
-                            if c & 1 == 0 { lo.x } else { hi.x },
-                            if c & 2 == 0 { lo.y } else { hi.y },
-                            if c & 4 == 0 { lo.z } else { hi.z },
-                        );
-                        let q = self.transform.world_to_index(w).as_vec3();
-                        a = a.min(q);
-                        z = z.max(q);
-                    }
-                    IndexBox::new(a - Vec3::ONE, z + Vec3::ONE)
-                }
-            };
-            b = b.union(&back);
-        }
-        b
+        self.members
+            .iter()
+            .fold(IndexBox::EMPTY, |b, m| b.union(&m.bounds))
     }
 
     fn cell_at(&self, ijk: IVec3) -> Cell {
@@ -241,19 +327,7 @@ impl Field for FieldSum {
                     let c = m.field.cell_at(ijk + o);
                     (c.origin - o, c.size, c.range)
                 }
-                None => {
-                    let sizes = super::shapes::VIRTUAL_CELL_SIZES;
-                    let mut found = None;
-                    for &s in &sizes {
-                        let (origin, b) = Self::aligned(ijk, s);
-                        let r = m.field.range_over(&m.map_box(&b));
-                        if r.is_zero() || s == sizes[sizes.len() - 1] {
-                            found = Some((origin, s, r));
-                            break;
-                        }
-                    }
-                    found.unwrap_or((ijk, 1, ValueRange::ZERO))
-                }
+                None => m.foreign_cell(ijk),
             };
             own.push(c);
         }
@@ -264,11 +338,13 @@ impl Field for FieldSum {
             .unwrap_or((ijk, 1));
         let mut range = ValueRange::ZERO;
         for (m, c) in self.members.iter().zip(&own) {
+            let lo = origin.as_vec3();
+            let b = IndexBox::new(lo, lo + Vec3::splat(size as f32));
             let r = if inside(origin, size, c.0, c.1) {
                 c.2
+            } else if !m.touches(&b) {
+                ValueRange::ZERO
             } else {
-                let lo = origin.as_vec3();
-                let b = IndexBox::new(lo, lo + Vec3::splat(size as f32));
                 m.field.range_over(&m.map_box(&b))
             };
             let r = m.weighted(r);
@@ -286,7 +362,7 @@ impl Field for FieldSum {
 
     fn range_over(&self, b: &IndexBox) -> ValueRange {
         let mut range = ValueRange::ZERO;
-        for m in &self.members {
+        for m in self.members.iter().filter(|m| m.touches(b)) {
             let r = m.weighted(m.field.range_over(&m.map_box(b)));
             range = ValueRange {
                 min: range.min + r.min,
@@ -298,7 +374,7 @@ impl Field for FieldSum {
 
     fn tight_range_over(&self, b: &IndexBox) -> ValueRange {
         let mut range = ValueRange::ZERO;
-        for m in &self.members {
+        for m in self.members.iter().filter(|m| m.touches(b)) {
             let r = m.weighted(m.field.tight_range_over(&m.map_box(b)));
             range = ValueRange {
                 min: range.min + r.min,
@@ -311,6 +387,7 @@ impl Field for FieldSum {
     fn integral(&self, ray: &IndexRay, t0: f64, t1: f64) -> f64 {
         self.members
             .iter()
+            .filter(|m| m.crossed(ray, t0, t1))
             .map(|m| m.weight * m.field.integral(&m.map_ray(ray), t0, t1))
             .sum()
     }
@@ -318,12 +395,53 @@ impl Field for FieldSum {
     fn piece_integrals(&self, ray: &IndexRay, t0: f64, ends: &[f64], out: &mut [f64]) {
         out.iter_mut().for_each(|o| *o = 0.0);
         let mut each = vec![0.0; out.len()];
-        for m in &self.members {
+        let t1 = ends.last().copied().unwrap_or(t0);
+        for m in self.members.iter().filter(|m| m.crossed(ray, t0, t1)) {
             m.field.piece_integrals(&m.map_ray(ray), t0, ends, &mut each);
             for (o, v) in out.iter_mut().zip(&each) {
                 *o += m.weight * v;
             }
         }
+    }
+
+    fn slopes_along(
+        &self,
+        ray: &IndexRay,
+        t0: f64,
+        targets: &[f64],
+        side: &super::Sideways,
+        out: &mut Vec<[f64; 4]>,
+    ) -> bool {
+        let start = out.len();
+        let mut total = vec![[0.0f64; 4]; targets.len()];
+        let mut each = Vec::with_capacity(targets.len());
+        for m in &self.members {
+            each.clear();
+            let side = match m.aligned {
+                Some(_) => *side,
+                None => {
+                    let map = |a: super::Affine| super::Affine::new(m.linear * a.base, m.linear * a.rate);
+                    super::Sideways {
+                        a: map(side.a),
+                        b: map(side.b),
+                        c: map(side.c),
+                    }
+                }
+            };
+            if !m.field.slopes_along(&m.map_ray(ray), t0, targets, &side, &mut each)
+                || each.len() != targets.len()
+            {
+                out.truncate(start);
+                return false;
+            }
+            for (t, e) in total.iter_mut().zip(&each) {
+                for k in 0..4 {
+                    t[k] += m.weight * e[k];
+                }
+            }
+        }
+        out.extend(total);
+        true
     }
 
     fn quadrature(&self) -> Quadrature {

@@ -57,6 +57,7 @@ pub fn load_volumes(
         let v = &volumes.list[0];
         SceneError::input(&v.file, format!("[[volume]] \"{}\": {e}", v.name))
     })?;
+    report.density_memory_bytes = sum.memory_bytes();
     report.notes.push(format!(
         "{} volumes placed from {} decoded density grid{}",
         volumes.list.len(),
