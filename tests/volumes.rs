@@ -83,7 +83,13 @@ fn overlapping_boxes_of_two_media_give_the_summed_medium() {
     ));
     let volumes = plan.volumes.as_ref().unwrap();
     let unit: Arc<dyn Field> = Arc::new(
-        ConstantBox::new(DVec3::new(-2.0, -2.0, 0.0), DVec3::new(2.0, 2.0, 1.0), 1.0, 0.05).unwrap(),
+        ConstantBox::new(
+            DVec3::new(-2.0, -2.0, 0.0),
+            DVec3::new(2.0, 2.0, 1.0),
+            1.0,
+            0.05,
+        )
+        .unwrap(),
     );
     let sum = FieldSum::new(
         volumes
@@ -119,11 +125,24 @@ fn overlapping_boxes_of_two_media_give_the_summed_medium() {
     };
     for (x, y) in [(0.013, -0.021), (0.7, 0.4), (-1.3, 1.1)] {
         let o = DVec3::new(x, y, 4.0);
-        let r = common::march::ray_with(&vol, Some(&sun), o, DVec3::NEG_Z, &MarchSettings::reference(), 0.5);
-        assert!(rel(r.alpha(), alpha_want) <= 1e-9, "α {} vs {alpha_want}", r.alpha());
+        let r = common::march::ray_with(
+            &vol,
+            Some(&sun),
+            o,
+            DVec3::NEG_Z,
+            &MarchSettings::reference(),
+            0.5,
+        );
+        assert!(
+            rel(r.alpha(), alpha_want) <= 1e-9,
+            "α {} vs {alpha_want}",
+            r.alpha()
+        );
         let l = r.scatter.x;
         assert!(rel(l, l_want) <= 1e-3, "L {l} vs {l_want}");
-        let l = common::march::ray(&vol, Some(&sun), o, DVec3::NEG_Z, 0.5, 0.5).scatter.x;
+        let l = common::march::ray(&vol, Some(&sun), o, DVec3::NEG_Z, 0.5, 0.5)
+            .scatter
+            .x;
         assert!(rel(l, l_want) <= 1e-3, "default step: L {l} vs {l_want}");
     }
 }
@@ -167,7 +186,10 @@ fn two_placed_slabs_render_the_summed_medium() {
         let alpha_want = -(-tau).exp_m1();
         let l_want = hg(-1.0, 0.0) * 2.0 * 0.75 * -(-2.0 * tau).exp_m1() / 2.0;
         for a in channel(&out, "A") {
-            assert!(rel(a as f64, alpha_want) <= 1e-5, "{shadows}: α {a} vs {alpha_want}");
+            assert!(
+                rel(a as f64, alpha_want) <= 1e-5,
+                "{shadows}: α {a} vs {alpha_want}"
+            );
         }
         for l in channel(&out, "R") {
             assert!(rel(l as f64, l_want) <= tol, "{shadows}: L {l} vs {l_want}");
@@ -201,7 +223,13 @@ fn the_fast_lattice_covers_every_volume() {
     )
     .unwrap();
     let out = dir.join("fast.exr");
-    let r = murk(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--quiet"]);
+    let r = murk(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let tau: f64 = 3.6;
     let alpha_want = -(-tau).exp_m1();
@@ -212,7 +240,10 @@ fn the_fast_lattice_covers_every_volume() {
     for l in channel(&out, "R") {
         let l = l as f64;
         // Reflected light cannot exceed the sun's irradiance over π (a white Lambertian).
-        assert!(l > single * 1.05 && l < 2.0 / std::f64::consts::PI, "L {l}, single {single}");
+        assert!(
+            l > single * 1.05 && l < 2.0 / std::f64::consts::PI,
+            "L {l}, single {single}"
+        );
     }
 }
 
@@ -227,11 +258,20 @@ fn one_volume_renders_as_its_input() {
     fs::write(&b, format!("{common}[[volume]]\nfile = \"{}\"\n", slab())).unwrap();
     for (scene, out) in [(&a, "a.exr"), (&b, "b.exr")] {
         let out = dir.join(out);
-        let r = murk(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--quiet"]);
+        let r = murk(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
         assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     }
     for c in ["R", "G", "B", "A"] {
-        let (x, y) = (channel(&dir.join("a.exr"), c), channel(&dir.join("b.exr"), c));
+        let (x, y) = (
+            channel(&dir.join("a.exr"), c),
+            channel(&dir.join("b.exr"), c),
+        );
         assert!(x.iter().any(|v| *v > 0.0));
         assert_eq!(x, y, "channel {c}");
     }
@@ -243,7 +283,8 @@ fn one_volume_renders_as_its_input() {
 fn a_file_placed_many_times_is_read_once() {
     let dir = scratch("instances");
     let run = |n: usize| -> serde_json::Value {
-        let mut text = String::from("res = \"16x12\"\nscattering = \"single\"\nshadows = \"none\"\n");
+        let mut text =
+            String::from("res = \"16x12\"\nscattering = \"single\"\nshadows = \"none\"\n");
         for i in 0..n {
             text.push_str(&format!(
                 "[[volume]]\nfile = \"{}\"\ntranslate = [{}, {}, 0]\n",
@@ -269,11 +310,18 @@ fn a_file_placed_many_times_is_read_once() {
         serde_json::from_str(&fs::read_to_string(&stats).unwrap()).unwrap()
     };
     let (one, many) = (run(1), run(16));
-    let bytes = |s: &serde_json::Value, k: &str| s[k].as_u64().unwrap_or_else(|| panic!("{k}: {s}"));
+    let bytes =
+        |s: &serde_json::Value, k: &str| s[k].as_u64().unwrap_or_else(|| panic!("{k}: {s}"));
     assert!(bytes(&one, "grid_memory_bytes") > 100_000);
-    assert_eq!(bytes(&one, "grid_memory_bytes"), bytes(&many, "grid_memory_bytes"));
+    assert_eq!(
+        bytes(&one, "grid_memory_bytes"),
+        bytes(&many, "grid_memory_bytes")
+    );
     // The density the render holds: one copy and a placement (a few hundred bytes) each.
-    let (d1, d16) = (bytes(&one, "density_memory_bytes"), bytes(&many, "density_memory_bytes"));
+    let (d1, d16) = (
+        bytes(&one, "density_memory_bytes"),
+        bytes(&many, "density_memory_bytes"),
+    );
     assert!(d1 >= bytes(&one, "grid_memory_bytes"), "{d1}");
     assert!(d16 <= d1 + 16 * 512, "{d16} vs {d1}");
 }
@@ -285,10 +333,19 @@ fn bad_volume_tables_are_refused_in_one_line() {
     for (i, (table, want)) in [
         ("[[volume]]\nname = \"x\"\n", "missing field `file`"),
         ("[[volume]]\nfile = \"{}\"\nscale = [1, 0, 1]\n", "singular"),
-        ("[[volume]]\nfile = \"{}\"\nshift = [1, 0, 1]\n", "unknown key `shift`"),
-        ("[[volume]]\nfile = \"{}\"\nrotate = [0, \"x\", 0]\n", "invalid type"),
+        (
+            "[[volume]]\nfile = \"{}\"\nshift = [1, 0, 1]\n",
+            "unknown key `shift`",
+        ),
+        (
+            "[[volume]]\nfile = \"{}\"\nrotate = [0, \"x\", 0]\n",
+            "invalid type",
+        ),
         ("[[volume]]\nfile = \"missing.vdb\"\n", "missing.vdb"),
-        ("[[volume]]\nfile = \"{}\"\n[[volume]]\nfile = \"{}\"\nsigma_s = \"2,0,0\"\n", "extinction"),
+        (
+            "[[volume]]\nfile = \"{}\"\n[[volume]]\nfile = \"{}\"\nsigma_s = \"2,0,0\"\n",
+            "extinction",
+        ),
     ]
     .into_iter()
     .enumerate()
@@ -296,11 +353,52 @@ fn bad_volume_tables_are_refused_in_one_line() {
         let scene = dir.join(format!("bad{i}.toml"));
         fs::write(&scene, table.replace("{}", &slab())).unwrap();
         let out = dir.join(format!("bad{i}.exr"));
-        let r = murk(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--quiet"]);
+        let r = murk(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
         let err = String::from_utf8_lossy(&r.stderr);
         assert_eq!(r.status.code(), Some(2), "{table}: {err}");
         assert_eq!(err.trim().lines().count(), 1, "{table}: {err}");
         assert!(err.contains(want), "{table}: {err}");
         assert!(!out.exists());
+    }
+}
+
+/// A frame pattern in a volume's `file` is replaced frame by frame, as the input's is:
+/// two frames of a pattern volume over a static one, each with the alpha of both.
+#[test]
+fn a_volume_pattern_is_replaced_per_frame() {
+    let dir = scratch("frames");
+    for f in [1, 2] {
+        fs::copy(slab(), dir.join(format!("smoke_{f:04}.vdb"))).unwrap();
+    }
+    let scene = dir.join("shot.toml");
+    fs::write(
+        &scene,
+        format!(
+            "res = \"4x4\"\ncamera = \"ortho\"\northo_width = 0.5\neye = \"0,0,4\"\nlook_at = \"0,0,0\"\n\
+             up = \"0,1,0\"\nno_lights = true\nfloat = true\nantialias = 1\noutput = \"out_####.exr\"\n\
+             [[volume]]\nfile = \"smoke_####.vdb\"\n[[volume]]\nfile = \"{}\"\ntranslate = [0, 0, 0.3]\n",
+            slab()
+        ),
+    )
+    .unwrap();
+    let r = murk(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--frames",
+        "1-2",
+        "--quiet",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let want = -(-2.0f64 * 2.1).exp_m1();
+    for f in [1, 2] {
+        for a in channel(&dir.join(format!("out_{f:04}.exr")), "A") {
+            assert!(rel(a as f64, want) <= 1e-5, "frame {f}: α {a} vs {want}");
+        }
     }
 }

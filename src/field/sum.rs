@@ -121,7 +121,10 @@ impl Member {
         let (mut a, mut b) = (t0.min(t1), t0.max(t1));
         for k in 0..3 {
             let (o, d) = (ray.origin[k], ray.dir[k]);
-            let (lo, hi) = (self.bounds.min[k] as f64 - 0.5, self.bounds.max[k] as f64 + 0.5);
+            let (lo, hi) = (
+                self.bounds.min[k] as f64 - 0.5,
+                self.bounds.max[k] as f64 + 0.5,
+            );
             if d == 0.0 {
                 if o < lo || o > hi {
                     return false;
@@ -153,19 +156,19 @@ impl Member {
         }
         let q = self.map(ijk.as_dvec3() + 0.5);
         let lim = (1i64 << 30) as f64;
-        let c = self
-            .field
-            .cell_at(q.floor().clamp(DVec3::splat(-lim), DVec3::splat(lim)).as_ivec3());
+        let c = self.field.cell_at(
+            q.floor()
+                .clamp(DVec3::splat(-lim), DVec3::splat(lim))
+                .as_ivec3(),
+        );
         let (lo, hi) = (c.origin.as_dvec3(), c.origin.as_dvec3() + c.size as f64);
         for s in SIZES {
             let (origin, _) = FieldSum::aligned(ijk, s);
             let o = origin.as_dvec3();
             let fits = (0..8).all(|k| {
-                let corner = o + DVec3::new(
-                    (k & 1) as f64,
-                    ((k >> 1) & 1) as f64,
-                    ((k >> 2) & 1) as f64,
-                ) * s as f64;
+                let corner =
+                    o + DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64)
+                        * s as f64;
                 let p = self.map(corner);
                 p.cmpge(lo).all() && p.cmple(hi).all()
             });
@@ -397,7 +400,8 @@ impl Field for FieldSum {
         let mut each = vec![0.0; out.len()];
         let t1 = ends.last().copied().unwrap_or(t0);
         for m in self.members.iter().filter(|m| m.crossed(ray, t0, t1)) {
-            m.field.piece_integrals(&m.map_ray(ray), t0, ends, &mut each);
+            m.field
+                .piece_integrals(&m.map_ray(ray), t0, ends, &mut each);
             for (o, v) in out.iter_mut().zip(&each) {
                 *o += m.weight * v;
             }
@@ -420,7 +424,8 @@ impl Field for FieldSum {
             let side = match m.aligned {
                 Some(_) => *side,
                 None => {
-                    let map = |a: super::Affine| super::Affine::new(m.linear * a.base, m.linear * a.rate);
+                    let map =
+                        |a: super::Affine| super::Affine::new(m.linear * a.base, m.linear * a.rate);
                     super::Sideways {
                         a: map(side.a),
                         b: map(side.b),
@@ -428,7 +433,9 @@ impl Field for FieldSum {
                     }
                 }
             };
-            if !m.field.slopes_along(&m.map_ray(ray), t0, targets, &side, &mut each)
+            if !m
+                .field
+                .slopes_along(&m.map_ray(ray), t0, targets, &side, &mut each)
                 || each.len() != targets.len()
             {
                 out.truncate(start);
@@ -473,7 +480,8 @@ impl Field for FieldSum {
     /// Each distinct field once, however often it is placed, and the placements.
     fn memory_bytes(&self) -> usize {
         let mut seen: Vec<*const ()> = Vec::new();
-        let mut bytes = std::mem::size_of::<Self>() + self.members.len() * std::mem::size_of::<Member>();
+        let mut bytes =
+            std::mem::size_of::<Self>() + self.members.len() * std::mem::size_of::<Member>();
         for m in &self.members {
             let p = Arc::as_ptr(&m.field) as *const ();
             if !seen.contains(&p) {
@@ -537,7 +545,11 @@ mod tests {
         let b = unit_box(2.0);
         let sum = FieldSum::new(vec![
             (b.clone(), DMat4::IDENTITY, 1.0),
-            (b.clone(), DMat4::from_translation(DVec3::new(0.0, 0.0, 0.5)), 3.0),
+            (
+                b.clone(),
+                DMat4::from_translation(DVec3::new(0.0, 0.0, 0.5)),
+                3.0,
+            ),
         ])
         .unwrap();
         // Along z through x = y = 0.5: [0,1] at 2 and [0.5,1.5] at 2·3.
@@ -546,7 +558,10 @@ mod tests {
         assert!((got - (2.0 + 6.0)).abs() < 1e-9, "{got}");
         // Values: overlap 2 + 6, first alone 2, second alone 6.
         let at = |z: f64| sum.value_at_world(DVec3::new(0.5, 0.5, z));
-        assert_eq!((at(0.25), at(0.75), at(1.25), at(2.0)), (2.0, 8.0, 6.0, 0.0));
+        assert_eq!(
+            (at(0.25), at(0.75), at(1.25), at(2.0)),
+            (2.0, 8.0, 6.0, 0.0)
+        );
         assert_eq!(sum.distinct_fields(), 1);
         // The hierarchy: the cell holding the overlap bounds 8; far away is empty.
         let mid = sum.transform().world_to_index(DVec3::new(0.5, 0.5, 0.75));

@@ -60,7 +60,8 @@ fn placement(v: &VolumeTable, name: &str) -> Result<DMat4, String> {
                 Some(Scale::Uniform(s)) => DVec3::splat(s),
                 Some(Scale::Axes(a)) => DVec3::from_array(a),
             };
-            let r = DVec3::from_array(v.rotate.unwrap_or([0.0; 3])) * (std::f64::consts::PI / 180.0);
+            let r =
+                DVec3::from_array(v.rotate.unwrap_or([0.0; 3])) * (std::f64::consts::PI / 180.0);
             let rotation = DQuat::from_euler(EulerRot::ZYX, r.z, r.y, r.x);
             let t = DVec3::from_array(v.translate.unwrap_or([0.0; 3]));
             DMat4::from_scale_rotation_translation(scale, rotation, t)
@@ -121,7 +122,9 @@ pub(super) fn volumes(
         let density = match v.density_grid.as_ref().or(o.density_grid.as_ref()) {
             None => GridChoice::Detect,
             Some(n) if n.is_empty() || n == "none" => {
-                return Err(format!("[[volume]] \"{name}\": a volume needs a density grid"));
+                return Err(format!(
+                    "[[volume]] \"{name}\": a volume needs a density grid"
+                ));
             }
             Some(n) => GridChoice::Named(n.clone()),
         };
@@ -143,7 +146,13 @@ pub(super) fn volumes(
             density_scale: 1.0,
             g: base.g,
         };
-        return Ok(Some((VolumesPlan { list, tinted: false }, none)));
+        return Ok(Some((
+            VolumesPlan {
+                list,
+                tinted: false,
+            },
+            none,
+        )));
     };
     let s = first.sigma_a + first.sigma_s;
     let albedo_of = |m: &Medium| {
@@ -209,10 +218,7 @@ mod tests {
         assert_eq!(m.sigma_s, DVec3::splat(2.1));
         assert_eq!(m.sigma_a, DVec3::ZERO);
         assert!((v.list[1].albedo.x - 0.05 / 1.05).abs() < 1e-12);
-        assert_eq!(
-            v.list[1].placement.transform_point3(DVec3::ZERO),
-            DVec3::X
-        );
+        assert_eq!(v.list[1].placement.transform_point3(DVec3::ZERO), DVec3::X);
     }
 
     #[test]
@@ -221,7 +227,10 @@ mod tests {
             .unwrap()
             .unwrap();
         assert!(!v.tinted);
-        assert_eq!((m.sigma_a, m.sigma_s), (DVec3::splat(0.1), DVec3::splat(2.0)));
+        assert_eq!(
+            (m.sigma_a, m.sigma_s),
+            (DVec3::splat(0.1), DVec3::splat(2.0))
+        );
         assert_eq!(v.list[0].weight, 3.0);
     }
 
@@ -229,14 +238,32 @@ mod tests {
     fn bad_tables_are_refused_in_one_line() {
         for (text, want) in [
             ("[[volume]]\nfile = \"a\"\nscale = [1, 0, 1]\n", "singular"),
-            ("[[volume]]\nfile = \"a\"\nmatrix = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[2,3,4,1]]\n", "last row"),
-            ("[[volume]]\nfile = \"a\"\nmatrix = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\nscale = 2\n", "one or the other"),
-            ("[[volume]]\nfile = \"a\"\n[[volume]]\nfile = \"b\"\nsigma_s = \"1,0,0\"\nsigma_a = \"0\"\n", "extinction colour"),
-            ("input = \"x.vdb\"\n[[volume]]\nfile = \"a\"\n", "remove `input`"),
+            (
+                "[[volume]]\nfile = \"a\"\nmatrix = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[2,3,4,1]]\n",
+                "last row",
+            ),
+            (
+                "[[volume]]\nfile = \"a\"\nmatrix = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\nscale = 2\n",
+                "one or the other",
+            ),
+            (
+                "[[volume]]\nfile = \"a\"\n[[volume]]\nfile = \"b\"\nsigma_s = \"1,0,0\"\nsigma_a = \"0\"\n",
+                "extinction colour",
+            ),
+            (
+                "input = \"x.vdb\"\n[[volume]]\nfile = \"a\"\n",
+                "remove `input`",
+            ),
             ("[[volume]]\nfile = \"a\"\nname = \"x y\"\n", "letters"),
-            ("[[volume]]\nfile = \"a\"\nname = \"x\"\n[[volume]]\nfile = \"a\"\nname = \"x\"\n", "two [[volume]]"),
+            (
+                "[[volume]]\nfile = \"a\"\nname = \"x\"\n[[volume]]\nfile = \"a\"\nname = \"x\"\n",
+                "two [[volume]]",
+            ),
             ("[[volume]]\nname = \"x\"\n", "missing field `file`"),
-            ("[[volume]]\nfile = \"a\"\nshift = [1, 2, 3]\n", "unknown field `shift`"),
+            (
+                "[[volume]]\nfile = \"a\"\nshift = [1, 2, 3]\n",
+                "unknown field `shift`",
+            ),
         ] {
             let e = table(text).unwrap_err();
             assert!(e.contains(want), "{text}: {e}");
