@@ -402,3 +402,51 @@ fn a_volume_pattern_is_replaced_per_frame() {
         }
     }
 }
+
+/// `murk bake-shadows` on a scene of volumes bakes the summed density's maps, which the
+/// render then takes from the cache, giving the image it bakes for itself.
+#[test]
+fn shadows_baked_for_a_scene_of_volumes_are_reused() {
+    let dir = scratch("bake");
+    let scene = dir.join("scene.toml");
+    fs::write(
+        &scene,
+        format!(
+            "res = \"12x8\"\nscattering = \"single\"\nfloat = true\n\
+             [[volume]]\nfile = \"{0}\"\n[[volume]]\nfile = \"{0}\"\nrotate = [0, 0, 30]\ntranslate = [0.5, 0.2, 0.3]\n",
+            slab()
+        ),
+    )
+    .unwrap();
+    let (cache, s) = (dir.join("shadows.vdb"), |p: &Path| {
+        p.to_str().unwrap().to_owned()
+    });
+    let r = murk(&["bake-shadows", &s(&scene), "-o", &s(&cache), "--quiet"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let (own, cached) = (dir.join("own.exr"), dir.join("cached.exr"));
+    let stats = dir.join("stats.json");
+    let r = murk(&["render", &s(&scene), "-o", &s(&own), "--quiet"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let r = murk(&[
+        "render",
+        &s(&scene),
+        "-o",
+        &s(&cached),
+        "--shadow-cache",
+        &s(&cache),
+        "--stats",
+        &s(&stats),
+        "--quiet",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let text = fs::read_to_string(&stats).unwrap();
+    assert!(
+        text.contains("\"source\":\"cache") || text.contains("\"source\": \"cache"),
+        "{text}"
+    );
+    for c in ["R", "A"] {
+        let (a, b) = (channel(&own, c), channel(&cached, c));
+        assert!(a.iter().any(|v| *v > 0.0));
+        assert_eq!(a, b, "channel {c}");
+    }
+}
