@@ -15,6 +15,10 @@ use crate::scene::options::volume::{Scale, VolumeTable};
 use glam::{DMat4, DQuat, DVec3, EulerRot};
 use std::path::PathBuf;
 
+/// Volumes a scene may place at most: each cell query of the summed density visits every
+/// volume's bounds, so a scene of millions would crawl rather than fail.
+pub const MAX_VOLUMES: usize = 4096;
+
 /// One volume to place.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VolumePlan {
@@ -93,6 +97,12 @@ pub(super) fn volumes(
             "a scene with [[volume]] tables lists its inputs there: remove `input` or list it as a [[volume]]"
                 .into(),
         );
+    }
+    if o.volume.len() > MAX_VOLUMES {
+        return Err(format!(
+            "{} [[volume]] tables: murk places at most {MAX_VOLUMES}",
+            o.volume.len()
+        ));
     }
     let mut list = Vec::with_capacity(o.volume.len());
     let mut media = Vec::with_capacity(o.volume.len());
@@ -265,6 +275,11 @@ mod tests {
                 "unknown field `shift`",
             ),
         ] {
+            let e = table(text).unwrap_err();
+            assert!(e.contains(want), "{text}: {e}");
+        }
+        let many = "[[volume]]\nfile = \"a\"\n".repeat(MAX_VOLUMES + 1);
+        for (text, want) in [(many.as_str(), "at most 4096")] {
             let e = table(text).unwrap_err();
             assert!(e.contains(want), "{text}: {e}");
         }
