@@ -13,8 +13,9 @@ mod common;
 
 use common::march::{Sun, rel};
 use glam::DVec3;
+use murk::field::albedo_mix::AlbedoMix;
 use murk::field::shapes::ConstantBox;
-use murk::field::sum::{AlbedoMix, FieldSum};
+use murk::field::sum::FieldSum;
 use murk::field::{ColorField, Field};
 use murk::integrate::phase::{HenyeyGreenstein, hg};
 use murk::integrate::{ColorTint, MarchSettings, Volume};

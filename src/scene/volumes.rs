@@ -8,7 +8,8 @@ use super::plan::{GridChoice, GridRoles, RenderPlan, VolumesPlan};
 use super::report::SceneReport;
 use super::roles::{SceneFields, load_fields};
 use crate::field::Field;
-use crate::field::sum::{AlbedoMix, FieldSum};
+use crate::field::albedo_mix::AlbedoMix;
+use crate::field::sum::FieldSum;
 use std::path::PathBuf;
 use std::sync::Arc;
 
