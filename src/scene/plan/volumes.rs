@@ -279,9 +279,7 @@ mod tests {
             assert!(e.contains(want), "{text}: {e}");
         }
         let many = "[[volume]]\nfile = \"a\"\n".repeat(MAX_VOLUMES + 1);
-        for (text, want) in [(many.as_str(), "at most 4096")] {
-            let e = table(text).unwrap_err();
-            assert!(e.contains(want), "{text}: {e}");
-        }
+        let e = table(&many).unwrap_err();
+        assert!(e.contains("at most 4096"), "{e}");
     }
 }
