@@ -477,6 +477,10 @@ impl Field for VoxelGrid {
         Some(VoxelGrid::content_hash(self))
     }
 
+    fn as_voxel_grid(&self) -> Option<&VoxelGrid> {
+        Some(self)
+    }
+
     fn memory_bytes(&self) -> usize {
         VoxelGrid::memory_bytes(self)
     }

@@ -16,6 +16,7 @@ pub mod floor;
 pub mod grid;
 pub mod grid_build;
 mod grid_integrals;
+pub mod grid_nodes;
 mod grid_ranges;
 pub mod mesh;
 pub mod nonzero;
@@ -313,6 +314,11 @@ pub trait Field: Send + Sync {
 
     /// Bytes the field's render structure holds (reported in the stats and compared with
     /// the shadow map's).
+    /// The field as a [`VoxelGrid`], if it is one (the GPU backend walks its nodes).
+    fn as_voxel_grid(&self) -> Option<&VoxelGrid> {
+        None
+    }
+
     fn memory_bytes(&self) -> usize {
         std::mem::size_of_val(self)
     }

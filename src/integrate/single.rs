@@ -1,9 +1,9 @@
 //! Single scattering: emission, absorption and light scattered once toward the camera,
 //! by the ray march ([`march`]), with an optional ground plane behind the volume.
 
-use super::ground::{ALBEDO, Ground};
+use super::ground::{ALBEDO, Ground, GroundLight};
 use super::integrator::{CameraSample, Integrator, SampleRng};
-use super::march::{Illumination, MarchSettings, Scratch, Volume, march};
+use super::march::{Illumination, MarchSettings, RayResult, Scratch, Volume, march};
 use super::pass::PassLayout;
 use super::scatter_passes::{ScatterPassSpec, ScatterPasses};
 use glam::DVec3;
@@ -83,6 +83,43 @@ impl Integrator for SingleScattering<'_> {
             ray.t_max = t;
         }
         let r = march(self.volume, self.lights, &ray, &self.settings, u, scratch);
+        self.record(
+            &r,
+            hit,
+            &scratch.per_light,
+            scratch.indirect,
+            camera.depth_rate,
+            acc,
+        );
+        r.samples
+    }
+}
+
+impl SingleScattering<'_> {
+    /// The density the march integrates.
+    pub fn density(&self) -> &dyn crate::field::Field {
+        self.volume.density
+    }
+
+    /// The march's step and termination.
+    pub fn settings(&self) -> MarchSettings {
+        self.settings
+    }
+
+    /// Adds one camera sample's march result `r` to `acc` (laid out by the passes): the
+    /// ground `hit` (its ray parameter and the light there) if the ray met it, and each
+    /// light's share of the scattered radiance. The GPU backend, which marches elsewhere,
+    /// writes its results through this too.
+    pub fn record(
+        &self,
+        r: &RayResult,
+        hit: Option<(Ground, f64, GroundLight)>,
+        per_light: &[DVec3],
+        indirect: DVec3,
+        depth_rate: f64,
+        acc: &mut [f64],
+    ) {
+        let visible = hit.filter(|(g, _, _)| g.visible);
         let p = &self.passes;
         if p.has_shadow() {
             match hit {
@@ -102,15 +139,14 @@ impl Integrator for SingleScattering<'_> {
         }
         p.add_emission(acc, r.emission);
         p.add_scatter_total(acc, r.scatter);
-        p.add_indirect_share(acc, scratch.indirect);
+        p.add_indirect_share(acc, indirect);
         if p.has_per_light() {
-            for (l, v) in scratch.per_light.iter().enumerate() {
+            for (l, v) in per_light.iter().enumerate() {
                 p.add_light_share(acc, l, *v);
             }
         }
         if let Some(t) = half_t {
-            p.add_depth(acc, t * camera.depth_rate);
+            p.add_depth(acc, t * depth_rate);
         }
-        r.samples
     }
 }

@@ -57,6 +57,9 @@ pub enum RenderError {
     /// A file could not be written.
     #[error(transparent)]
     File(#[from] FileError),
+    /// `--device gpu`: no GPU, or the scene has what the GPU backend does not render.
+    #[error("{0}")]
+    Device(String),
     /// The shadow cache could not be written.
     #[error(transparent)]
     ShadowCache(#[from] CacheError),

@@ -5,6 +5,7 @@
 pub mod channels;
 mod error;
 pub mod error_budget;
+pub mod gpu;
 pub mod piece;
 pub mod pixels;
 pub mod sequence;
@@ -22,7 +23,7 @@ use crate::integrate::{Illumination, Integrator, ScatteringMode};
 use crate::output::{Frame, write_exr, write_preview};
 use crate::scene::Scene;
 use crate::scene::lights::bake_maps;
-use crate::scene::plan::{GridChoice, ShadowMode};
+use crate::scene::plan::{Device, GridChoice, ShadowMode};
 use crate::scene::reuse::FrameReuse;
 use crate::scene::roles::load_fields;
 pub use error::RenderError;
@@ -195,6 +196,7 @@ fn render_image_frame_here(
     };
     // Seconds the fast mode's lattice took (a stage of its own in the stats).
     let mut multiple_seconds = None;
+    let (mut gpu, mut device_note) = choose_device(plan, &scene)?;
     // The integrator of the plan's scattering mode.
     let (frame, render_seconds) = match plan.transport.mode {
         ScatteringMode::Single => {
@@ -208,7 +210,20 @@ fn render_image_frame_here(
                 )
             };
             let integrator = make(march_settings(plan, &scene, &mut st, make));
-            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+            let on_gpu = match &gpu {
+                Some(g) => render_frame_gpu(g, &integrator, &scene, plan, rows.clone(), &mut st)?,
+                None => Err(String::new()),
+            };
+            match on_gpu {
+                Ok(done) => done,
+                Err(why) => {
+                    if gpu.take().is_some() {
+                        // Under auto only: `gpu` turned the failure into an error.
+                        device_note = Some(format!("--device auto rendered on the CPU: {why}"));
+                    }
+                    render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+                }
+            }
         }
         ScatteringMode::Path => {
             let names = scene.lights.iter().map(|l| l.name.clone()).collect();
@@ -303,7 +318,14 @@ fn render_image_frame_here(
         .iter()
         .map(|s| s.to_string())
         .collect();
+    let gpu_stages = std::mem::take(&mut st.scene.stages);
     st.scene = scene.report;
+    st.scene.stages.extend(gpu_stages);
+    st.scene.notes.extend(device_note);
+    st.device = match &gpu {
+        Some(g) => format!("gpu: {}", g.name),
+        None => "cpu".into(),
+    };
     if let Some(budget) = &st.error_budget {
         st.scene.notes.push(budget.note());
     }
@@ -345,6 +367,69 @@ fn march_settings<I: Integrator>(
     );
     st.error_budget = Some(report);
     march
+}
+
+/// The GPU a render runs on under `--device gpu|auto`, or none (the CPU); and under
+/// `auto`, a note saying why the CPU renders. Under `gpu` a scene the GPU backend does not
+/// render, or no GPU, is an error naming what is missing.
+fn choose_device(
+    plan: &RenderPlan,
+    scene: &Scene,
+) -> Result<(Option<&'static gpu::Gpu>, Option<String>)> {
+    let device = plan.sampling.device;
+    if device == Device::Cpu {
+        return Ok((None, None));
+    }
+    let opened = match gpu::unsupported(plan, scene) {
+        Some(feature) => Err(format!("the GPU backend does not render {feature} yet")),
+        None => gpu::Gpu::shared(),
+    };
+    match opened {
+        Ok(g) => Ok((Some(g), None)),
+        Err(why) if device == Device::Gpu => {
+            Err(RenderError::Device(format!("--device gpu: {why}")))
+        }
+        Err(why) => Ok((
+            None,
+            Some(format!("--device auto rendered on the CPU: {why}")),
+        )),
+    }
+}
+
+/// [`render_frame`] with the march on `gpu`: the stages `gpu_upload` and `render` (rays,
+/// march and readback) go in the stats. What failed on the GPU (a grid over its buffer
+/// limit, say) is an error under `--device gpu`, and the inner `Err` (the CPU renders
+/// instead) under `auto`.
+fn render_frame_gpu(
+    gpu: &gpu::Gpu,
+    integrator: &SingleScattering,
+    scene: &Scene,
+    plan: &RenderPlan,
+    rows: std::ops::Range<usize>,
+    st: &mut RenderStats,
+) -> Result<std::result::Result<(Frame, f64), String>> {
+    let t = Instant::now();
+    let job = pixels::PixelJob {
+        integrator,
+        camera: &scene.camera,
+        spp: plan.sampling.spp,
+        seed: plan.sampling.seed,
+        rows,
+        antialias: plan.sampling.antialias,
+    };
+    let (passes, times) = match gpu::render_pixels(gpu, scene, &job) {
+        Ok(done) => done,
+        Err(why) if plan.sampling.device == Device::Auto => return Ok(Err(why)),
+        Err(why) => return Err(RenderError::Device(format!("--device gpu: {why}"))),
+    };
+    let render_seconds = t.elapsed().as_secs_f64();
+    st.scene
+        .stages
+        .insert("gpu_upload".into(), Stage::ran(times.upload));
+    st.rays = passes.rays;
+    st.samples = passes.samples;
+    st.samples_per_second = passes.samples as f64 / times.march.max(1e-9);
+    Ok(Ok((channels::assemble(&passes)?, render_seconds)))
 }
 
 /// Runs the pixel loop of `integrator` over the scene's camera on the plan's threads,

@@ -49,7 +49,7 @@ pub struct PixelJob<'a, I: Integrator> {
 impl<I: Integrator> PixelJob<'_, I> {
     /// Whether edges are antialiased: one sample a pixel, `antialias` > 1, and an alpha
     /// pass to find them by.
-    fn edges(&self) -> bool {
+    pub(super) fn edges(&self) -> bool {
         self.spp == 1
             && self.antialias > 1
             && self
@@ -61,7 +61,7 @@ impl<I: Integrator> PixelJob<'_, I> {
 
     /// The rows whose centres are rendered: the job's, and with edge antialiasing one
     /// more on each side for the neighbours.
-    fn centre_rows(&self) -> (usize, usize) {
+    pub(super) fn centre_rows(&self) -> (usize, usize) {
         let h = self.camera.height;
         let (r0, r1) = (self.rows.start.min(h), self.rows.end.min(h));
         if self.edges() && r1 > r0 {

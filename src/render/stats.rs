@@ -14,6 +14,8 @@ pub struct RenderStats {
     /// Stages, grids in their roles, shadow maps and notes.
     #[serde(flatten)]
     pub scene: SceneReport,
+    /// Where the pixels were computed: `cpu`, or `gpu: ` and the adapter's name.
+    pub device: String,
     /// EXR channels written.
     pub channels: Vec<String>,
     pub rays: u64,

@@ -41,7 +41,7 @@ pub struct Brick {
     pub offset: u32,
     /// Hermite: the scales of the packed slopes. Linear: τ's base and step, then 0, 0.
     /// Constant: τ, then 0, 0, 0.
-    scales: [f32; QUANTITIES - 1],
+    pub(super) scales: [f32; QUANTITIES - 1],
 }
 
 /// A brick as a bake or a cache hands it to [`ChartMap::new`]: Hermite needs every
@@ -58,17 +58,17 @@ pub struct BakedBrick {
 #[derive(Clone, Debug)]
 pub struct ChartMap {
     pub chart: Chart,
-    lo: IVec3,
-    dims: IVec3,
-    slots: Vec<u32>,
+    pub(super) lo: IVec3,
+    pub(super) dims: IVec3,
+    pub(super) slots: Vec<u32>,
     pub bricks: Vec<Brick>,
     /// Per Hermite brick: its samples, x fastest.
-    samples: Vec<PackedSample>,
+    pub(super) samples: Vec<PackedSample>,
     /// Per Linear brick: its τ steps, x fastest.
-    linear: Vec<u16>,
+    pub(super) linear: Vec<u16>,
 }
 
-const NO_BRICK: u32 = u32::MAX;
+pub(super) const NO_BRICK: u32 = u32::MAX;
 
 /// Bricks packed between two returns of freed memory.
 const RELEASE_EVERY: usize = 8192;

@@ -12,6 +12,7 @@ mod cache_check;
 mod cache_error;
 pub mod chart;
 pub mod columns;
+pub mod flat;
 mod lattice;
 mod level_checks;
 pub mod map;

@@ -26,6 +26,8 @@ enum Probe {
     Python(&'static [&'static str], &'static str),
     /// `openjd`: `MURK_OPENJD`, then /opt/murk-venv/bin/openjd, then `PATH`.
     Openjd,
+    /// Files that all exist.
+    Files(&'static [&'static str]),
 }
 
 pub struct Tool {
@@ -87,6 +89,15 @@ pub const OPENJD: Tool = Tool {
     package: "pip package openjd-cli in /opt/murk-venv, or MURK_OPENJD",
     probe: Probe::Openjd,
 };
+/// Mesa's lavapipe (Vulkan on the CPU) and the Vulkan loader: the GPU backend's tests run
+/// on it (`LAVAPIPE_ICD`), so they need no GPU.
+pub const LAVAPIPE: Tool = Tool {
+    name: "lavapipe",
+    package: "Debian packages mesa-vulkan-drivers and libvulkan1",
+    probe: Probe::Files(&[LAVAPIPE_ICD, "/usr/lib/x86_64-linux-gnu/libvulkan.so.1"]),
+};
+/// lavapipe's Vulkan driver manifest, for `VK_DRIVER_FILES`.
+pub const LAVAPIPE_ICD: &str = "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json";
 
 /// Skips the calling test (see the module's doc) unless every tool named is there.
 #[macro_export]
@@ -98,7 +109,7 @@ macro_rules! need {
     };
 }
 
-const ALL: [&Tool; 9] = [
+const ALL: [&Tool; 10] = [
     &EXRHEADER,
     &OIIOTOOL,
     &IDIFF,
@@ -108,6 +119,7 @@ const ALL: [&Tool; 9] = [
     &PYOPENVDB,
     &PYPI_REFERENCES,
     &OPENJD,
+    &LAVAPIPE,
 ];
 
 thread_local! {
@@ -187,6 +199,10 @@ fn found(tool: &Tool) -> Option<PathBuf> {
             .chain([PathBuf::from("/opt/murk-venv/bin/openjd")])
             .find(|p| executable(p))
             .or_else(|| on_path("openjd")),
+        Probe::Files(files) => files
+            .iter()
+            .all(|f| Path::new(f).is_file())
+            .then(|| PathBuf::from(files[0])),
     };
     seen.lock().unwrap().insert(tool.name, hit.clone());
     hit

@@ -215,5 +215,6 @@ macro_rules! word_flag_values {
 }
 word_flag_values!(
     crate::integrate::ScatteringMode,
-    crate::integrate::phase::PhaseKind
+    crate::integrate::phase::PhaseKind,
+    crate::scene::plan::device::Device
 );

@@ -240,6 +240,10 @@ render_options! {
 
     /// Worker threads.
     threads: Option<usize> = (Run, "N", Described("all cores"), RenderAndBake);
+    /// Where the pixels are computed: cpu, gpu (through Vulkan, Metal or DX12; fails on a
+    /// scene the GPU cannot render yet) or auto (the GPU when one is found and runs every
+    /// feature of the scene, else the CPU with a note saying why).
+    device: Option<crate::scene::plan::device::Device> = (Run, "cpu|gpu|auto", Value("cpu"), Render);
     /// Write render statistics as JSON.
     stats: Option<PathBuf> = (Run, "FILE.json", NoDefault, RenderAndBake);
     /// No progress bar.

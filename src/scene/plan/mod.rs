@@ -6,6 +6,7 @@
 
 mod camera;
 pub mod defaults;
+pub mod device;
 mod lighting;
 mod look;
 mod outputs;
@@ -15,6 +16,7 @@ mod volumes;
 
 pub use camera::{CameraPlan, CameraRequest};
 pub use defaults::{MAX_FRAME_BYTES, MAX_LIGHTS, MAX_THREADS, MIN_STEP_VOXELS};
+pub use device::Device;
 pub use lighting::{ShadowMode, ShadowPlan, safe_layer_name};
 pub use look::{EmissionPlan, GridChoice, GridRoles};
 pub use outputs::{OutputPlan, ProductionPlan};

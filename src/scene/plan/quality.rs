@@ -107,6 +107,8 @@ pub struct SamplingPlan {
     pub antialias: u32,
     pub seed: u64,
     pub threads: Option<usize>,
+    /// `--device`: where the pixels are computed.
+    pub device: super::device::Device,
 }
 
 impl SamplingPlan {
@@ -134,6 +136,7 @@ impl SamplingPlan {
             antialias,
             seed: o.seed.unwrap_or(defaults::SEED),
             threads: o.threads,
+            device: o.device.unwrap_or_default(),
         })
     }
 }

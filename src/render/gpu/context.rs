@@ -1,0 +1,255 @@
+//! The GPU: an adapter found through wgpu (Vulkan, Metal or DX12), its device with the
+//! limits the adapter reports, the march's compute pipeline, and one call that marches
+//! a batch of camera samples.
+
+use super::upload::{Buffers, RESULT_BASE, SAMPLE_FLOATS};
+use wgpu::util::DeviceExt;
+
+/// An opened GPU with the march compiled for it.
+pub struct Gpu {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    pipeline: wgpu::ComputePipeline,
+    /// The adapter as it names itself, its device type and backend.
+    pub name: String,
+    pub limits: wgpu::Limits,
+}
+
+/// Storage buffers the march binds.
+const STORAGE_BUFFERS: u32 = 6;
+/// Invocations per workgroup (`@workgroup_size` in march.wgsl).
+const WORKGROUP: u32 = 64;
+/// Workgroups per dispatch dimension (WebGPU's least limit; the shader spreads a
+/// larger dispatch over y).
+const GROUPS_X: u32 = 65535;
+
+impl Gpu {
+    /// The process's GPU, opened (and its march compiled) on first use and kept for every
+    /// later render: a sequence's frames, or a test binary's renders, open it once.
+    pub fn shared() -> Result<&'static Gpu, String> {
+        static GPU: std::sync::OnceLock<Result<Gpu, String>> = std::sync::OnceLock::new();
+        GPU.get_or_init(Gpu::open).as_ref().map_err(Clone::clone)
+    }
+
+    /// The first high-performance adapter wgpu finds, or why there is none.
+    pub fn open() -> Result<Gpu, String> {
+        let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends,
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        });
+        // WGPU_ADAPTER_NAME picks an adapter by name; else the high-performance one.
+        let adapter = pollster::block_on(async {
+            match wgpu::util::initialize_adapter_from_env(&instance, None).await {
+                Ok(a) => Ok(a),
+                Err(_) => {
+                    instance
+                        .request_adapter(&wgpu::RequestAdapterOptions {
+                            power_preference: wgpu::PowerPreference::HighPerformance,
+                            ..Default::default()
+                        })
+                        .await
+                }
+            }
+        })
+        .map_err(|e| format!("no GPU adapter found ({e})"))?;
+        let info = adapter.get_info();
+        let name = format!("{} ({:?}, {:?})", info.name, info.device_type, info.backend);
+        let limits = adapter.limits();
+        if limits.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
+            return Err(format!(
+                "{name} binds {} storage buffers per shader, the march needs {STORAGE_BUFFERS}",
+                limits.max_storage_buffers_per_shader_stage
+            ));
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("murk"),
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| format!("{name}: cannot open the device ({e})"))?;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let source = [include_str!("march.wgsl"), include_str!("dsm.wgsl")].join("\n");
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("march"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("march"),
+            layout: None,
+            module: &module,
+            entry_point: Some("march_samples"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(format!("{name}: the march does not compile ({e})"));
+        }
+        Ok(Gpu {
+            device,
+            queue,
+            pipeline,
+            name,
+            limits,
+        })
+    }
+
+    /// The most bytes one storage buffer may bind.
+    pub fn max_binding(&self) -> u64 {
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
+    }
+
+    /// Marches `samples` (each [`SAMPLE_FLOATS`] floats) through the uploaded scene;
+    /// returns `stride` floats per sample (see march.wgsl), in batches that fit the
+    /// adapter's buffers.
+    pub fn march(&self, scene: &Resident, samples: &[f32]) -> Result<Vec<f32>, String> {
+        let stride = scene.stride as usize;
+        let n = samples.len() / SAMPLE_FLOATS;
+        let per_sample = (SAMPLE_FLOATS.max(stride) * 4) as u64;
+        let batch = ((self.max_binding() / per_sample) as usize).clamp(1, 1 << 22);
+        let mut out = Vec::with_capacity(n * stride);
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        for start in (0..n).step_by(batch) {
+            let count = batch.min(n - start);
+            let part = &samples[start * SAMPLE_FLOATS..(start + count) * SAMPLE_FLOATS];
+            out.extend(self.march_batch(scene, part, count, stride)?);
+        }
+        if let Some(e) = pollster::block_on(oom.pop()) {
+            return Err(format!("{}: out of memory ({e})", self.name));
+        }
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(format!("{}: {e}", self.name));
+        }
+        Ok(out)
+    }
+
+    fn march_batch(
+        &self,
+        scene: &Resident,
+        samples: &[f32],
+        count: usize,
+        stride: usize,
+    ) -> Result<Vec<f32>, String> {
+        let d = &self.device;
+        let mut params = scene.params.clone();
+        params[super::upload::N_SAMPLES_AT] = count as u32;
+        let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("params"),
+            contents: bytemuck::cast_slice(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let input = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("samples"),
+            contents: bytemuck::cast_slice(samples),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let bytes = (count * stride * 4) as u64;
+        let results = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("results"),
+            size: bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("march"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &[
+                entry(0, &params),
+                entry(1, &scene.tree),
+                entry(2, &scene.vals),
+                entry(3, &scene.dsm),
+                entry(4, &scene.meta),
+                entry(5, &input),
+                entry(6, &results),
+            ],
+        });
+        let mut encoder = d.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            let groups = (count as u32).div_ceil(WORKGROUP);
+            pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
+        }
+        encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, bytes);
+        self.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        readback.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        d.poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| format!("{}: {e}", self.name))?;
+        match rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(format!("{}: reading the results back: {e}", self.name)),
+            Err(e) => return Err(format!("{}: reading the results back: {e}", self.name)),
+        }
+        let view = readback
+            .slice(..)
+            .get_mapped_range()
+            .map_err(|e| format!("{}: reading the results back: {e:?}", self.name))?;
+        let values: Vec<f32> = bytemuck::cast_slice(&view).to_vec();
+        drop(view);
+        readback.unmap();
+        debug_assert!(RESULT_BASE <= stride);
+        Ok(values)
+    }
+
+    /// Uploads a scene's buffers, checking each against the adapter's limits.
+    pub fn upload(&self, b: &Buffers) -> Result<Resident, String> {
+        let max = self.max_binding();
+        for (what, bytes) in b.sizes() {
+            if bytes > max {
+                return Err(format!(
+                    "{what} ({} MiB) exceed the largest buffer {} binds ({} MiB)",
+                    bytes >> 20,
+                    self.name,
+                    max >> 20
+                ));
+            }
+        }
+        let make = |label: &str, contents: &[u8]| {
+            self.device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents,
+                    usage: wgpu::BufferUsages::STORAGE,
+                })
+        };
+        Ok(Resident {
+            tree: make("tree", bytemuck::cast_slice(&b.tree)),
+            vals: make("vals", bytemuck::cast_slice(&b.vals)),
+            dsm: make("dsm", bytemuck::cast_slice(&b.dsm)),
+            meta: make("meta", bytemuck::cast_slice(&b.meta)),
+            params: b.params.clone(),
+            stride: b.stride,
+        })
+    }
+}
+
+fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
+/// A scene's buffers on the GPU.
+pub struct Resident {
+    tree: wgpu::Buffer,
+    vals: wgpu::Buffer,
+    dsm: wgpu::Buffer,
+    meta: wgpu::Buffer,
+    params: Vec<u32>,
+    /// Floats per sample in the results.
+    pub stride: u32,
+}

@@ -1,0 +1,542 @@
+// The single-scattering march of src/integrate/march.rs, one camera sample per
+// invocation, in f32: hierarchical DDA over the grid's nodes (empty cells skipped at
+// every level), segments of at most `step` voxels restarted in every cell (the first
+// shortened by the sample's jitter, longer where the cell is optically thin), each
+// segment's density from its exact integral (voxel by voxel, two-point Gauss–Legendre),
+// τ toward each light from its deep shadow map at the segment ends, early termination.
+
+struct Params {
+    offset: vec4<i32>,       // global index = local index + offset
+    root_min: vec4<i32>,
+    root_dims: vec4<i32>,
+    bounds_lo: vec4<f32>,    // active bounds, local index space
+    bounds_hi: vec4<f32>,
+    sigma_t: vec4<f32>,
+    sigma_s: vec4<f32>,
+    step_voxels: f32,
+    termination: f32,
+    thin_depth: f32,
+    n_lights: u32,
+    n_samples: u32,
+    stride: u32,
+    phase_n: u32,
+    phase_base: u32,
+    upper_base: u32,         // in `tree`
+    lower_base: u32,
+    tile_base: u32,          // in `vals`
+    root_cells: u32,         // in `vals`, two floats a cell
+    upper_cells: u32,
+    lower_cells: u32,
+    background: f32,
+    scatters: u32,
+};
+
+struct Sample {
+    world_origin: vec4<f32>, // xyz, w: jitter
+    world_dir: vec4<f32>,
+    index_origin: vec4<f32>,
+    index_dir: vec4<f32>,
+};
+
+@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(1) var<storage, read> tree: array<u32>;
+@group(0) @binding(2) var<storage, read> vals: array<f32>;
+@group(0) @binding(3) var<storage, read> dsm: array<u32>;
+@group(0) @binding(4) var<storage, read> meta_: array<f32>;
+@group(0) @binding(5) var<storage, read> samples: array<Sample>;
+@group(0) @binding(6) var<storage, read_write> results: array<f32>;
+
+const CHILD: u32 = 0x80000000u;
+const BIG: f32 = 3.0e38;
+const GL2_HALF_OFFSET: f32 = 0.2886751345948129;
+const MAX_LIGHTS: u32 = 8u;
+const MAX_CELLS: u32 = 1048576u;
+
+// ---- the grid's tree ----
+
+fn root_entry(key: vec3<i32>) -> u32 {
+    let r = key - P.root_min.xyz;
+    let d = P.root_dims.xyz;
+    if (any(r < vec3<i32>(0)) || any(r >= d)) {
+        return 0xffffffffu;
+    }
+    return u32((r.x * d.y + r.y) * d.z + r.z);
+}
+
+fn upper_off(g: vec3<i32>) -> u32 {
+    return u32((((g.x >> 7u) & 31) << 10u) | (((g.y >> 7u) & 31) << 5u) | ((g.z >> 7u) & 31));
+}
+fn lower_off(g: vec3<i32>) -> u32 {
+    return u32((((g.x >> 3u) & 15) << 8u) | (((g.y >> 3u) & 15) << 4u) | ((g.z >> 3u) & 15));
+}
+fn leaf_off(g: vec3<i32>) -> u32 {
+    return u32(((g.x & 7) << 6u) | ((g.y & 7) << 3u) | (g.z & 7));
+}
+
+// The slot of global voxel g: a tile index, or CHILD | leaf index.
+fn lookup(g: vec3<i32>) -> u32 {
+    let ri = root_entry(g >> vec3<u32>(12u));
+    if (ri == 0xffffffffu) {
+        return 0u;
+    }
+    var e = tree[ri];
+    if ((e & CHILD) == 0u) {
+        return e;
+    }
+    e = tree[P.upper_base + (e & ~CHILD) * 32768u + upper_off(g)];
+    if ((e & CHILD) == 0u) {
+        return e;
+    }
+    return tree[P.lower_base + (e & ~CHILD) * 4096u + lower_off(g)];
+}
+
+fn voxel(g: vec3<i32>) -> f32 {
+    let s = lookup(g);
+    if ((s & CHILD) == 0u) {
+        return vals[P.tile_base + s];
+    }
+    return vals[(s & ~CHILD) * 512u + leaf_off(g)];
+}
+
+struct Cell {
+    origin: vec3<i32>,  // local
+    size: i32,
+    lo: f32,
+    hi: f32,
+};
+
+fn cell_range(at: u32) -> vec2<f32> {
+    return vec2<f32>(vals[at], vals[at + 1u]);
+}
+
+fn align(g: vec3<i32>, s: i32) -> vec3<i32> {
+    return g & vec3<i32>(~(s - 1));
+}
+
+// The coarsest cell holding local voxel ijk, with its value range (Field::cell_at).
+fn cell_at(ijk: vec3<i32>) -> Cell {
+    let g = ijk + P.offset.xyz;
+    let o = P.offset.xyz;
+    let ri = root_entry(g >> vec3<u32>(12u));
+    if (ri == 0xffffffffu) {
+        return Cell(align(g, 4096) - o, 4096, P.background, P.background);
+    }
+    let e = tree[ri];
+    if ((e & CHILD) == 0u) {
+        let r = cell_range(P.root_cells + 2u * ri);
+        return Cell(align(g, 4096) - o, 4096, r.x, r.y);
+    }
+    let ui = (e & ~CHILD) * 32768u + upper_off(g);
+    let e2 = tree[P.upper_base + ui];
+    if ((e2 & CHILD) == 0u) {
+        let r = cell_range(P.upper_cells + 2u * ui);
+        return Cell(align(g, 128) - o, 128, r.x, r.y);
+    }
+    let li = (e2 & ~CHILD) * 4096u + lower_off(g);
+    let r = cell_range(P.lower_cells + 2u * li);
+    return Cell(align(g, 8) - o, 8, r.x, r.y);
+}
+
+// ---- rays in index space ----
+
+struct Ray {
+    o: vec3<f32>,
+    d: vec3<f32>,
+};
+
+fn ray_at(r: Ray, t: f32) -> vec3<f32> {
+    return r.o + r.d * t;
+}
+
+fn clip_to_bounds(r: Ray, t_min: f32, t_max: f32) -> vec2<f32> {
+    var t0 = t_min;
+    var t1 = t_max;
+    let lo = P.bounds_lo.xyz;
+    let hi = P.bounds_hi.xyz;
+    if (any(lo > hi)) {
+        return vec2<f32>(0.0, 0.0);
+    }
+    for (var a = 0; a < 3; a++) {
+        let o = r.o[a];
+        let d = r.d[a];
+        if (d == 0.0) {
+            if (o < lo[a] || o > hi[a]) {
+                return vec2<f32>(0.0, 0.0);
+            }
+            continue;
+        }
+        let inv = 1.0 / d;
+        var ta = (lo[a] - o) * inv;
+        var tb = (hi[a] - o) * inv;
+        if (ta > tb) {
+            let s = ta;
+            ta = tb;
+            tb = s;
+        }
+        t0 = max(t0, ta);
+        t1 = min(t1, tb);
+        if (t0 > t1) {
+            return vec2<f32>(0.0, 0.0);
+        }
+    }
+    if (t0 < t1) {
+        return vec2<f32>(t0, t1);
+    }
+    return vec2<f32>(0.0, 0.0);
+}
+
+// The voxel the ray is in just after t (on a face: the one it enters).
+fn voxel_ahead(r: Ray, t: f32) -> vec3<i32> {
+    let p = ray_at(r, t);
+    var c = floor(p);
+    for (var a = 0; a < 3; a++) {
+        if (r.d[a] < 0.0) {
+            c[a] = ceil(p[a]) - 1.0;
+        }
+    }
+    return vec3<i32>(clamp(c, vec3<f32>(-1073741824.0), vec3<f32>(1073741824.0)));
+}
+
+fn cell_exit(r: Ray, origin: vec3<i32>, size: i32) -> f32 {
+    var t_exit = BIG;
+    for (var a = 0; a < 3; a++) {
+        let d = r.d[a];
+        if (d == 0.0) {
+            continue;
+        }
+        var face = f32(origin[a]);
+        if (d > 0.0) {
+            face += f32(size);
+        }
+        t_exit = min(t_exit, (face - r.o[a]) / d);
+    }
+    return t_exit;
+}
+
+// ---- exact density integrals: a walk over the voxel cells ----
+
+struct Walk {
+    cell: vec3<i32>,
+    next: vec3<f32>,
+    step: vec3<i32>,
+    inv: vec3<f32>,
+    loaded: vec3<i32>,
+    corners0: vec4<f32>,  // corners 0..3 (x = 0)
+    corners1: vec4<f32>,  // corners 4..7 (x = 1)
+    has: bool,
+};
+
+fn face_t(r: Ray, w: Walk, a: i32) -> f32 {
+    let d = r.d[a];
+    if (d > 0.0) {
+        return (f32(w.cell[a]) + 1.0 - r.o[a]) * w.inv[a];
+    }
+    if (d < 0.0) {
+        return (f32(w.cell[a]) - r.o[a]) * w.inv[a];
+    }
+    return BIG;
+}
+
+fn walk_start(r: Ray, t0: f32) -> Walk {
+    var w: Walk;
+    let p = ray_at(r, t0);
+    for (var a = 0; a < 3; a++) {
+        if (r.d[a] < 0.0) {
+            w.cell[a] = -i32(floor(-p[a])) - 1;
+        } else {
+            w.cell[a] = i32(floor(p[a]));
+        }
+    }
+    w.step = vec3<i32>(sign(r.d));
+    w.inv = 1.0 / r.d;
+    w.has = false;
+    for (var a = 0; a < 3; a++) {
+        w.next[a] = face_t(r, w, a);
+    }
+    return w;
+}
+
+fn load_corners(w: ptr<function, Walk>) {
+    if ((*w).has && all((*w).loaded == (*w).cell)) {
+        return;
+    }
+    let g = (*w).cell + P.offset.xyz;
+    var v: array<f32, 8>;
+    let s = lookup(g);
+    if ((g.x & 7) != 7 && (g.y & 7) != 7 && (g.z & 7) != 7) {
+        if ((s & CHILD) == 0u) {
+            let c = vals[P.tile_base + s];
+            for (var k = 0; k < 8; k++) {
+                v[k] = c;
+            }
+        } else {
+            let base = (s & ~CHILD) * 512u + leaf_off(g);
+            v[0] = vals[base];
+            v[1] = vals[base + 1u];
+            v[2] = vals[base + 8u];
+            v[3] = vals[base + 9u];
+            v[4] = vals[base + 64u];
+            v[5] = vals[base + 65u];
+            v[6] = vals[base + 72u];
+            v[7] = vals[base + 73u];
+        }
+    } else {
+        for (var k = 0; k < 8; k++) {
+            v[k] = voxel(g + vec3<i32>((k >> 2u) & 1, (k >> 1u) & 1, k & 1));
+        }
+    }
+    (*w).corners0 = vec4<f32>(v[0], v[1], v[2], v[3]);
+    (*w).corners1 = vec4<f32>(v[4], v[5], v[6], v[7]);
+    (*w).loaded = (*w).cell;
+    (*w).has = true;
+}
+
+fn trilinear(c0: vec4<f32>, c1: vec4<f32>, t: vec3<f32>) -> f32 {
+    let a = mix(vec2<f32>(c0.x, c0.z), vec2<f32>(c0.y, c0.w), t.z); // (x0,y0) (x0,y1)
+    let b = mix(vec2<f32>(c1.x, c1.z), vec2<f32>(c1.y, c1.w), t.z);
+    return mix(mix(a.x, a.y, t.y), mix(b.x, b.y, t.y), t.x);
+}
+
+// ∫ρ dt over [a, b], continuing the walk (which is at or before a).
+fn integral(r: Ray, w: ptr<function, Walk>, a: f32, b: f32, budget: ptr<function, u32>) -> f32 {
+    var sum = 0.0;
+    var lo = a;
+    loop {
+        if (*budget == 0u) {
+            break;
+        }
+        *budget -= 1u;
+        let tn = min(min((*w).next.x, (*w).next.y), (*w).next.z);
+        let hi = min(tn, b);
+        if (hi > lo) {
+            load_corners(w);
+            let t = ray_at(r, 0.5 * (lo + hi)) - vec3<f32>((*w).cell);
+            let off = r.d * (GL2_HALF_OFFSET * (hi - lo));
+            sum += 0.5 * (hi - lo) * (trilinear((*w).corners0, (*w).corners1, t - off)
+                + trilinear((*w).corners0, (*w).corners1, t + off));
+            lo = hi;
+        }
+        if (tn >= b) {
+            break;
+        }
+        for (var k = 0; k < 3; k++) {
+            if ((*w).next[k] <= tn) {
+                (*w).cell[k] += (*w).step[k];
+                (*w).next[k] = face_t(r, *w, k);
+            }
+        }
+    }
+    return sum;
+}
+
+// ---- optics ----
+
+fn one_minus_exp(x: f32) -> f32 {
+    if (abs(x) < 1e-3) {
+        return x * (1.0 - 0.5 * x * (1.0 - x / 3.0));
+    }
+    return 1.0 - exp(-x);
+}
+
+fn phi(x: f32) -> f32 {
+    if (abs(x) < 1e-2) {
+        return 1.0 - x / 2.0 * (1.0 - x / 3.0 * (1.0 - x / 4.0 * (1.0 - x / 5.0)));
+    }
+    return one_minus_exp(x) / x;
+}
+
+fn exp_source_weight(st: f32, tau0: f32, tau1: f32, ds: f32) -> f32 {
+    let a_ds = st * ds + (tau1 - tau0);
+    if (a_ds >= 0.0) {
+        return exp(-tau0) * ds * phi(a_ds);
+    }
+    return exp(-(tau1 + st * ds)) * ds * phi(-a_ds);
+}
+
+fn phase(cos_theta: f32) -> vec3<f32> {
+    // Tabulated over the scattering angle θ, evenly.
+    let theta = acos(clamp(cos_theta, -1.0, 1.0));
+    let x = theta * (f32(P.phase_n - 1u) / 3.14159265358979);
+    let i = min(u32(x), P.phase_n - 2u);
+    let f = x - f32(i);
+    let at = P.phase_base + 4u * i;
+    let p0 = vec3<f32>(meta_[at], meta_[at + 1u], meta_[at + 2u]);
+    let p1 = vec3<f32>(meta_[at + 4u], meta_[at + 5u], meta_[at + 6u]);
+    return mix(p0, p1, f);
+}
+
+// ---- lights: 16 floats each in `meta_` ----
+// [kind (0 sun, 1 point), shadow (0 none, 1 map, 2 cube map), first chart, 0,
+//  position or direction toward the sun (xyz), 0, irradiance or intensity (rgb), 0, 0 0 0 0]
+
+fn light_f(l: u32, k: u32) -> f32 {
+    return meta_[l * 16u + k];
+}
+
+// Unshadowed irradiance at x and the direction the light travels there.
+fn incident(l: u32, x: vec3<f32>, irr: ptr<function, vec3<f32>>) -> vec3<f32> {
+    let v = vec3<f32>(light_f(l, 4u), light_f(l, 5u), light_f(l, 6u));
+    let e = vec3<f32>(light_f(l, 8u), light_f(l, 9u), light_f(l, 10u));
+    if (light_f(l, 0u) == 0.0) {
+        *irr = e;
+        return -v;
+    }
+    let d = x - v;
+    let r2 = max(dot(d, d), 1e-12);
+    *irr = e / r2;
+    return d / sqrt(r2);
+}
+
+// ---- the march ----
+
+// Results of one sample at results[i * stride]: optical depth (rgb) and 1 where the
+// march terminated, transmittance (rgb) and the half-opacity t (−1: none), the density
+// samples taken and 0, 0, 0, then per light its scattered radiance (rgb) and 0.
+@compute @workgroup_size(64)
+fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x + id.y * 65535u * 64u;
+    if (i >= P.n_samples) {
+        return;
+    }
+    let smp = samples[i];
+    let wo = smp.world_origin.xyz;
+    let wd = smp.world_dir.xyz;
+    let u = clamp(smp.world_origin.w, 0.0, 1.0);
+    let t_max = smp.world_dir.w;
+    let r = Ray(smp.index_origin.xyz, smp.index_dir.xyz);
+    let out = i * P.stride;
+    let speed = length(r.d);
+    var tau = vec3<f32>(0.0);
+    var t_now = vec3<f32>(1.0);
+    var half_t = -1.0;
+    var terminated = false;
+    var n = 0u;
+    var per_light: array<vec3<f32>, 8>;
+    var light_tau: array<vec3<f32>, 8>;
+    var light_tau_ok: array<bool, 8>;
+    for (var l = 0u; l < MAX_LIGHTS; l++) {
+        per_light[l] = vec3<f32>(0.0);
+        light_tau_ok[l] = false;
+    }
+    let n_lights = min(P.n_lights, MAX_LIGHTS);
+    var last_end = -BIG;
+    if (speed > 0.0 && speed < BIG) {
+        let h = max(P.step_voxels, 1e-6) / speed;
+        let st_max = max(max(P.sigma_t.x, P.sigma_t.y), P.sigma_t.z);
+        let clip = clip_to_bounds(r, 0.0, t_max);
+        var t = clip.x;
+        let t_end = clip.y;
+        let scale = max(max(abs(r.o.x), abs(r.o.y)), max(abs(r.o.z), 1.0));
+        let min_step = 1e-6 * scale / speed;
+        var cells = MAX_CELLS;
+        var budget = 16777216u;
+        loop {
+            if (!(t < t_end) || cells == 0u || terminated) {
+                break;
+            }
+            cells -= 1u;
+            let cell = cell_at(voxel_ahead(r, t));
+            let exit = cell_exit(r, cell.origin, cell.size);
+            let t1 = min(max(exit, t + min_step), t_end);
+            let t0 = t;
+            t = t1;
+            if (cell.hi <= 0.0 && cell.lo >= 0.0) {
+                continue;
+            }
+            // One span [t0, t1]: segments of h_span, the first shortened by the jitter.
+            let constant = cell.lo == cell.hi;
+            var h_span = h;
+            let per_step = st_max * cell.hi * h;
+            if (per_step > 0.0 && per_step < P.thin_depth) {
+                h_span = h * (P.thin_depth / per_step);
+            }
+            var walk = walk_start(r, t0);
+            var a = t0;
+            var first = true;
+            loop {
+                if (!(a < t1) || budget == 0u) {
+                    break;
+                }
+                var step = h_span;
+                if (first) {
+                    step = u * h_span;
+                    first = false;
+                    if (step <= 0.0) {
+                        continue;
+                    }
+                }
+                var b = min(a + step, t1);
+                if (!(b > a)) {
+                    b = t1;
+                }
+                let ds = b - a;
+                let mid = 0.5 * (a + b);
+                var rho: f32;
+                if (constant) {
+                    rho = cell.hi;
+                } else {
+                    rho = integral(r, &walk, a, b, &budget) / ds;
+                }
+                n += 1u;
+                let st = P.sigma_t.xyz * rho;
+                if (P.scatters != 0u && rho > 0.0) {
+                    let xw = wo + wd * mid;
+                    for (var l = 0u; l < n_lights; l++) {
+                        var tau0: vec3<f32>;
+                        if (light_tau_ok[l] && last_end == a) {
+                            tau0 = light_tau[l];
+                        } else {
+                            tau0 = P.sigma_t.xyz * density_to_light(l, wo + wd * a);
+                        }
+                        let tau1 = P.sigma_t.xyz * density_to_light(l, wo + wd * b);
+                        light_tau[l] = tau1;
+                        light_tau_ok[l] = true;
+                        var irr: vec3<f32>;
+                        let travel = incident(l, xw, &irr);
+                        let ph = phase(dot(travel, -wd));
+                        let weight = vec3<f32>(
+                            exp_source_weight(st.x, tau0.x, tau1.x, ds),
+                            exp_source_weight(st.y, tau0.y, tau1.y, ds),
+                            exp_source_weight(st.z, tau0.z, tau1.z, ds));
+                        per_light[l] += t_now * P.sigma_s.xyz * rho * ph * irr * weight;
+                    }
+                    last_end = b;
+                }
+                let t_before = t_now;
+                tau += st * ds;
+                t_now = exp(-tau);
+                let m0 = (t_before.x + t_before.y + t_before.z) / 3.0;
+                let m1 = (t_now.x + t_now.y + t_now.z) / 3.0;
+                if (half_t < 0.0 && m0 > 0.5 && m1 <= 0.5) {
+                    let rate = log(m0 / m1) / ds;
+                    var s = ds;
+                    if (rate > 0.0 && rate < BIG) {
+                        s = log(m0 / 0.5) / rate;
+                    }
+                    half_t = a + clamp(s, 0.0, ds);
+                }
+                if (max(max(t_now.x, t_now.y), t_now.z) < P.termination) {
+                    t_now = vec3<f32>(0.0);
+                    terminated = true;
+                    break;
+                }
+                a = b;
+            }
+        }
+    }
+    results[out] = tau.x;
+    results[out + 1u] = tau.y;
+    results[out + 2u] = tau.z;
+    results[out + 3u] = select(0.0, 1.0, terminated);
+    results[out + 4u] = t_now.x;
+    results[out + 5u] = t_now.y;
+    results[out + 6u] = t_now.z;
+    results[out + 7u] = half_t;
+    results[out + 8u] = f32(n);
+    for (var l = 0u; l < n_lights; l++) {
+        let o = out + 12u + 4u * l;
+        results[o] = per_light[l].x;
+        results[o + 1u] = per_light[l].y;
+        results[o + 2u] = per_light[l].z;
+    }
+}

@@ -1,0 +1,116 @@
+//! The GPU backend (`--device gpu|auto`): single scattering marched on a GPU through
+//! wgpu (Vulkan, Metal, DX12) by WGSL compute shaders — the density grid's nodes and the
+//! lights' deep shadow maps uploaded as storage buffers, one invocation per camera
+//! sample — beside the CPU's pixel loop, with the same samples, rays and passes.
+//!
+//! What it renders is checked first ([`unsupported`]): a scene with anything else runs on
+//! the CPU under `--device auto` (with a note naming it) and is refused under `gpu`.
+
+mod context;
+mod pixels;
+mod upload;
+
+pub use context::Gpu;
+
+use super::pixels::{PixelJob, PixelPasses};
+use crate::field::grid_nodes::FlatGridError;
+use crate::integrate::ScatteringMode;
+use crate::integrate::single::SingleScattering;
+use crate::scene::Scene;
+use crate::scene::lights::LightShadow;
+use crate::scene::plan::RenderPlan;
+use std::time::Instant;
+
+/// The first feature of the render that the GPU backend does not run, or `None` when
+/// it runs all of them.
+pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
+    if plan.transport.mode != ScatteringMode::Single {
+        return Some(format!(
+            "--scattering {} (the GPU renders --scattering single)",
+            plan.transport.mode.name()
+        ));
+    }
+    let Some(grid) = scene.fields.density.as_voxel_grid() else {
+        return Some("a density that is not a voxel grid (a mesh or a procedural field)".into());
+    };
+    if let Err(e) = grid.nodes_check() {
+        return Some(match e {
+            FlatGridError::Channels => "a density grid of more than one channel".into(),
+            FlatGridError::SparseRoot => "a density grid whose nodes lie far apart".into(),
+        });
+    }
+    if scene.scatters && !scene.phase.is_grey() {
+        return Some("a coloured phase function (--phase water-drop)".into());
+    }
+    if scene.emits {
+        return Some("emission and temperature grids".into());
+    }
+    if scene.fields.color.is_some() && scene.scatters {
+        return Some("a colour grid".into());
+    }
+    if scene.ground.is_some() {
+        return Some("the ground plane (--ground)".into());
+    }
+    if scene.lights.len() > upload::MAX_LIGHTS {
+        return Some(format!("more than {} lights", upload::MAX_LIGHTS));
+    }
+    let lights = scene.illumination();
+    if scene.scatters
+        && lights
+            .shadows
+            .iter()
+            .any(|s| matches!(s, LightShadow::Marched))
+    {
+        return Some("marched shadow rays (--shadows march)".into());
+    }
+    None
+}
+
+/// Seconds the GPU's stages took.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GpuTimes {
+    /// Flattening the grid and the maps, and uploading them.
+    pub upload: f64,
+    /// Generating the rays, marching them and reading the results back.
+    pub march: f64,
+}
+
+/// Renders the job's pixels on `gpu` (the scene passed [`unsupported`]).
+pub fn render_pixels(
+    gpu: &Gpu,
+    scene: &Scene,
+    job: &PixelJob<SingleScattering>,
+) -> Result<(PixelPasses, GpuTimes), String> {
+    let t = Instant::now();
+    let grid = scene
+        .fields
+        .density
+        .as_voxel_grid()
+        .ok_or("a density that is not a voxel grid")?;
+    let nodes = grid
+        .nodes()
+        .map_err(|_| "a density grid it cannot flatten")?;
+    let lights = scene.illumination();
+    let buffers = upload::build(&upload::SceneParts {
+        grid,
+        nodes,
+        medium: scene.medium,
+        phase: scene.phase.as_ref(),
+        lights: &scene.lights,
+        shadows: &lights.shadows,
+        settings: job.integrator.settings(),
+        scatters: scene.scatters && scene.medium.scatters(),
+    })?;
+    let resident = gpu.upload(&buffers)?;
+    drop(buffers);
+    let upload = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let passes = pixels::render_pixels(gpu, &resident, job)?;
+    Ok((
+        passes,
+        GpuTimes {
+            upload,
+            march: t.elapsed().as_secs_f64(),
+        },
+    ))
+}

@@ -1,0 +1,229 @@
+//! The pixel loop of [`crate::render::pixels`] with the march on the GPU: the same
+//! samples (centres, or `--spp` jittered ones, then the silhouette pixels again on the
+//! stratified grid), the same rays and jitter, generated here in f64; the GPU marches
+//! them in batches; each sample's result is written into the pixel's passes by
+//! [`SingleScattering::record`], as the CPU's are.
+
+use super::context::{Gpu, Resident};
+use super::upload::{RESULT_BASE, SAMPLE_FLOATS};
+use crate::field::IndexRay;
+use crate::integrate::integrator::{Integrator, SampleRng, unit_random};
+use crate::integrate::pass::PassKind;
+use crate::integrate::single::SingleScattering;
+use crate::integrate::{RayResult, WorldRay};
+use crate::render::pixels::{EDGE_ALPHA, PixelJob, PixelPasses};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// One camera sample to march: its pixel and where it goes in the pixel's mean.
+#[derive(Clone, Copy)]
+struct Pick {
+    x: usize,
+    y: usize,
+    /// The stratified grid's size (0: the job's samples, or the centre).
+    grid: u32,
+}
+
+/// The samples of pixel `p`: their jitter inside the pixel and their stream.
+fn sample_points(job: &PixelJob<SingleScattering>, p: Pick) -> Vec<(f64, f64, u32)> {
+    let count = if p.grid == 0 {
+        job.spp
+    } else {
+        p.grid * p.grid
+    };
+    (0..count)
+        .map(|s| {
+            if p.grid > 0 {
+                let (g, s1) = (p.grid, s + 1);
+                (
+                    ((s % g) as f64 + unit_random(job.seed, p.x, p.y, s1, 1)) / g as f64,
+                    ((s / g) as f64 + unit_random(job.seed, p.x, p.y, s1, 2)) / g as f64,
+                    s1,
+                )
+            } else if job.spp == 1 {
+                (0.5, 0.5, 0)
+            } else {
+                (
+                    unit_random(job.seed, p.x, p.y, s, 1),
+                    unit_random(job.seed, p.x, p.y, s, 2),
+                    s,
+                )
+            }
+        })
+        .collect()
+}
+
+/// Renders `picks` on the GPU: each pixel's `stride` values, the mean of its samples as
+/// [`crate::render::pixels::render_pixels`] takes it. Returns them and the march
+/// samples the rays took.
+fn render_picks(
+    gpu: &Gpu,
+    scene: &Resident,
+    job: &PixelJob<SingleScattering>,
+    picks: &[Pick],
+) -> Result<(Vec<f32>, u64), String> {
+    let integrator = job.integrator;
+    let layout = integrator.passes();
+    let stride = layout.slots();
+    let alpha_at = layout.offset_of_kind(PassKind::Alpha);
+    let depth_at = layout.offset_of_kind(PassKind::Depth);
+    let frame = job.camera.frame();
+    let density = integrator.density();
+    // Every sample's ray, in pick order; and where each pick's samples start.
+    let points: Vec<Vec<(f64, f64, u32)>> =
+        picks.par_iter().map(|&p| sample_points(job, p)).collect();
+    let mut starts = Vec::with_capacity(picks.len() + 1);
+    let mut total = 0;
+    for p in &points {
+        starts.push(total);
+        total += p.len();
+    }
+    starts.push(total);
+    let mut input = vec![0f32; total * SAMPLE_FLOATS];
+    let mut depth_rates = vec![0f64; total];
+    input
+        .par_chunks_mut(SAMPLE_FLOATS)
+        .zip(depth_rates.par_iter_mut())
+        .enumerate()
+        .for_each(|(i, (out, rate))| {
+            let k = starts.partition_point(|&s| s <= i) - 1;
+            let (p, (jx, jy, stream)) = (picks[k], points[k][i - starts[k]]);
+            let (o, d) = job.camera.ray(&frame, p.x as f64 + jx, p.y as f64 + jy);
+            let ray = WorldRay::new(o, d);
+            let u = SampleRng::new(job.seed, p.x, p.y, stream).uniform();
+            let index = IndexRay::new(density, ray.origin, ray.dir);
+            let put = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
+            out[..3].copy_from_slice(&put(ray.origin));
+            out[3] = u as f32;
+            out[4..7].copy_from_slice(&put(ray.dir));
+            out[7] = f32::MAX;
+            out[8..11].copy_from_slice(&put(index.origin));
+            out[12..15].copy_from_slice(&put(index.dir));
+            *rate = d.dot(frame.forward);
+        });
+    let results = gpu.march(scene, &input)?;
+    let rs = scene.stride as usize;
+    let lights = (rs - RESULT_BASE) / 4;
+    let mut values = vec![0f32; picks.len() * stride];
+    let samples: u64 = values
+        .par_chunks_mut(stride)
+        .enumerate()
+        .map(|(k, px)| {
+            let mut acc = vec![0f64; stride];
+            let mut per_light = vec![DVec3::ZERO; lights];
+            let mut n_samples = 0u64;
+            for i in starts[k]..starts[k + 1] {
+                let r = &results[i * rs..][..rs];
+                let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
+                for (l, pl) in per_light.iter_mut().enumerate() {
+                    *pl = v(RESULT_BASE + 4 * l);
+                }
+                let ray = RayResult {
+                    transmittance: v(4),
+                    optical_depth: if r[3] != 0.0 { DVec3::INFINITY } else { v(0) },
+                    emission: DVec3::ZERO,
+                    scatter: per_light.iter().sum(),
+                    half_opacity_t: (r[7] >= 0.0).then_some(r[7] as f64),
+                    samples: r[8] as u64,
+                };
+                n_samples += ray.samples;
+                integrator.record(
+                    &ray,
+                    None,
+                    &per_light,
+                    DVec3::ZERO,
+                    depth_rates[i],
+                    &mut acc,
+                );
+            }
+            let inv = 1.0 / (starts[k + 1] - starts[k]).max(1) as f64;
+            for (dst, a) in px.iter_mut().zip(acc.iter()) {
+                let v = (a * inv) as f32;
+                *dst = if v.is_finite() { v } else { 0.0 };
+            }
+            if let Some(d) = depth_at {
+                let opaque = alpha_at.is_none_or(|a| acc[a] * inv >= 0.5);
+                px[d] = if acc[d + 1] > 0.0 && opaque {
+                    (acc[d] / acc[d + 1]) as f32
+                } else {
+                    f32::INFINITY
+                };
+            }
+            n_samples
+        })
+        .sum();
+    Ok((values, samples))
+}
+
+/// [`crate::render::pixels::render_pixels`] with the march on the GPU.
+pub fn render_pixels(
+    gpu: &Gpu,
+    scene: &Resident,
+    job: &PixelJob<SingleScattering>,
+) -> Result<PixelPasses, String> {
+    let (w, h) = (job.camera.width, job.camera.height);
+    let layout = job.integrator.passes().clone();
+    let stride = layout.slots();
+    let alpha_at = layout.offset_of_kind(PassKind::Alpha);
+    let (r0, r1) = (job.rows.start.min(h), job.rows.end.min(h));
+    let (c0, c1) = job.centre_rows();
+    let centres: Vec<Pick> = (c0..c1)
+        .flat_map(|y| (0..w).map(move |x| Pick { x, y, grid: 0 }))
+        .collect();
+    let (mut values, mut samples) = render_picks(gpu, scene, job, &centres)?;
+    let mut resampled = 0u64;
+    if let (true, Some(a)) = (job.edges() && r1 > r0, alpha_at) {
+        let alpha = |x: usize, y: usize| values[((y - c0) * w + x) * stride + a];
+        let is_edge = |x: usize, y: usize| {
+            let here = alpha(x, y);
+            (y.saturating_sub(1)..(y + 2).min(h)).any(|ny| {
+                (x.saturating_sub(1)..(x + 2).min(w))
+                    .any(|nx| (alpha(nx, ny) - here).abs() > EDGE_ALPHA)
+            })
+        };
+        let edges: Vec<Pick> = (r0..r1)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| is_edge(x, y))
+            .map(|(x, y)| Pick {
+                x,
+                y,
+                grid: job.antialias,
+            })
+            .collect();
+        let (again, more) = render_picks(gpu, scene, job, &edges)?;
+        for (p, px) in edges.iter().zip(again.chunks(stride)) {
+            values[((p.y - c0) * w + p.x) * stride..][..stride].copy_from_slice(px);
+        }
+        samples += more;
+        resampled = edges.len() as u64;
+    }
+    let mut planes: Vec<Vec<Vec<f32>>> = layout
+        .passes()
+        .iter()
+        .map(|p| match p.kind {
+            PassKind::Rgb => vec![vec![0f32; w * h]; 3],
+            PassKind::Alpha => vec![vec![0f32; w * h]],
+            PassKind::Depth => vec![vec![f32::INFINITY; w * h]],
+        })
+        .collect();
+    for y in r0..r1 {
+        for x in 0..w {
+            let px = &values[((y - c0) * w + x) * stride..][..stride];
+            for (p, pass_planes) in planes.iter_mut().enumerate() {
+                let at = layout.offset(p);
+                for (c, plane) in pass_planes.iter_mut().enumerate() {
+                    plane[y * w + x] = px[at + c];
+                }
+            }
+        }
+    }
+    Ok(PixelPasses {
+        width: w,
+        height: h,
+        layout,
+        planes,
+        rays: ((c1.saturating_sub(c0) * w) as u64) * job.spp as u64
+            + resampled * (job.antialias as u64).pow(2),
+        samples,
+    })
+}

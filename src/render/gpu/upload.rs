@@ -1,0 +1,222 @@
+//! What the march reads on the GPU, as flat arrays: the density grid's nodes with each
+//! slot's cell range (`tree`, `vals`), every light's deep shadow map (`dsm`), the lights
+//! and a phase table (`meta`), and the uniform parameters, in the layouts march.wgsl and
+//! dsm.wgsl read.
+
+use crate::field::VoxelGrid;
+use crate::field::grid_nodes::GridNodes;
+use crate::integrate::phase::PhaseFunction;
+use crate::integrate::{MarchSettings, Medium};
+use crate::scene::light::{Light, LightKind};
+use crate::scene::lights::LightShadow;
+use crate::shadow::flat::FlatChart;
+use crate::shadow::map::ChartSelect;
+use glam::DVec3;
+
+/// Floats per camera sample uploaded: world origin and jitter, world direction and
+/// `t_max`, index origin and 0, index direction and 0.
+pub const SAMPLE_FLOATS: usize = 16;
+/// Floats of a result before the per-light radiance (4 a light).
+pub const RESULT_BASE: usize = 12;
+/// Where the sample count sits in the parameters (see `Params` in march.wgsl).
+pub const N_SAMPLES_AT: usize = 32;
+/// Words of the parameters.
+const PARAM_WORDS: usize = 44;
+/// Words of a chart's header in `dsm`.
+const CHART_WORDS: usize = 32;
+/// Entries of the phase table, over the scattering angle from 0 to π (0.011° apart:
+/// water drops' bows and their supernumeraries span tenths of a degree).
+const PHASE_ENTRIES: usize = 16384;
+/// The most lights the march takes (`MAX_LIGHTS` in march.wgsl).
+pub const MAX_LIGHTS: usize = 8;
+
+/// A scene's arrays, ready to upload.
+pub struct Buffers {
+    pub tree: Vec<u32>,
+    pub vals: Vec<f32>,
+    pub dsm: Vec<u32>,
+    pub meta: Vec<f32>,
+    pub params: Vec<u32>,
+    pub stride: u32,
+}
+
+impl Buffers {
+    /// Each buffer with what it holds, in bytes.
+    pub fn sizes(&self) -> [(&'static str, u64); 4] {
+        [
+            ("the density grid's node tables", self.tree.len() as u64 * 4),
+            ("the density grid's values", self.vals.len() as u64 * 4),
+            ("the shadow maps", self.dsm.len() as u64 * 4),
+            ("the lights", self.meta.len() as u64 * 4),
+        ]
+    }
+}
+
+/// What the march needs of the scene.
+pub struct SceneParts<'a> {
+    pub grid: &'a VoxelGrid,
+    pub nodes: GridNodes,
+    pub medium: Medium,
+    pub phase: &'a dyn PhaseFunction,
+    pub lights: &'a [Light],
+    pub shadows: &'a [LightShadow],
+    pub settings: MarchSettings,
+    /// Light scatters toward the camera (lights and σs > 0).
+    pub scatters: bool,
+}
+
+fn f(v: f64) -> u32 {
+    (v as f32).to_bits()
+}
+
+fn pad(v: &mut Vec<u32>) {
+    while v.len() < 4 {
+        v.push(0);
+    }
+}
+
+/// Lays the scene out for the march.
+pub fn build(s: &SceneParts) -> Result<Buffers, String> {
+    use crate::field::Field;
+    let n = &s.nodes;
+    if s.lights.len() > MAX_LIGHTS {
+        return Err(format!("more than {MAX_LIGHTS} lights"));
+    }
+    // tree: root, upper slots, lower slots.
+    let mut tree = n.root.clone();
+    let upper_base = tree.len();
+    tree.extend(&n.upper);
+    let lower_base = tree.len();
+    tree.extend(&n.lower);
+    pad(&mut tree);
+    // vals: leaf values, tile values, then every slot's cell range.
+    let mut vals = n.leaf_values.clone();
+    let tile_base = vals.len();
+    vals.extend(&n.tile_values);
+    let mut cells = |c: &[[f32; 2]]| {
+        let at = vals.len();
+        vals.extend(c.iter().flatten());
+        at
+    };
+    let root_cells = cells(&n.root_cells);
+    let upper_cells = cells(&n.upper_cells);
+    let lower_cells = cells(&n.lower_cells);
+    vals.resize(vals.len().max(4), 0.0);
+    // dsm: one header per chart, then the charts' arrays.
+    let mut charts: Vec<FlatChart> = Vec::new();
+    let mut first_chart = Vec::new();
+    for shadow in s.shadows {
+        first_chart.push(charts.len());
+        if let LightShadow::Map(m) = shadow {
+            let want = match m.select {
+                ChartSelect::Single => 1,
+                ChartSelect::CubeFaces { .. } => 6,
+            };
+            if m.charts.len() != want {
+                return Err("a shadow map without all its charts".into());
+            }
+            charts.extend(m.charts.iter().map(|c| c.flat()));
+        }
+    }
+    let mut dsm = vec![0u32; charts.len() * CHART_WORDS];
+    for (k, c) in charts.iter().enumerate() {
+        let mut put = |at: usize, v: u32| dsm[k * CHART_WORDS + at] = v;
+        put(0, c.perspective.into());
+        put(1, c.linear_lateral[0].into());
+        put(2, c.linear_lateral[1].into());
+        for (at, v) in [(4, c.point), (8, c.e1), (12, c.e2), (16, c.e3)] {
+            put(at, f(v.x));
+            put(at + 1, f(v.y));
+            put(at + 2, f(v.z));
+        }
+        put(7, f(c.scale));
+        put(11, f(c.unit));
+        for (at, v) in [(20, c.lo), (24, c.dims)] {
+            put(at, v.x as u32);
+            put(at + 1, v.y as u32);
+            put(at + 2, v.z as u32);
+        }
+    }
+    for (k, c) in charts.iter().enumerate() {
+        for (word, part) in [
+            (28, &c.slots),
+            (29, &c.bricks),
+            (30, &c.hermite),
+            (31, &c.linear),
+        ] {
+            dsm[k * CHART_WORDS + word] = dsm.len() as u32;
+            dsm.extend(part.iter());
+        }
+    }
+    pad(&mut dsm);
+    // meta: the lights, then the phase table.
+    let mut meta = Vec::with_capacity(s.lights.len() * 16 + PHASE_ENTRIES * 4);
+    for ((light, shadow), first) in s.lights.iter().zip(s.shadows).zip(&first_chart) {
+        let (kind, v) = match light.kind {
+            LightKind::Sun { toward } => (0.0, toward),
+            LightKind::Point { position } => (1.0, position),
+        };
+        let shadow = match shadow {
+            // Nothing scatters: the lights' shadows are never looked up.
+            _ if !s.scatters => 0.0,
+            LightShadow::Map(m) if matches!(m.select, ChartSelect::CubeFaces { .. }) => 2.0,
+            LightShadow::Map(_) => 1.0,
+            LightShadow::Unshadowed => 0.0,
+            LightShadow::Marched => return Err("--shadows march".into()),
+        };
+        let e = light.color * light.intensity;
+        let header = (first * CHART_WORDS) as f32;
+        meta.extend([kind, shadow, header, 0.0]);
+        meta.extend([v.x as f32, v.y as f32, v.z as f32, 0.0]);
+        meta.extend([e.x as f32, e.y as f32, e.z as f32, 0.0]);
+        meta.extend([0.0; 4]);
+    }
+    let phase_base = meta.len();
+    for i in 0..PHASE_ENTRIES {
+        let theta = std::f64::consts::PI * i as f64 / (PHASE_ENTRIES - 1) as f64;
+        let p = s.phase.eval(theta.cos());
+        meta.extend([p.x as f32, p.y as f32, p.z as f32, 0.0]);
+    }
+    // The parameters.
+    let bounds = s.grid.active_bounds();
+    let sigma_t = s.medium.sigma_t();
+    let sigma_s = s.medium.sigma_s_scaled();
+    let stride = (RESULT_BASE + 4 * s.lights.len()) as u32;
+    let ivec = |v: glam::IVec3| [v.x as u32, v.y as u32, v.z as u32, 0];
+    let fvec = |v: DVec3| [f(v.x), f(v.y), f(v.z), 0];
+    let mut params = Vec::with_capacity(PARAM_WORDS);
+    params.extend(ivec(n.origin));
+    params.extend(ivec(n.root_min));
+    params.extend(ivec(n.root_dims));
+    params.extend(fvec(bounds.min.as_dvec3()));
+    params.extend(fvec(bounds.max.as_dvec3()));
+    params.extend(fvec(sigma_t));
+    params.extend(fvec(sigma_s));
+    params.extend([
+        f(s.settings.step_voxels),
+        f(s.settings.termination),
+        f(s.settings.thin_step_depth()),
+        s.lights.len() as u32,
+        0, // the samples of a batch, set per dispatch
+        stride,
+        PHASE_ENTRIES as u32,
+        phase_base as u32,
+        upper_base as u32,
+        lower_base as u32,
+        tile_base as u32,
+        root_cells as u32,
+        upper_cells as u32,
+        lower_cells as u32,
+        s.grid.background().to_bits(),
+        u32::from(s.scatters),
+    ]);
+    debug_assert_eq!(params.len(), PARAM_WORDS);
+    Ok(Buffers {
+        tree,
+        vals,
+        dsm,
+        meta,
+        params,
+        stride,
+    })
+}

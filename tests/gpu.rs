@@ -1,0 +1,290 @@
+//! `--device gpu|auto`: the GPU backend against the CPU's image on fixtures, a closed
+//! form, determinism, and what it refuses. The GPU is Mesa's lavapipe (Vulkan on the
+//! CPU), so these run on any machine that has it, and skip where it is missing. Images
+//! are small: lavapipe is slow on two cores.
+
+mod common;
+
+use common::frames::{ok, refused, scratch};
+use common::tools::{self, LAVAPIPE_ICD};
+use murk::integrate::ScatteringMode;
+use murk::render::{RenderOptions, RenderPlan, render_image};
+use murk::scene::plan::Device;
+use std::path::PathBuf;
+use std::sync::Once;
+
+/// The radiance tolerance: relative RMSE of the beauty against the CPU's.
+const RADIANCE_RMSE: f64 = 2e-3;
+/// The alpha tolerance: RMSE against the CPU's.
+const ALPHA_RMSE: f64 = 1e-3;
+
+fn fixture(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(name)
+}
+
+/// lavapipe as the only Vulkan driver, and a runtime folder so that Mesa does not
+/// warn; once per test binary, before any thread opens a GPU.
+fn use_lavapipe() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let runtime = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gpu-xdg-runtime");
+        let _ = std::fs::create_dir_all(&runtime);
+        // SAFETY: set once, before any test of this binary opens a GPU or reads these.
+        unsafe {
+            std::env::set_var("VK_DRIVER_FILES", LAVAPIPE_ICD);
+            std::env::set_var("XDG_RUNTIME_DIR", &runtime);
+            std::env::set_var("WGPU_BACKEND", "vulkan");
+        }
+    });
+}
+
+fn options(res: &str) -> RenderOptions {
+    RenderOptions {
+        res: Some(res.into()),
+        quiet: true,
+        output: Some(std::env::temp_dir().join("murk-gpu-unused.exr")),
+        scattering: Some(ScatteringMode::Single),
+        ..RenderOptions::default()
+    }
+}
+
+fn render(input: &str, o: &RenderOptions, device: Device) -> murk::render::RenderedImage {
+    let mut o = o.clone();
+    o.device = Some(device);
+    render_image(&RenderPlan::new(&o, fixture(input)).unwrap()).unwrap()
+}
+
+fn plane<'a>(image: &'a murk::render::RenderedImage, name: &str) -> &'a [f32] {
+    image
+        .frame
+        .channel(name)
+        .unwrap_or_else(|| panic!("no channel {name}"))
+}
+
+/// Relative RMSE of the channels `names` of `got` against `want`.
+fn rel_rmse(
+    got: &murk::render::RenderedImage,
+    want: &murk::render::RenderedImage,
+    names: &[&str],
+) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for n in names {
+        for (a, b) in plane(got, n).iter().zip(plane(want, n)) {
+            num += (*a as f64 - *b as f64).powi(2);
+            den += (*b as f64).powi(2);
+        }
+    }
+    (num / den.max(1e-300)).sqrt()
+}
+
+fn rmse(a: &[f32], b: &[f32]) -> f64 {
+    let sum: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (*x as f64 - *y as f64).powi(2))
+        .sum();
+    (sum / a.len() as f64).sqrt()
+}
+
+/// The GPU's image of `input` against the CPU's: beauty, every scatter layer, alpha and
+/// Z within the tolerances. Returns the beauty's relative RMSE.
+fn gpu_matches_cpu(input: &str, o: &RenderOptions) -> f64 {
+    let cpu = render(input, o, Device::Cpu);
+    let gpu = render(input, o, Device::Gpu);
+    assert_eq!(cpu.stats.device, "cpu");
+    assert!(
+        gpu.stats.device.starts_with("gpu: llvmpipe"),
+        "{}",
+        gpu.stats.device
+    );
+    assert_eq!(cpu.frame.channel_names(), gpu.frame.channel_names());
+    let beauty = rel_rmse(&gpu, &cpu, &["R", "G", "B"]);
+    assert!(
+        beauty <= RADIANCE_RMSE,
+        "{input}: radiance rel. RMSE {beauty:e}"
+    );
+    for name in cpu.frame.channel_names() {
+        if let Some(layer) = name.strip_suffix(".R").filter(|l| !l.is_empty()) {
+            let e = rel_rmse(
+                &gpu,
+                &cpu,
+                &[name, &format!("{layer}.G"), &format!("{layer}.B")],
+            );
+            assert!(e <= RADIANCE_RMSE, "{input}: {layer} rel. RMSE {e:e}");
+        }
+    }
+    let alpha = rmse(plane(&gpu, "A"), plane(&cpu, "A"));
+    assert!(alpha <= ALPHA_RMSE, "{input}: alpha RMSE {alpha:e}");
+    // Z: the same pixels are finite, and there agree to a thousandth of the depth.
+    let (zg, zc) = (plane(&gpu, "Z"), plane(&cpu, "Z"));
+    let mut differ = 0;
+    for (g, c) in zg.iter().zip(zc) {
+        if g.is_finite() != c.is_finite() || (c.is_finite() && (g - c).abs() > 1e-3 * c.abs()) {
+            differ += 1;
+        }
+    }
+    // A pixel whose alpha is within rounding of 0.5 may fall either side.
+    assert!(
+        differ * 200 <= zg.len(),
+        "{input}: Z differs at {differ} pixels"
+    );
+    let mean: f64 = plane(&cpu, "R").iter().map(|v| *v as f64).sum::<f64>();
+    assert!(mean > 0.0, "{input}: a black image proves nothing");
+    beauty
+}
+
+#[test]
+fn the_gpu_renders_the_cpus_image_of_the_demo_cloud() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    let e = gpu_matches_cpu("cloud.vdb", &options("40x24"));
+    eprintln!("cloud: radiance rel. RMSE {e:e}");
+}
+
+#[test]
+fn the_gpu_walks_tiles_at_every_level_and_rotated_grids() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    // Leaves and 8³, 128³ and 4096³ tiles; an affine transform.
+    gpu_matches_cpu("tiles.vdb", &options("32x18"));
+    gpu_matches_cpu("rotated.vdb", &options("32x18"));
+}
+
+#[test]
+fn the_gpu_looks_shadows_up_in_point_lights_cube_maps_and_anisotropic_media() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    // Two lights (a layer each), a point light's six charts, a coloured medium, and a
+    // forward-peaked Henyey–Greenstein phase function from its table.
+    let mut o = options("32x18");
+    o.light = vec![
+        "sun:0.3,1,0.2:1,0.9,0.8:4".into(),
+        "point:2,2,3:0.6,0.8,1:30".into(),
+    ];
+    o.sigma_a = Some("0.1,0.2,0.4".into());
+    o.sigma_s = Some("3,2.5,2".into());
+    gpu_matches_cpu("cloud.vdb", &o);
+    let mut o = options("32x18");
+    o.g = Some(0.9);
+    o.light = vec!["sun:-0.2,0.1,-1:1,1,1:6".into()];
+    gpu_matches_cpu("sphere.vdb", &o);
+}
+
+#[test]
+fn a_constant_slab_seen_straight_through_has_the_closed_form_alpha() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    // slab.vdb: density 1 for k = 0..19 at voxel size 0.05, so ∫ρ dz = 1 world unit
+    // (trilinear ramps of half a voxel on each face); alpha = 1 − e^{−σt}.
+    let mut o = options("8x8");
+    o.camera = Some("ortho".into());
+    o.eye = Some("0,0,5".into());
+    o.look_at = Some("0,0,0".into());
+    o.ortho_width = Some(0.5);
+    o.sigma_a = Some("0.7,0.7,0.7".into());
+    o.sigma_s = Some("0,0,0".into());
+    let gpu = render("slab.vdb", &o, Device::Gpu);
+    let want = 1.0 - (-0.7f64).exp();
+    for a in plane(&gpu, "A") {
+        assert!(
+            (*a as f64 - want).abs() < 1e-5,
+            "alpha {a}, closed form {want}"
+        );
+    }
+}
+
+#[test]
+fn the_gpu_renders_the_same_image_twice() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    let o = options("32x18");
+    let (a, b) = (
+        render("cloud.vdb", &o, Device::Gpu),
+        render("cloud.vdb", &o, Device::Gpu),
+    );
+    for name in a.frame.channel_names() {
+        let (x, y) = (plane(&a, name), plane(&b, name));
+        assert!(
+            x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits()),
+            "{name} differs"
+        );
+    }
+}
+
+#[test]
+fn auto_falls_back_to_the_cpu_with_a_note_and_gpu_refuses_in_one_line() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    let dir = scratch("gpu-device");
+    let cloud = fixture("cloud.vdb");
+    let cloud = cloud.to_str().unwrap();
+    let args = |device: &'static str, mode: &'static str| {
+        vec![
+            "render",
+            cloud,
+            "-o",
+            "out.exr",
+            "--res",
+            "16x9",
+            "--device",
+            device,
+            "--scattering",
+            mode,
+        ]
+    };
+    // Water drops' coloured phase function is refused too.
+    let mut drops = args("gpu", "single");
+    drops.extend(["--phase", "water-drop"]);
+    refused(&dir, &drops, "--phase water-drop");
+    // The default fast scattering runs on the CPU only.
+    refused(
+        &dir,
+        &args("gpu", "fast"),
+        "--device gpu: the GPU backend does not render --scattering fast",
+    );
+    let err = ok(&dir, &args("auto", "fast"));
+    let notes: Vec<&str> = err
+        .lines()
+        .filter(|l| l.contains("--device auto"))
+        .collect();
+    assert_eq!(notes.len(), 1, "{err}");
+    assert!(notes[0].contains("--scattering fast"), "{err}");
+    // A GPU scene under auto says nothing about the device.
+    let err = ok(&dir, &args("auto", "single"));
+    assert!(!err.contains("--device"), "{err}");
+    refused(
+        &dir,
+        &["render", cloud, "-o", "x.exr", "--device", "tpu"],
+        "--device",
+    );
+    // No adapter at all (a Vulkan driver manifest that does not exist): gpu refuses in
+    // one line, auto renders on the CPU and says why.
+    let without = |device: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_murk"))
+            .current_dir(&dir)
+            .args(["render", cloud, "-o", "none.exr", "--res", "8x8"])
+            .args(["--scattering", "single", "--device", device])
+            .env("VK_DRIVER_FILES", dir.join("no-driver.json"))
+            .env("WGPU_BACKEND", "vulkan")
+            .output()
+            .unwrap()
+    };
+    let out = without("gpu");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    let murk_lines: Vec<&str> = err.lines().filter(|l| l.starts_with("murk")).collect();
+    assert_eq!(murk_lines.len(), 1, "{err}");
+    assert!(
+        murk_lines[0].contains("--device gpu: no GPU adapter found"),
+        "{err}"
+    );
+    let out = without("auto");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("--device auto rendered on the CPU: no GPU adapter found"),
+        "{err}"
+    );
+}
