@@ -6,6 +6,7 @@
 #   scripts/same_images.sh BASE_COMMIT        # e.g. the commit before a refactor
 #
 # Exit 0 when every image is identical, 1 otherwise (each difference is printed).
+# SAME_IMAGES_OLD_MURK: a murk already built at BASE_COMMIT (no worktree, no build).
 # Needs idiff (openimageio-tools) and exrheader (openexr). Builds BASE_COMMIT in a
 # temporary git worktree with its own target directory.
 set -euo pipefail
@@ -13,11 +14,16 @@ base=${1:?usage: scripts/same_images.sh BASE_COMMIT}
 root=$(cd "$(dirname "$0")/.." && pwd)
 work=$(mktemp -d)
 trap 'git -C "$root" worktree remove --force "$work/base" >/dev/null 2>&1 || true; rm -rf "$work"' EXIT
-git -C "$root" worktree add --detach "$work/base" "$base" >/dev/null
-echo "building $base and the working tree ..." >&2
-(cd "$work/base" && CARGO_TARGET_DIR="${SAME_IMAGES_BASE_TARGET:-$work/base/target}" cargo build --release -q)
-(cd "$root" && cargo build --release -q)
-old="${SAME_IMAGES_BASE_TARGET:-$work/base/target}/release/murk"
+if [[ -n "${SAME_IMAGES_OLD_MURK:-}" ]]; then
+  old=$SAME_IMAGES_OLD_MURK
+  echo "building the working tree ($base: $old) ..." >&2
+else
+  git -C "$root" worktree add --detach "$work/base" "$base" >/dev/null
+  echo "building $base and the working tree ..." >&2
+  (cd "$work/base" && CARGO_TARGET_DIR="${SAME_IMAGES_BASE_TARGET:-$work/base/target}" cargo build --release -q)
+  old="${SAME_IMAGES_BASE_TARGET:-$work/base/target}/release/murk"
+fi
+(cd "$root" && cargo build --release -q --bin murk)
 new="$root/target/release/murk"
 f="$root/fixtures"
 # name | arguments (after INPUT -o OUT)

@@ -86,13 +86,17 @@ pub(super) struct Iteration<'a> {
     pub flux: bool,
 }
 
-/// One task's buffers over the lattice, kept from order to order.
+/// A group of directions' sums over the lattice, kept from order to order.
 struct GroupBuffers<const C: usize> {
     acc: Vec<[f32; C]>,
     acc_g: Vec<[[f32; 3]; C]>,
-    radiance: Vec<[f32; C]>,
-    source: Vec<[f32; C]>,
 }
+
+/// One direction's source and radiance over the lattice.
+type SweptBuffers<const C: usize> = (Vec<[f32; C]>, Vec<[f32; C]>);
+
+/// Nodes per task when a wave's radiances are added to their groups' sums.
+const ADD_CHUNK: usize = 4096;
 
 /// Source iteration for one light, all `C` channels in each sweep.
 pub(super) fn solve<const C: usize>(
@@ -129,6 +133,9 @@ pub(super) fn solve<const C: usize>(
     let mut last_g = vec![[[0f32; 3]; C]; grid.len];
     let mut before = vec![[0f32; C]; grid.len];
     let mut buffers: Vec<GroupBuffers<C>> = Vec::new();
+    // A source and a radiance buffer per direction swept at once: one per thread.
+    let wave = rayon::current_num_threads().max(1);
+    let mut swept: Vec<SweptBuffers<C>> = Vec::new();
     for order in 0..it.orders {
         let dirs = (it.dirs_for)(order);
         let first = order == 0;
@@ -167,84 +174,127 @@ pub(super) fn solve<const C: usize>(
                 } else {
                     Vec::new()
                 },
-                radiance: vec![[0f32; C]; grid.len],
-                source: vec![[0f32; C]; grid.len],
             });
         }
-        buffers[..n_groups]
-            .par_iter_mut()
-            .zip(dirs.par_chunks(DIRECTION_GROUP))
-            .enumerate()
-            .for_each(|(gi, (buf, group))| {
-                let GroupBuffers {
-                    acc,
-                    acc_g,
-                    radiance,
-                    source: s,
-                } = buf;
-                acc.iter_mut().for_each(|v| *v = [0.0; C]);
-                acc_g.iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
-                for (di, d) in group.iter().enumerate() {
-                    let k = gi * DIRECTION_GROUP + di;
-                    // The source for this direction: isotropic after the first order,
-                    // the true phase toward d for the first.
-                    if first {
-                        let p_at = |n: usize| phases[n].weight(k);
-                        let p0 = if uniform_travel { p_at(0) } else { 0.0 };
-                        for (n, (s, v)) in s.iter_mut().zip(&rho_j).enumerate() {
-                            let p = if uniform_travel {
-                                p0
-                            } else if v.iter().any(|x| *x > 0.0) {
-                                p_at(n)
-                            } else {
-                                0.0
-                            };
-                            *s = v.map(|x| x * p);
-                        }
+        // The source toward direction `k`: the true phase for the first order,
+        // isotropic after it.
+        let fill_source = |k: usize, s: &mut [[f32; C]]| {
+            if first {
+                let p_at = |n: usize| phases[n].weight(k);
+                let p0 = if uniform_travel { p_at(0) } else { 0.0 };
+                for (n, (s, v)) in s.iter_mut().zip(&rho_j).enumerate() {
+                    let p = if uniform_travel {
+                        p0
+                    } else if v.iter().any(|x| *x > 0.0) {
+                        p_at(n)
                     } else {
-                        s.copy_from_slice(&rho_j);
-                    }
+                        0.0
+                    };
+                    *s = v.map(|x| x * p);
+                }
+            } else {
+                s.copy_from_slice(&rho_j);
+            }
+        };
+        // Directions are swept in waves of one per thread, each into its own buffer,
+        // then added to their groups' sums node by node in direction order: every
+        // thread is busy whatever the number of directions, and each sum is the same
+        // for any number of threads.
+        let n = wave.min(dirs.len());
+        while swept.len() < n {
+            swept.push((vec![[0f32; C]; grid.len], vec![[0f32; C]; grid.len]));
+        }
+        for buf in &mut buffers[..n_groups] {
+            buf.acc.iter_mut().for_each(|v| *v = [0.0; C]);
+            buf.acc_g.iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
+        }
+        for k0 in (0..dirs.len()).step_by(n) {
+            let k1 = (k0 + n).min(dirs.len());
+            swept[..k1 - k0]
+                .par_iter_mut()
+                .zip(&dirs[k0..k1])
+                .enumerate()
+                .for_each(|(i, ((s, radiance), d))| {
+                    fill_source(k0 + i, s);
                     sweep(grid, rho, s, *d, c.sigma_t, albedo, c.h, radiance);
-                    for (a, r) in acc.iter_mut().zip(radiance.iter()) {
-                        for ch in 0..C {
-                            a[ch] += r[ch];
+                });
+            let swept = &swept[..k1 - k0];
+            for (g, buf) in buffers[..n_groups].iter_mut().enumerate() {
+                let ks = (g * DIRECTION_GROUP).max(k0)..((g + 1) * DIRECTION_GROUP).min(k1);
+                if ks.is_empty() {
+                    continue;
+                }
+                let GroupBuffers { acc, acc_g } = buf;
+                // Node `at`'s chunk of the group's sums, the wave's directions `ks` added.
+                let add = |at: usize, acc: &mut [[f32; C]], acc_g: &mut [[[f32; 3]; C]]| {
+                    for k in ks.clone() {
+                        let radiance = &swept[k - k0].1[at..at + acc.len()];
+                        for (a, r) in acc.iter_mut().zip(radiance) {
+                            for ch in 0..C {
+                                a[ch] += r[ch];
+                            }
+                        }
+                        let df = dirs[k].as_vec3().to_array();
+                        for (ag, r) in acc_g.iter_mut().zip(radiance) {
+                            for ch in 0..C {
+                                for (g, dk) in ag[ch].iter_mut().zip(df) {
+                                    *g += r[ch] * dk;
+                                }
+                            }
                         }
                     }
-                    let df = d.as_vec3().to_array();
-                    for (ag, r) in acc_g.iter_mut().zip(radiance.iter()) {
+                };
+                if acc_g.is_empty() {
+                    acc.par_chunks_mut(ADD_CHUNK)
+                        .enumerate()
+                        .for_each(|(ci, acc)| add(ci * ADD_CHUNK, acc, &mut []));
+                } else {
+                    acc.par_chunks_mut(ADD_CHUNK)
+                        .zip(acc_g.par_chunks_mut(ADD_CHUNK))
+                        .enumerate()
+                        .for_each(|(ci, (acc, acc_g))| add(ci * ADD_CHUNK, acc, acc_g));
+                }
+            }
+        }
+        // Means over directions (in a fixed order of groups).
+        let inv = 1.0 / dirs.len() as f32;
+        std::mem::swap(&mut before, &mut last);
+        let groups = &buffers[..n_groups];
+        last.par_chunks_mut(ADD_CHUNK)
+            .enumerate()
+            .for_each(|(ci, last)| {
+                let at = ci * ADD_CHUNK;
+                last.iter_mut().for_each(|v| *v = [0.0; C]);
+                for buf in groups {
+                    for (l, v) in last.iter_mut().zip(&buf.acc[at..]) {
                         for ch in 0..C {
-                            for (g, dk) in ag[ch].iter_mut().zip(df) {
-                                *g += r[ch] * dk;
+                            l[ch] += v[ch];
+                        }
+                    }
+                }
+                last.iter_mut().flatten().for_each(|v| *v *= inv);
+            });
+        last_g
+            .par_chunks_mut(ADD_CHUNK)
+            .enumerate()
+            .for_each(|(ci, last_g)| {
+                let at = ci * ADD_CHUNK;
+                last_g.iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
+                for buf in groups {
+                    for (l, v) in last_g.iter_mut().zip(buf.acc_g.get(at..).unwrap_or(&[])) {
+                        for ch in 0..C {
+                            for k in 0..3 {
+                                l[ch][k] += v[ch][k];
                             }
                         }
                     }
                 }
+                last_g
+                    .iter_mut()
+                    .flatten()
+                    .flatten()
+                    .for_each(|v| *v *= inv);
             });
-        // Means over directions (in a fixed order of groups).
-        let inv = 1.0 / dirs.len() as f32;
-        std::mem::swap(&mut before, &mut last);
-        last.iter_mut().for_each(|v| *v = [0.0; C]);
-        last_g.iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
-        for buf in &buffers[..n_groups] {
-            for (l, v) in last.iter_mut().zip(&buf.acc) {
-                for ch in 0..C {
-                    l[ch] += v[ch];
-                }
-            }
-            for (l, v) in last_g.iter_mut().zip(&buf.acc_g) {
-                for ch in 0..C {
-                    for k in 0..3 {
-                        l[ch][k] += v[ch][k];
-                    }
-                }
-            }
-        }
-        last.iter_mut().flatten().for_each(|v| *v *= inv);
-        last_g
-            .iter_mut()
-            .flatten()
-            .flatten()
-            .for_each(|v| *v *= inv);
         out.orders += 1;
         if first {
             out.j1.copy_from_slice(&last);

@@ -210,8 +210,8 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
             })
         };
         let edge_pixels: Vec<(usize, usize)> = (r0..r1)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .filter(|&(x, y)| is_edge(x, y))
+            .into_par_iter()
+            .flat_map_iter(|y| (0..w).map(move |x| (x, y)).filter(|&(x, y)| is_edge(x, y)))
             .collect();
         let again: Vec<(usize, Vec<f32>)> = edge_pixels
             .par_chunks(TILE * TILE / 4)

@@ -281,3 +281,71 @@ pub fn hermite(t: f64) -> (f64, f64, f64, f64) {
         t3 - t2,
     )
 }
+
+/// One brick packed as a map stores it, apart from any map: its level and form, the
+/// scales of its 16-bit quantities and its samples in its form's store.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EncodedBrick {
+    pub(super) level: u8,
+    pub(super) form: BrickForm,
+    pub(super) scales: [f32; QUANTITIES - 1],
+    pub(super) hermite: Vec<PackedSample>,
+    pub(super) linear: Vec<u16>,
+}
+
+impl EncodedBrick {
+    /// Packs a finished brick: Hermite needs every quantity at all `side(level)³`
+    /// samples, Linear τ alone, Constant one τ (the first); `None` where they lack.
+    pub fn new(level: u8, form: BrickForm, samples: &BrickSamples) -> Option<Self> {
+        let n = side(level).pow(3);
+        let mut brick = EncodedBrick {
+            level,
+            form,
+            scales: [0.0; QUANTITIES - 1],
+            hermite: Vec::new(),
+            linear: Vec::new(),
+        };
+        match form {
+            BrickForm::Hermite => {
+                if !samples.has_len(n) {
+                    return None;
+                }
+                let planes = samples.planes();
+                let scales: [f32; QUANTITIES - 1] = std::array::from_fn(|q| {
+                    let max = planes[q + 1].iter().fold(0f32, |m, v| m.max(v.abs()));
+                    if max > 0.0 && max.is_finite() {
+                        max / i16::MAX as f32
+                    } else {
+                        1.0
+                    }
+                });
+                let pack = |v: f32, scale: f32| {
+                    (v / scale)
+                        .round()
+                        .clamp(-(i16::MAX as f32), i16::MAX as f32) as i16
+                };
+                brick.hermite = (0..n)
+                    .map(|k| PackedSample {
+                        tau: planes[0][k],
+                        rest: std::array::from_fn(|q| pack(planes[q + 1][k], scales[q])),
+                    })
+                    .collect();
+                brick.scales = scales;
+            }
+            BrickForm::Linear => {
+                if samples.tau.len() != n {
+                    return None;
+                }
+                let (base, step) = linear_scale(&samples.tau);
+                brick.linear = samples
+                    .tau
+                    .iter()
+                    .map(|&t| quantise(t, base, step))
+                    .collect();
+                brick.scales = [base, step, 0.0, 0.0];
+            }
+            BrickForm::Constant => brick.scales = [*samples.tau.first()?, 0.0, 0.0, 0.0],
+        }
+        Some(brick)
+    }
+}

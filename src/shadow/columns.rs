@@ -66,22 +66,30 @@ pub(super) fn sample_level(
                 ChartKind::Parallel { .. } => start * chart.unit,
                 ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
             };
-            let mut column = ColumnScratch::default();
-            for j in 0..m {
-                for i in 0..m {
+            // The stack's columns in parallel too: at the fine levels a batch holds only a
+            // few stacks of m² columns each.
+            let marched: Vec<(Vec<[f64; 5]>, u64)> = (0..m * m)
+                .into_par_iter()
+                .map_init(ColumnScratch::default, |column, c| {
+                    let (i, j) = (c % m, c / m);
                     let x = *bx as f64 * b + i as f64 * s;
                     let y = *by as f64 * b + j as f64 * s;
-                    columns += column.march(density, chart, x, y, t0, &depths);
-                    for (n, v) in values.iter_mut().enumerate() {
-                        for k in 0..m {
-                            let [tau, rho, tau_x, tau_y, tau_xy] = column.samples[n * m + k];
-                            let at = i + m * (j + m * k);
-                            v.tau[at] = tau as f32;
-                            v.rho[at] = rho as f32;
-                            v.tau_x[at] = tau_x as f32;
-                            v.tau_y[at] = tau_y as f32;
-                            v.tau_xy[at] = tau_xy as f32;
-                        }
+                    let n = column.march(density, chart, x, y, t0, &depths);
+                    (std::mem::take(&mut column.samples), n)
+                })
+                .collect();
+            for (c, (samples, n)) in marched.into_iter().enumerate() {
+                let (i, j) = (c % m, c / m);
+                columns += n;
+                for (n, v) in values.iter_mut().enumerate() {
+                    for k in 0..m {
+                        let [tau, rho, tau_x, tau_y, tau_xy] = samples[n * m + k];
+                        let at = i + m * (j + m * k);
+                        v.tau[at] = tau as f32;
+                        v.rho[at] = rho as f32;
+                        v.tau_x[at] = tau_x as f32;
+                        v.tau_y[at] = tau_y as f32;
+                        v.tau_xy[at] = tau_xy as f32;
                     }
                 }
             }

@@ -21,11 +21,11 @@
 //! ([`BrickForm::Linear`], 2 bytes), or, where the light reaching its top is already below
 //! the tolerance, one τ ([`BrickForm::Constant`], no samples).
 
+pub use super::brick::EncodedBrick;
 pub use super::brick::{
     BRICK, BrickForm, BrickSamples, LEVELS, MAX_LEVEL, PackedBrick, PackedSample, QUANTITIES,
     Samples, VOXEL_LEVEL, hermite, linear_rounding_error, reconstruct, side, spacing, trilinear,
 };
-use super::brick::{linear_scale, quantise};
 use super::chart::Chart;
 use crate::field::floor::floor_dvec3;
 use glam::{DVec3, IVec3};
@@ -142,53 +142,35 @@ impl ChartMap {
         form: BrickForm,
         samples: &BrickSamples,
     ) -> Option<()> {
-        let n = side(level).pow(3);
+        self.slot_index(key)?;
+        self.push_encoded(key, &EncodedBrick::new(level, form, samples)?)
+    }
+
+    /// Appends a brick [`EncodedBrick::new`] packed: what [`push`](Self::push) does, with
+    /// the packing (the costly part) done before, anywhere (the bake packs a batch's
+    /// bricks in parallel and appends them in key order).
+    pub fn push_encoded(&mut self, key: IVec3, brick: &EncodedBrick) -> Option<()> {
         let slot = self.slot_index(key)?;
-        let (offset, scales) = match form {
+        let offset = match brick.form {
             BrickForm::Hermite => {
-                if !samples.has_len(n) {
-                    return None;
-                }
                 let offset = u32::try_from(self.samples.len()).ok()?;
-                let planes = samples.planes();
-                let scales: [f32; QUANTITIES - 1] = std::array::from_fn(|q| {
-                    let max = planes[q + 1].iter().fold(0f32, |m, v| m.max(v.abs()));
-                    if max > 0.0 && max.is_finite() {
-                        max / i16::MAX as f32
-                    } else {
-                        1.0
-                    }
-                });
-                let pack = |v: f32, scale: f32| {
-                    (v / scale)
-                        .round()
-                        .clamp(-(i16::MAX as f32), i16::MAX as f32) as i16
-                };
-                self.samples.extend((0..n).map(|k| PackedSample {
-                    tau: planes[0][k],
-                    rest: std::array::from_fn(|q| pack(planes[q + 1][k], scales[q])),
-                }));
-                (offset, scales)
+                self.samples.extend_from_slice(&brick.hermite);
+                offset
             }
             BrickForm::Linear => {
-                if samples.tau.len() != n {
-                    return None;
-                }
                 let offset = u32::try_from(self.linear.len()).ok()?;
-                let (base, step) = linear_scale(&samples.tau);
-                self.linear
-                    .extend(samples.tau.iter().map(|&t| quantise(t, base, step)));
-                (offset, [base, step, 0.0, 0.0])
+                self.linear.extend_from_slice(&brick.linear);
+                offset
             }
-            BrickForm::Constant => (0, [*samples.tau.first()?, 0.0, 0.0, 0.0]),
+            BrickForm::Constant => 0,
         };
         self.slots[slot] = self.bricks.len() as u32;
         self.bricks.push(Brick {
             key,
-            level,
-            form,
+            level: brick.level,
+            form: brick.form,
             offset,
-            scales,
+            scales: brick.scales,
         });
         Some(())
     }

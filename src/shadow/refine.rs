@@ -15,10 +15,11 @@ use super::chart::Chart;
 use super::columns::sample_level;
 use super::lattice::{cells_per_column, cells_per_unit, column_cells};
 use super::level_checks::{Upstream, channels, coarse_error, coarsen, unresolved_bounds};
-use super::map::{BrickForm, BrickSamples, ChartMap, VOXEL_LEVEL, side};
+use super::map::{BrickForm, BrickSamples, ChartMap, EncodedBrick, VOXEL_LEVEL, side};
 use super::{BakeReport, BakeSettings};
 use crate::field::Field;
 use glam::IVec3;
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 /// Below a voxel, how much halving the spacing typically divides a brick's error by:
@@ -76,17 +77,14 @@ pub(super) fn refine(
             .first()
             .is_some_and(|&s| (-s * depth).exp() <= allowed)
     };
-    let constant = |map: &mut ChartMap, key, depth: f64| {
-        let samples = BrickSamples {
-            tau: vec![depth as f32],
-            ..Default::default()
-        };
-        map.push(key, 0, BrickForm::Constant, &samples)
+    let constant = |depth: f64| BrickSamples {
+        tau: vec![depth as f32],
+        ..Default::default()
     };
     let mut pending: Vec<Pending> = Vec::with_capacity(keys.len());
     for (&key, &(unresolved, upstream)) in keys.iter().zip(&bounds) {
         if dark(upstream.depth) {
-            constant(map, key, upstream.depth)?;
+            map.push(key, 0, BrickForm::Constant, &constant(upstream.depth))?;
         } else {
             pending.push((key, unresolved, upstream));
         }
@@ -119,42 +117,62 @@ pub(super) fn refine(
                 &stack_start,
                 report,
             );
-            for (&(key, unresolved, upstream), fine) in batch.iter().zip(vals) {
-                if trial == 0 {
-                    // Dark from the samples: every point of the brick lies below a point
-                    // of its top face on its column, where ∫ρ ds is at least the least
-                    // sampled there less how much it can differ between columns.
-                    let top = fine.tau[..m * m]
-                        .iter()
-                        .fold(f64::INFINITY, |a, &t| a.min(t as f64));
-                    let depth = upstream.depth.max(top - upstream.variation);
-                    if dark(depth) {
-                        constant(map, key, depth)?;
-                        continue;
+            // Each brick is decided and packed on its own (in parallel), then appended
+            // in key order: the map is the same for any number of threads.
+            let outcomes: Vec<Outcome> = batch
+                .par_iter()
+                .zip(vals)
+                .map(|(&(key, unresolved, upstream), fine)| {
+                    if trial == 0 {
+                        // Dark from the samples: every point of the brick lies below a
+                        // point of its top face on its column, where ∫ρ ds is at least
+                        // the least sampled there less how much it can differ between
+                        // columns.
+                        let top = fine.tau[..m * m]
+                            .iter()
+                            .fold(f64::INFINITY, |a, &t| a.min(t as f64));
+                        let depth = upstream.depth.max(top - upstream.variation);
+                        if dark(depth) {
+                            return Outcome::packed(key, 0, BrickForm::Constant, &constant(depth));
+                        }
                     }
-                }
-                let kept = decide(
-                    &fine, fine_level, unresolved, &chart, &sigmas, allowed, max_level, report,
-                );
-                match kept {
-                    Decision::Keep {
-                        level,
-                        form,
-                        coarse,
-                    } => {
-                        let samples = if coarse {
-                            &coarsen(&fine, fine_level)
-                        } else {
-                            &fine
-                        };
-                        held += samples.len();
-                        map.push(key, level, form, samples)?;
-                    }
-                    Decision::Refine { error } => {
+                    let mut over = Over::default();
+                    let kept = decide(
+                        &fine, fine_level, unresolved, &chart, &sigmas, allowed, max_level,
+                        &mut over,
+                    );
+                    let mut outcome = match kept {
+                        Decision::Keep {
+                            level,
+                            form,
+                            coarse,
+                        } => {
+                            let samples = if coarse {
+                                &coarsen(&fine, fine_level)
+                            } else {
+                                &fine
+                            };
+                            Outcome::packed(key, level, form, samples)
+                        }
                         // Held at the level checked until the budget says otherwise.
-                        map.push(key, fine_level, BrickForm::Hermite, &fine)?;
-                        next.push(((key, unresolved, upstream), error));
+                        Decision::Refine { error } => Outcome {
+                            refine: Some((unresolved, upstream, error)),
+                            ..Outcome::packed(key, fine_level, BrickForm::Hermite, &fine)
+                        },
+                    };
+                    outcome.over = over;
+                    outcome
+                })
+                .collect();
+            for o in outcomes {
+                report.bricks_over_tolerance += o.over.bricks;
+                report.over_tolerance_error = report.over_tolerance_error.max(o.over.error);
+                map.push_encoded(o.key, &o.brick?)?;
+                match o.refine {
+                    Some((unresolved, upstream, error)) => {
+                        next.push(((o.key, unresolved, upstream), error));
                     }
+                    None => held += o.held,
                 }
             }
         }
@@ -235,6 +253,40 @@ pub(super) fn refine(
     Some(())
 }
 
+/// Bricks kept over the tolerance, and the worst one's estimated error.
+#[derive(Default)]
+struct Over {
+    bricks: usize,
+    error: f64,
+}
+
+/// One brick decided at a level: packed as kept (or as checked, when it goes on), the
+/// samples it holds, and if it goes on what it carries to the next level.
+struct Outcome {
+    key: IVec3,
+    /// `None` where its samples do not fit its form (the map then refuses the bake).
+    brick: Option<EncodedBrick>,
+    held: usize,
+    refine: Option<(f64, Upstream, f64)>,
+    over: Over,
+}
+
+impl Outcome {
+    fn packed(key: IVec3, level: u8, form: BrickForm, samples: &BrickSamples) -> Outcome {
+        Outcome {
+            key,
+            brick: EncodedBrick::new(level, form, samples),
+            held: if form == BrickForm::Constant {
+                0
+            } else {
+                samples.len()
+            },
+            refine: None,
+            over: Over::default(),
+        }
+    }
+}
+
 /// What the check at one level says about a brick.
 enum Decision {
     /// Kept at `level` in `form`: from the level checked's samples coarsened, or from
@@ -258,7 +310,7 @@ fn decide(
     sigmas: &[f64],
     allowed: f64,
     max_level: u8,
-    report: &mut BakeReport,
+    over: &mut Over,
 ) -> Decision {
     let trial = fine_level - 1;
     let coarse = coarsen(fine, fine_level);
@@ -309,8 +361,8 @@ fn decide(
             std::cmp::Ordering::Less => 1.0,
         };
         if error > gain * allowed {
-            report.bricks_over_tolerance += 1;
-            report.over_tolerance_error = report.over_tolerance_error.max((error / gain).min(1.0));
+            over.bricks += 1;
+            over.error = over.error.max((error / gain).min(1.0));
         }
         keep(fine_level, BrickForm::Hermite)
     } else {
