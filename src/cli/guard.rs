@@ -27,6 +27,10 @@ pub fn plan_inputs(plan: &RenderPlan, scene: Option<&Path>, frame: Option<i64>) 
         None => format!("the {what}"),
     };
     let mut inputs = vec![Role::new(&plan.input, of("input"))];
+    // A scene's other [[volume]] files (the first is the input).
+    for v in plan.volumes.iter().flat_map(|v| v.list.iter().skip(1)) {
+        inputs.push(Role::new(&v.file, of(&format!("volume \"{}\"", v.name))));
+    }
     if let Some(s) = scene {
         inputs.push(Role::new(s, "the scene file"));
     }

@@ -601,10 +601,17 @@ fn bake_shadow_file_here(plan: &RenderPlan, progress: &dyn Progress) -> Result<R
         ..Default::default()
     };
     let report = &mut st.scene;
-    let source = crate::scene::source::open(&plan.input)?;
     let t = Instant::now();
-    let fields =
-        load_fields(source.as_ref(), &density_only, false, report).map_err(RenderError::Scene)?;
+    let fields = match &plan.volumes {
+        // A scene of several volumes: their summed density, as the render sees it.
+        Some(v) => crate::scene::volumes::load_volumes(&density_only, v, report)
+            .map_err(RenderError::Scene)?,
+        None => {
+            let source = crate::scene::source::open(&plan.input)?;
+            load_fields(source.as_ref(), &density_only, false, report)
+                .map_err(RenderError::Scene)?
+        }
+    };
     report
         .stages
         .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));

@@ -64,6 +64,11 @@ impl FramePaths {
     pub fn plan(&self, plan: &RenderPlan, frame: i64) -> RenderPlan {
         let mut p = plan.clone();
         p.input = self.input.path(frame);
+        if let Some(v) = &mut p.volumes {
+            for v in &mut v.list {
+                v.file = FramePattern::new(&v.file).path(frame);
+            }
+        }
         p.outputs.path = self.output.path(frame);
         p.outputs.exr.input_file = Some(p.input.display().to_string());
         if let (Some((path, _)), Some(pat)) = (&mut p.outputs.preview, &self.preview) {

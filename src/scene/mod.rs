@@ -20,6 +20,7 @@ pub mod roles;
 mod scene_file;
 pub mod source;
 pub mod transport;
+pub mod volumes;
 
 pub use options::RenderOptions;
 pub use plan::RenderPlan;
@@ -171,7 +172,10 @@ impl Scene {
         let mut report = SceneReport::default();
         // Load: descriptors and metadata only.
         let t = Instant::now();
-        let source = source::open(&plan.input)?;
+        let source = match plan.volumes {
+            Some(_) => None,
+            None => Some(source::open(&plan.input)?),
+        };
         report
             .stages
             .insert("load".into(), Stage::ran(t.elapsed().as_secs_f64()));
@@ -180,7 +184,11 @@ impl Scene {
         let scatters = lit && medium.scatters();
         // Build: decode only the fields in a role.
         let t = Instant::now();
-        let fields = load_fields(source.as_ref(), plan, scatters, &mut report)?;
+        let fields = match (&plan.volumes, source) {
+            (Some(v), _) => volumes::load_volumes(plan, v, &mut report)?,
+            (None, Some(source)) => load_fields(source.as_ref(), plan, scatters, &mut report)?,
+            (None, None) => return Err(SceneError::input(&plan.input, "nothing to render")),
+        };
         report
             .stages
             .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));

@@ -7,6 +7,7 @@
 //! fills in while it checks each value.
 
 mod flag;
+pub mod volume;
 
 pub use flag::{Commands, DefaultValue, FlagDef, FlagValue, Group, Kind, Slot};
 use serde::Deserialize;
@@ -31,6 +32,9 @@ macro_rules! render_options {
             /// Scene files only: named lights, `[[lights]] name = "key"  spec = "sun:..."`.
             #[serde(default)]
             pub lights: Vec<NamedLight>,
+            /// Scene files only: volumes placed in the world, `[[volume]] file = "..."`.
+            #[serde(default)]
+            pub volume: Vec<volume::VolumeTable>,
             $(
                 $(#[doc = $doc])+
                 #[serde(default)]
@@ -79,9 +83,15 @@ macro_rules! render_options {
                 } else {
                     self.lights
                 };
+                let volume = if self.volume.is_empty() {
+                    base.volume
+                } else {
+                    self.volume
+                };
                 RenderOptions {
                     input: self.input.or(base.input),
                     lights,
+                    volume,
                     $($field: Slot::over(self.$field, base.$field),)*
                 }
             }
@@ -264,6 +274,7 @@ pub fn scene_keys_markdown() -> String {
     let mut out = String::from(
         "| key | value | what it sets |\n|---|---|---|\n| `input` | path | the input to render, relative to the scene file (scene files only) |\n| `[[lights]]` | `name`, `spec` | a named light: `spec` as `light` takes it; its layer is `scatter_<name>` (scene files only) |\n",
     );
+    out.push_str(volume::VOLUME_ROW);
     for f in FLAGS {
         let value = match f.kind {
             Kind::Switch => "true/false".to_string(),
@@ -309,6 +320,11 @@ impl RenderOptions {
         {
             if p.is_relative() {
                 *p = dir.join(&*p);
+            }
+        }
+        for v in &mut o.volume {
+            if v.file.is_relative() {
+                v.file = dir.join(&v.file);
             }
         }
         Ok(o)

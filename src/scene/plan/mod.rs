@@ -12,6 +12,7 @@ mod look;
 mod outputs;
 mod quality;
 mod values;
+mod volumes;
 
 pub use camera::{CameraPlan, CameraRequest};
 pub use defaults::{MAX_FRAME_BYTES, MAX_LIGHTS, MAX_THREADS, MIN_STEP_VOXELS};
@@ -20,6 +21,7 @@ pub use lighting::{ShadowMode, ShadowPlan, safe_layer_name};
 pub use look::{EmissionPlan, GridChoice, GridRoles};
 pub use outputs::{DeepPlan, OutputPlan, ProductionPlan};
 pub use quality::{MarchPlan, SamplingPlan};
+pub use volumes::{VolumePlan, VolumesPlan};
 
 use super::PlanError;
 use super::light::Light;
@@ -54,6 +56,9 @@ pub struct RenderPlan {
     pub production: ProductionPlan,
     /// The scattering mode, its bounces and the environment light.
     pub transport: TransportPlan,
+    /// A scene file's `[[volume]]` tables (then `input` is the first one's file, and
+    /// `medium` their sum's), `None` for one input.
+    pub volumes: Option<VolumesPlan>,
 }
 
 impl RenderPlan {
@@ -73,11 +78,15 @@ impl RenderPlan {
         }
         let shadow_mode = ShadowMode::from_options(o)?;
         let march = MarchPlan::from_options(o, shadow_mode, transport.mode)?;
+        let (volumes, medium) = match volumes::volumes(o, look::medium(o)?)? {
+            Some((v, m)) => (Some(v), m),
+            None => (None, look::medium(o)?),
+        };
         Ok(RenderPlan {
             input,
             camera,
             grids: GridRoles::from_options(o),
-            medium: look::medium(o)?,
+            medium,
             phase: o.phase.unwrap_or_default(),
             drop_radius_um: look::drop_radius_um(o)?,
             emission: EmissionPlan::from_options(o)?,
@@ -89,6 +98,7 @@ impl RenderPlan {
             outputs,
             production: ProductionPlan::from_options(o)?,
             transport,
+            volumes,
         })
     }
 
