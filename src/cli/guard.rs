@@ -18,7 +18,8 @@ pub fn check_plan(plan: &RenderPlan, scene: Option<&Path>) -> Result<()> {
     check_outputs(&plan_inputs(plan, scene, None), &plan_outputs(plan, None))
 }
 
-/// What a render or bake reads: the input, the scene file and the shadow cache, named
+/// What a render or bake reads: the input, the scene file, the shadow cache and the
+/// holdout, named
 /// after `frame` when it is one frame of a sequence.
 pub fn plan_inputs(plan: &RenderPlan, scene: Option<&Path>, frame: Option<i64>) -> Vec<Role> {
     let of = |what: &str| match frame {
@@ -26,17 +27,24 @@ pub fn plan_inputs(plan: &RenderPlan, scene: Option<&Path>, frame: Option<i64>) 
         None => format!("the {what}"),
     };
     let mut inputs = vec![Role::new(&plan.input, of("input"))];
+    // A scene's other [[volume]] files (the first is the input).
+    for v in plan.volumes.iter().flat_map(|v| v.list.iter().skip(1)) {
+        inputs.push(Role::new(&v.file, of(&format!("volume \"{}\"", v.name))));
+    }
     if let Some(s) = scene {
         inputs.push(Role::new(s, "the scene file"));
     }
     if let Some(c) = &plan.shadows.cache {
         inputs.push(Role::new(c, of("shadow cache")));
     }
+    if let Some(h) = &plan.production.holdout {
+        inputs.push(Role::new(&h.path, "the holdout (--holdout-depth)"));
+    }
     inputs
 }
 
-/// What a render or bake writes: the output, the stats (unless `-`, standard output) and
-/// the preview, named after `frame` when it is one frame of a sequence.
+/// What a render or bake writes: the output, the stats (unless `-`, standard output), the
+/// preview and the deep EXR, named after `frame` when it is one frame of a sequence.
 pub fn plan_outputs(plan: &RenderPlan, frame: Option<i64>) -> Vec<Role> {
     let of = |what: &str| match frame {
         Some(f) => format!("frame {f}'s {what}"),
@@ -48,6 +56,9 @@ pub fn plan_outputs(plan: &RenderPlan, frame: Option<i64>) -> Vec<Role> {
     }
     if let Some((p, _)) = &plan.outputs.preview {
         outputs.push(Role::new(p, of("preview")));
+    }
+    if let Some(d) = &plan.outputs.deep {
+        outputs.push(Role::new(&d.path, of("deep EXR (--deep)")));
     }
     outputs
 }

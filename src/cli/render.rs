@@ -38,10 +38,18 @@ pub fn options_for(input: &Path, options: RenderOptions) -> Result<(RenderOption
     if is_scene {
         let scene = RenderOptions::from_scene_file(input)?;
         let merged = options.over(scene);
+        // With [[volume]] tables the first volume's file stands for the input (frame
+        // patterns, output checks); the plan reads them all.
         let vdb = merged
             .input
             .clone()
-            .ok_or_else(|| anyhow!("{}: the scene names no `input` .vdb file", input.display()))?;
+            .or_else(|| merged.volume.first().map(|v| v.file.clone()))
+            .ok_or_else(|| {
+                anyhow!(
+                    "{}: the scene names no `input` .vdb file and no [[volume]]",
+                    input.display()
+                )
+            })?;
         Ok((merged, vdb))
     } else {
         Ok((options, input.to_path_buf()))

@@ -130,6 +130,13 @@ impl<'a> FastScattering<'a> {
         );
         FastScattering { single }
     }
+
+    /// As [`SingleScattering::with_deep`].
+    pub fn with_deep(self, on: bool) -> Self {
+        FastScattering {
+            single: self.single.with_deep(on),
+        }
+    }
 }
 
 impl Integrator for FastScattering<'_> {
@@ -151,5 +158,9 @@ impl Integrator for FastScattering<'_> {
         acc: &mut [f64],
     ) -> u64 {
         self.single.sample(camera, rng, scratch, acc)
+    }
+
+    fn deep_trace<'s>(&self, scratch: &'s Scratch) -> Option<&'s super::deep::DeepTrace> {
+        self.single.deep_trace(scratch)
     }
 }

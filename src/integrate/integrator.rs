@@ -2,6 +2,7 @@
 //! camera sample's values for them. The pixel loop (`render`) knows nothing else about
 //! how light is transported.
 
+use super::deep::DeepTrace;
 use super::march::WorldRay;
 use super::pass::PassLayout;
 use crate::field::random::{SplitMix64, mix64, unit_f64};
@@ -93,4 +94,11 @@ pub trait Integrator: Sync {
         scratch: &mut Self::Scratch,
         acc: &mut [f64],
     ) -> u64;
+
+    /// The deep record of the camera sample [`Integrator::sample`] just integrated, in
+    /// ray parameters: kept by integrators built with deep output on, else none.
+    fn deep_trace<'s>(&self, scratch: &'s Self::Scratch) -> Option<&'s DeepTrace> {
+        let _ = scratch;
+        None
+    }
 }

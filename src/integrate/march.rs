@@ -33,6 +33,7 @@
 //! source behind that point)` — below 1e-4 of the light's contribution for scattering
 //! with albedo ≤ 1.
 
+use super::deep::DeepTrace;
 use super::medium::{ColorTint, Emission, Medium};
 use super::optics::{one_minus_exp, phi};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
@@ -132,9 +133,13 @@ impl RayResult {
     /// Opacity: the mean over the three channels of `1 − e^{−τ}`, from the summed
     /// optical depth (exact for tiny τ, where `1 − T` would cancel).
     pub fn alpha(&self) -> f64 {
-        let tau = self.optical_depth;
-        ((one_minus_exp(tau.x) + one_minus_exp(tau.y) + one_minus_exp(tau.z)) / 3.0).clamp(0.0, 1.0)
+        alpha_of(self.optical_depth)
     }
+}
+
+/// Opacity of optical depth `tau`: the mean over the channels of `1 − e^{−τ}`.
+fn alpha_of(tau: DVec3) -> f64 {
+    ((one_minus_exp(tau.x) + one_minus_exp(tau.y) + one_minus_exp(tau.z)) / 3.0).clamp(0.0, 1.0)
 }
 
 /// The parts of a scene the integral needs.
@@ -185,6 +190,8 @@ pub struct Scratch {
     emission_integrals: Vec<f64>,
     mids: Vec<f64>,
     temperatures: Vec<f32>,
+    /// With deep output on: the current ray's record (`integrate::deep`).
+    pub deep: Option<DeepTrace>,
 }
 
 impl Scratch {
@@ -198,6 +205,7 @@ impl Scratch {
             emission_integrals: vec![0.0; SEGMENT_BATCH],
             mids: Vec::with_capacity(SEGMENT_BATCH),
             temperatures: vec![0.0; SEGMENT_BATCH],
+            deep: None,
         }
     }
 }
@@ -300,6 +308,27 @@ fn per_channel(grey: bool, f: impl Fn(usize) -> f64) -> DVec3 {
     }
 }
 
+/// Adds the segment `[a, b]` to the ray's deep record: opacity and colour so far.
+#[cold]
+fn record_deep(
+    scratch: &mut Scratch,
+    n_lights: usize,
+    out: &RayResult,
+    tau: DVec3,
+    a: f64,
+    b: f64,
+) {
+    let mut color = out.emission;
+    for v in &scratch.per_light[..n_lights] {
+        color += *v;
+    }
+    let alpha = alpha_of(tau);
+    if let Some(tr) = scratch.deep.as_mut() {
+        let (a0, c0) = tr.last();
+        tr.segment(a, b, a0, c0, alpha, color);
+    }
+}
+
 /// Integrates one ray.
 /// `jitter` in [0, 1) shortens the first segment of every cell; 0.5 gives midpoints of a
 /// regular grid of segments.
@@ -340,6 +369,9 @@ pub fn march(
     let mut t_now = DVec3::ONE;
     let mut last_end = f64::NAN;
     let u = jitter.clamp(0.0, 1.0);
+    if let Some(tr) = scratch.deep.as_mut() {
+        tr.clear();
+    }
 
     'spans: for span in Spans::new(vol.traversal, ray, ray_w.t_min, ray_w.t_max) {
         let constant = span.range.is_constant()
@@ -466,9 +498,15 @@ pub fn march(
                     };
                     out.half_opacity_t = Some(a + s.clamp(0.0, ds));
                 }
-                if t_now.max_element() < settings.termination {
+                let stop = t_now.max_element() < settings.termination;
+                if stop {
                     t_now = DVec3::ZERO;
                     tau = DVec3::INFINITY;
+                }
+                if scratch.deep.is_some() {
+                    record_deep(scratch, n_lights, &out, tau, a, b);
+                }
+                if stop {
                     break 'spans;
                 }
                 a = b;

@@ -3,6 +3,7 @@
 //! ([`Integrator`]: what a camera ray sees, into the passes it declares).
 
 pub mod blackbody;
+pub mod deep;
 pub mod fast;
 pub mod ground;
 pub mod integrator;

@@ -1,6 +1,7 @@
 //! Single scattering: emission, absorption and light scattered once toward the camera,
 //! by the ray march ([`march`]), with an optional ground plane behind the volume.
 
+use super::deep::DeepTrace;
 use super::ground::{ALBEDO, Ground, GroundLight};
 use super::integrator::{CameraSample, Integrator, SampleRng};
 use super::march::{Illumination, MarchSettings, RayResult, Scratch, Volume, march};
@@ -18,6 +19,8 @@ pub struct SingleScattering<'a> {
     ground: Option<(Ground, &'a dyn Illumination)>,
     settings: MarchSettings,
     passes: ScatterPasses,
+    /// Deep output: every camera ray keeps its record.
+    deep: bool,
 }
 
 impl<'a> SingleScattering<'a> {
@@ -45,7 +48,14 @@ impl<'a> SingleScattering<'a> {
             ground,
             settings,
             passes,
+            deep: false,
         }
+    }
+
+    /// With `on`, every camera ray keeps its deep record ([`Integrator::deep_trace`]).
+    pub fn with_deep(mut self, on: bool) -> Self {
+        self.deep = on;
+        self
     }
 }
 
@@ -57,7 +67,15 @@ impl Integrator for SingleScattering<'_> {
     }
 
     fn scratch(&self) -> Scratch {
-        Scratch::new(self.lights.map_or(0, |l| l.light_count()))
+        let mut s = Scratch::new(self.lights.map_or(0, |l| l.light_count()));
+        if self.deep {
+            s.deep = Some(DeepTrace::default());
+        }
+        s
+    }
+
+    fn deep_trace<'s>(&self, scratch: &'s Scratch) -> Option<&'s DeepTrace> {
+        scratch.deep.as_ref()
     }
 
     fn sample(
@@ -78,11 +96,19 @@ impl Integrator for SingleScattering<'_> {
                 g.light_at(ray.origin + ray.dir * t, n, lights, sigma_t),
             ))
         });
+        // A ground behind the ray's end (a holdout) is not seen, and shadows nothing here.
+        let hit = hit.filter(|(_, t, _)| *t <= ray.t_max);
         let visible = hit.filter(|(g, _, _)| g.visible);
         if let Some((_, t, _)) = visible {
             ray.t_max = t;
         }
         let r = march(self.volume, self.lights, &ray, &self.settings, u, scratch);
+        if let (Some((_, t, light)), Some(tr)) = (visible, scratch.deep.as_mut()) {
+            // The opaque floor: a sample of no depth that ends the ray.
+            let radiance = light.irradiance * (ALBEDO / std::f64::consts::PI);
+            let (a0, c0) = tr.last();
+            tr.segment(t, t, a0, c0, 1.0, c0 + r.transmittance * radiance);
+        }
         self.record(
             &r,
             hit,

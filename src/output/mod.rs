@@ -6,6 +6,7 @@
 
 pub mod attr;
 pub mod colorspace;
+pub mod deep;
 mod error;
 mod exr;
 mod frame;
@@ -16,6 +17,7 @@ pub use crate::files::guard;
 pub use crate::files::place::{make_folder, prepare as prepare_place};
 pub use crate::files::write_atomically;
 pub use colorspace::ColorSpace;
+pub use deep::{DeepExrOptions, DeepImage, DeepSample, write_deep_exr};
 pub use error::OutputError;
 pub use exr::{
     ExrCompression, ExrOptions, ExrWriteSummary, HALF_MAX, REC709_CHROMATICITIES,

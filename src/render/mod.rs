@@ -20,7 +20,7 @@ use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::path::{LightTransmittance, PathSettings, PathTracer};
 use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, Integrator, ScatteringMode};
-use crate::output::{Frame, write_exr, write_preview};
+use crate::output::{DeepExrOptions, DeepImage, Frame, write_deep_exr, write_exr, write_preview};
 use crate::scene::Scene;
 use crate::scene::lights::bake_maps;
 use crate::scene::plan::{Device, GridChoice, ShadowMode};
@@ -40,6 +40,8 @@ pub struct RenderedImage {
     pub frame: Frame,
     pub exr: crate::output::ExrOptions,
     pub stats: RenderStats,
+    /// With `--deep`: the deep image.
+    pub deep: Option<DeepImage>,
 }
 
 /// Which frame of a sequence a render is, and which piece of it (none: a whole image).
@@ -96,6 +98,7 @@ fn run_frame_here(
         frame,
         mut exr,
         stats: mut st,
+        deep,
     } = render_image_frame_here(plan, progress, reuse, job)?;
     let t = Instant::now();
     exr.render_time_seconds = Some(start.elapsed().as_secs_f64());
@@ -107,6 +110,11 @@ fn run_frame_here(
     let result = (|| -> Result<()> {
         write_exr(&plan.outputs.path, &frame, &exr)?;
         written.push(&plan.outputs.path);
+        if let (Some(d), Some(image)) = (&plan.outputs.deep, &deep) {
+            let summary = write_deep_exr(&d.path, image, &deep_options(&exr, d.tolerance))?;
+            written.push(&d.path);
+            st.scene.notes.push(deep_note(image, summary.bytes));
+        }
         if let Some((path, opts)) = &plan.outputs.preview {
             write_preview(path, &frame, opts)?;
             written.push(path);
@@ -171,12 +179,35 @@ fn render_image_frame_here(
     job: FrameJob,
 ) -> Result<RenderedImage> {
     let start = Instant::now();
+    if plan.outputs.deep.is_some() && job.piece.is_some() {
+        return Err(RenderError::Flag(
+            "--deep is not rendered in pieces (a deep image is not stitched): render the whole frame".into(),
+        ));
+    }
+    let deep = plan.outputs.deep.as_ref().map(|d| d.tolerance);
     let rows = match job.piece {
         Some(p) => {
             p.check(plan.camera.height)?;
             p.rows(plan.camera.height)
         }
         None => 0..plan.camera.height,
+    };
+    // The holdout first: a wrong one is refused before anything is built.
+    let holdout = match &plan.production.holdout {
+        Some(spec) => Some(
+            crate::scene::holdout::load(spec, plan.camera.width, plan.camera.height).map_err(
+                |problem| RenderError::Input {
+                    path: spec.path.clone(),
+                    problem,
+                },
+            )?,
+        ),
+        None => None,
+    };
+    let extent = Extent {
+        rows: rows.clone(),
+        deep,
+        holdout: holdout.as_ref().map(|h| h.depths.as_slice()),
     };
     let scene = Scene::build_reusing(plan, progress, reuse)?;
     let traversal = scene.traversal();
@@ -198,7 +229,7 @@ fn render_image_frame_here(
     let mut multiple_seconds = None;
     let (mut gpu, mut device_note) = choose_device(plan, &scene)?;
     // The integrator of the plan's scattering mode.
-    let (frame, render_seconds) = match plan.transport.mode {
+    let (frame, render_seconds, deep_image) = match plan.transport.mode {
         ScatteringMode::Single => {
             let make = |march| {
                 SingleScattering::new(
@@ -209,19 +240,22 @@ fn render_image_frame_here(
                     march,
                 )
             };
-            let integrator = make(march_settings(plan, &scene, &mut st, make));
+            let integrator =
+                make(march_settings(plan, &scene, &mut st, make)).with_deep(deep.is_some());
             let on_gpu = match &gpu {
-                Some(g) => render_frame_gpu(g, &integrator, &scene, plan, rows.clone(), &mut st)?,
+                Some(g) => {
+                    render_frame_gpu(g, &integrator, &scene, plan, extent.rows.clone(), &mut st)?
+                }
                 None => Err(String::new()),
             };
             match on_gpu {
-                Ok(done) => done,
+                Ok((frame, seconds)) => (frame, seconds, None),
                 Err(why) => {
                     if gpu.take().is_some() {
                         // Under auto only: `gpu` turned the failure into an error.
                         device_note = Some(format!("--device auto rendered on the CPU: {why}"));
                     }
-                    render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+                    render_frame(&integrator, &scene, plan, &extent, progress, &mut st)?
                 }
             }
         }
@@ -246,7 +280,17 @@ fn render_image_frame_here(
                 },
             )
             .with_opacity_samples(PATH_OPACITY_SAMPLES, plan.sampling.spp);
-            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+            render_frame(
+                &integrator,
+                &scene,
+                plan,
+                &Extent {
+                    deep: None,
+                    ..extent.clone()
+                },
+                progress,
+                &mut st,
+            )?
         }
         ScatteringMode::Fast => {
             // Multiple scattering: the lattice of every light, solved before the pixels.
@@ -273,8 +317,9 @@ fn render_image_frame_here(
                     march,
                 )
             };
-            let integrator = make(march_settings(plan, &scene, &mut st, make));
-            render_frame(&integrator, &scene, plan, rows.clone(), progress, &mut st)?
+            let integrator =
+                make(march_settings(plan, &scene, &mut st, make)).with_deep(deep.is_some());
+            render_frame(&integrator, &scene, plan, &extent, progress, &mut st)?
         }
     };
     let mut exr = plan.outputs.exr.clone();
@@ -342,7 +387,31 @@ fn render_image_frame_here(
         frame,
         exr,
         stats: st,
+        deep: deep_image,
     })
+}
+
+/// The deep file's header: the flat file's camera matrices and murk's strings.
+fn deep_options(exr: &crate::output::ExrOptions, tolerance: f64) -> DeepExrOptions {
+    let mut extra_strings = exr.extra_strings.clone();
+    extra_strings.push(("murk/deepTolerance".into(), tolerance.to_string()));
+    DeepExrOptions {
+        world_to_camera: exr.world_to_camera,
+        world_to_ndc: exr.world_to_ndc,
+        extra_strings,
+        colorspace: exr.colorspace,
+    }
+}
+
+/// The stats' note on the deep file: its samples and size.
+fn deep_note(image: &DeepImage, bytes: u64) -> String {
+    let covered = image.pixels.iter().filter(|p| !p.is_empty()).count();
+    let samples = image.sample_count();
+    format!(
+        "deep: {samples} samples, {:.1} per covered pixel ({covered} pixels), at most {}; {bytes} bytes",
+        samples as f64 / covered.max(1) as f64,
+        image.pixels.iter().map(Vec::len).max().unwrap_or(0)
+    )
 }
 
 /// The camera march's settings: the plan's, or with `--max-error` those a pilot
@@ -382,6 +451,12 @@ fn choose_device(
     }
     let opened = match gpu::unsupported(plan, scene) {
         Some(feature) => Err(format!("the GPU backend does not render {feature} yet")),
+        None if plan.outputs.deep.is_some() => {
+            Err("the GPU backend does not write deep samples (--deep) yet".into())
+        }
+        None if plan.production.holdout.is_some() => {
+            Err("the GPU backend does not cut at a holdout (--holdout-depth) yet".into())
+        }
         None => gpu::Gpu::shared(),
     };
     match opened {
@@ -416,6 +491,8 @@ fn render_frame_gpu(
         seed: plan.sampling.seed,
         rows,
         antialias: plan.sampling.antialias,
+        deep: None,
+        holdout: None,
     };
     let (passes, times) = match gpu::render_pixels(gpu, scene, &job) {
         Ok(done) => done,
@@ -432,34 +509,61 @@ fn render_frame_gpu(
     Ok(Ok((channels::assemble(&passes)?, render_seconds)))
 }
 
+/// Which pixels a render computes and what it keeps of them: its rows, deep samples
+/// (with their merge tolerance) and the holdout's depth per pixel.
+#[derive(Clone)]
+struct Extent<'a> {
+    rows: std::ops::Range<usize>,
+    deep: Option<f64>,
+    holdout: Option<&'a [f32]>,
+}
+
 /// Runs the pixel loop of `integrator` over the scene's camera on the plan's threads,
 /// and assembles the frame from its passes. Returns it and the loop's seconds.
 fn render_frame<I: Integrator>(
     integrator: &I,
     scene: &Scene,
     plan: &RenderPlan,
-    rows: std::ops::Range<usize>,
+    extent: &Extent,
     progress: &dyn Progress,
     st: &mut RenderStats,
-) -> Result<(Frame, f64)> {
+) -> Result<(Frame, f64, Option<DeepImage>)> {
     let t = Instant::now();
     let job = pixels::PixelJob {
         integrator,
         camera: &scene.camera,
         spp: plan.sampling.spp,
         seed: plan.sampling.seed,
-        rows,
+        rows: extent.rows.clone(),
         antialias: plan.sampling.antialias,
+        deep: extent.deep,
+        holdout: extent.holdout,
     };
     progress.start("rendering", job.tiles() as u64, "tiles");
     // On the plan's threads: the caller runs inside `on_plan_threads`.
-    let passes = pixels::render_pixels(&job, progress);
+    let mut passes = pixels::render_pixels(&job, progress);
     progress.finish();
     let render_seconds = t.elapsed().as_secs_f64();
     st.rays = passes.rays;
     st.samples = passes.samples;
     st.samples_per_second = passes.samples as f64 / render_seconds.max(1e-9);
-    Ok((channels::assemble(&passes)?, render_seconds))
+    let deep = passes.deep.take().map(|pixels| DeepImage {
+        width: passes.width,
+        height: passes.height,
+        pixels: pixels
+            .into_iter()
+            .map(|px| {
+                px.into_iter()
+                    .map(|s| crate::output::DeepSample {
+                        z: s.z,
+                        z_back: s.z_back,
+                        rgba: [s.rgb[0], s.rgb[1], s.rgb[2], s.alpha],
+                    })
+                    .collect()
+            })
+            .collect(),
+    });
+    Ok((channels::assemble(&passes)?, render_seconds, deep))
 }
 
 /// `murk bake-shadows`: bakes the deep shadow map of every light of `plan` over its
@@ -497,10 +601,17 @@ fn bake_shadow_file_here(plan: &RenderPlan, progress: &dyn Progress) -> Result<R
         ..Default::default()
     };
     let report = &mut st.scene;
-    let source = crate::scene::source::open(&plan.input)?;
     let t = Instant::now();
-    let fields =
-        load_fields(source.as_ref(), &density_only, false, report).map_err(RenderError::Scene)?;
+    let fields = match &plan.volumes {
+        // A scene of several volumes: their summed density, as the render sees it.
+        Some(v) => crate::scene::volumes::load_volumes(&density_only, v, report)
+            .map_err(RenderError::Scene)?,
+        None => {
+            let source = crate::scene::source::open(&plan.input)?;
+            load_fields(source.as_ref(), &density_only, false, report)
+                .map_err(RenderError::Scene)?
+        }
+    };
     report
         .stages
         .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
@@ -580,6 +691,7 @@ pub fn output_paths(plan: &RenderPlan) -> impl Iterator<Item = &Path> {
         Some(&plan.outputs.path),
         plan.outputs.preview.as_ref().map(|p| &p.0),
         plan.outputs.stats.as_ref().filter(|p| p.as_os_str() != "-"),
+        plan.outputs.deep.as_ref().map(|d| &d.path),
     ]
     .into_iter()
     .flatten()

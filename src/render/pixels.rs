@@ -2,6 +2,7 @@
 //! an [`Integrator`] into the buffer its passes lay out, then averaged.
 
 use crate::integrate::WorldRay;
+use crate::integrate::deep::{DeepPoint, DeepSample, pixel_samples};
 use crate::integrate::integrator::{CameraSample, Integrator, SampleRng, unit_random};
 use crate::integrate::pass::{PassKind, PassLayout};
 use crate::scene::camera::Camera;
@@ -22,6 +23,8 @@ pub struct PixelPasses {
     pub planes: Vec<Vec<Vec<f32>>>,
     pub rays: u64,
     pub samples: u64,
+    /// With deep output: each pixel's deep samples, row-major (empty outside the rows).
+    pub deep: Option<Vec<Vec<DeepSample>>>,
 }
 
 impl PixelPasses {
@@ -44,6 +47,11 @@ pub struct PixelJob<'a, I: Integrator> {
     /// neighbour's by more than [`EDGE_ALPHA`] is sampled again on an `antialias ×
     /// antialias` stratified grid (0 or 1: pixel centres only). See [`render_pixels`].
     pub antialias: u32,
+    /// Deep output with this merge tolerance (`--deep-tolerance`): the integrator must
+    /// keep its rays' records ([`Integrator::deep_trace`]).
+    pub deep: Option<f64>,
+    /// `--holdout-depth`: per pixel, the camera-space depth at which its rays stop.
+    pub holdout: Option<&'a [f32]>,
 }
 
 impl<I: Integrator> PixelJob<'_, I> {
@@ -116,9 +124,11 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                         grid: u32,
                         scratch: &mut I::Scratch,
                         acc: &mut [f64],
-                        px: &mut [f32]|
+                        px: &mut [f32],
+                        deep: &mut Vec<DeepSample>|
      -> u64 {
         acc.fill(0.0);
+        let mut curves: Vec<Vec<DeepPoint>> = Vec::new();
         let mut n_samples = 0;
         let count = if grid == 0 { job.spp } else { grid * grid };
         for s in 0..count {
@@ -142,12 +152,28 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
             let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
             let mut ray = WorldRay::new(o, d);
             (ray.t_min, ray.t_max) = job.camera.clip(&frame, ray.dir);
-            let sample = CameraSample {
+            let mut sample = CameraSample {
                 ray,
                 depth_rate: d.dot(frame.forward),
             };
+            if let Some(depth) = job.holdout.and_then(|h| h.get(y * w + x)) {
+                // Depth is t × depth_rate along the ray.
+                let t = *depth as f64 / sample.depth_rate;
+                if t < sample.ray.t_max {
+                    sample.ray.t_max = t.max(0.0);
+                }
+            }
             let mut rng = SampleRng::new(job.seed, x, y, stream);
             n_samples += job.integrator.sample(&sample, &mut rng, scratch, acc);
+            if job.deep.is_some()
+                && let Some(trace) = job.integrator.deep_trace(scratch)
+            {
+                curves.push(trace.to_depth(sample.depth_rate));
+            }
+        }
+        if let Some(tolerance) = job.deep {
+            deep.clear();
+            pixel_samples(&curves, tolerance, deep);
         }
         let inv = 1.0 / count as f64;
         for (dst, a) in px.iter_mut().zip(acc.iter()) {
@@ -170,34 +196,51 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
     // row-major buffer of rows c0..c1.
     let tiles_x = w.div_ceil(TILE);
     let tiles = job.tiles();
-    let results: Vec<(usize, Vec<f32>)> = (0..tiles)
+    let results: Vec<(usize, Vec<f32>, Vec<Vec<DeepSample>>)> = (0..tiles)
         .into_par_iter()
         .map_init(
             || (job.integrator.scratch(), vec![0f64; stride]),
             |(scratch, acc), tile| {
                 let (x0, y0) = ((tile % tiles_x) * TILE, c0 + (tile / tiles_x) * TILE);
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(c1));
-                let mut out = vec![0f32; (x1 - x0) * (y1 - y0) * stride];
+                let n = (x1 - x0) * (y1 - y0);
+                let mut out = vec![0f32; n * stride];
+                let mut deep = vec![Vec::new(); if job.deep.is_some() { n } else { 0 }];
+                let mut none = Vec::new();
                 let mut tile_samples = 0;
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        let px = &mut out[((y - y0) * (x1 - x0) + (x - x0)) * stride..][..stride];
-                        tile_samples += render_pixel(x, y, 0, scratch, acc, px);
+                        let i = (y - y0) * (x1 - x0) + (x - x0);
+                        let px = &mut out[i * stride..][..stride];
+                        let d = deep.get_mut(i).unwrap_or(&mut none);
+                        tile_samples += render_pixel(x, y, 0, scratch, acc, px, d);
                     }
                 }
                 samples.fetch_add(tile_samples, Ordering::Relaxed);
                 progress.advance(1);
-                (tile, out)
+                (tile, out, deep)
             },
         )
         .collect();
     let mut values = vec![0f32; w * (c1 - c0) * stride];
-    for (tile, out) in results {
+    let mut deep: Option<Vec<Vec<DeepSample>>> = job.deep.map(|_| vec![Vec::new(); w * h]);
+    for (tile, out, tile_deep) in results {
         let (x0, y0) = ((tile % tiles_x) * TILE, c0 + (tile / tiles_x) * TILE);
         let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(c1));
         for y in y0..y1 {
             let src = &out[(y - y0) * (x1 - x0) * stride..][..(x1 - x0) * stride];
             values[((y - c0) * w + x0) * stride..][..src.len()].copy_from_slice(src);
+        }
+        if let Some(d) = deep.as_mut() {
+            let mut px = tile_deep.into_iter();
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let samples = px.next().unwrap_or_default();
+                    if (r0..r1).contains(&y) {
+                        d[y * w + x] = samples;
+                    }
+                }
+            }
         }
     }
     // Pass 2: the edges, again on the stratified grid.
@@ -215,26 +258,34 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
             .into_par_iter()
             .flat_map_iter(|y| (0..w).map(move |x| (x, y)).filter(|&(x, y)| is_edge(x, y)))
             .collect();
-        let again: Vec<(usize, Vec<f32>)> = edge_pixels
+        let again: Vec<(usize, Vec<f32>, Vec<Vec<DeepSample>>)> = edge_pixels
             .par_chunks(TILE * TILE / 4)
             .enumerate()
             .map_init(
                 || (job.integrator.scratch(), vec![0f64; stride]),
                 |(scratch, acc), (chunk, pixels)| {
                     let mut out = vec![0f32; pixels.len() * stride];
+                    let mut deep = vec![Vec::new(); pixels.len()];
                     let mut chunk_samples = 0;
-                    for (&(x, y), px) in pixels.iter().zip(out.chunks_mut(stride)) {
-                        chunk_samples += render_pixel(x, y, job.antialias, scratch, acc, px);
+                    for ((&(x, y), px), d) in pixels
+                        .iter()
+                        .zip(out.chunks_mut(stride))
+                        .zip(deep.iter_mut())
+                    {
+                        chunk_samples += render_pixel(x, y, job.antialias, scratch, acc, px, d);
                     }
                     samples.fetch_add(chunk_samples, Ordering::Relaxed);
-                    (chunk, out)
+                    (chunk, out, deep)
                 },
             )
             .collect();
-        for (chunk, out) in again {
+        for (chunk, out, chunk_deep) in again {
             let pixels = &edge_pixels[chunk * (TILE * TILE / 4)..];
-            for (&(x, y), px) in pixels.iter().zip(out.chunks(stride)) {
+            for ((&(x, y), px), d) in pixels.iter().zip(out.chunks(stride)).zip(chunk_deep) {
                 values[((y - c0) * w + x) * stride..][..stride].copy_from_slice(px);
+                if let Some(all) = deep.as_mut() {
+                    all[y * w + x] = d;
+                }
             }
         }
         resampled = edge_pixels.len() as u64;
@@ -269,6 +320,7 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         rays: ((c1.saturating_sub(c0) * w) as u64) * job.spp as u64
             + resampled * (job.antialias as u64).pow(2),
         samples: samples.load(Ordering::Relaxed),
+        deep,
     }
 }
 
@@ -340,6 +392,8 @@ mod tests {
             seed: 3,
             rows,
             antialias,
+            deep: None,
+            holdout: None,
         };
         render_pixels(&job, &Silent)
     }

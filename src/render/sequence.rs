@@ -23,6 +23,7 @@ pub struct FramePaths {
     preview: Option<FramePattern>,
     stats: Option<FramePattern>,
     shadow_cache: Option<FramePattern>,
+    deep: Option<FramePattern>,
 }
 
 impl FramePaths {
@@ -37,6 +38,11 @@ impl FramePaths {
                 .map(|p| FramePattern::new(&p.0)),
             stats: plan.outputs.stats.as_deref().map(FramePattern::new),
             shadow_cache: plan.shadows.cache.as_deref().map(FramePattern::new),
+            deep: plan
+                .outputs
+                .deep
+                .as_ref()
+                .map(|d| FramePattern::new(&d.path)),
         }
     }
 
@@ -50,6 +56,7 @@ impl FramePaths {
         let mut v = vec![(&self.output, "-o")];
         v.extend(self.preview.iter().map(|p| (p, "--preview")));
         v.extend(self.stats.iter().map(|p| (p, "--stats")));
+        v.extend(self.deep.iter().map(|p| (p, "--deep")));
         v
     }
 
@@ -57,6 +64,11 @@ impl FramePaths {
     pub fn plan(&self, plan: &RenderPlan, frame: i64) -> RenderPlan {
         let mut p = plan.clone();
         p.input = self.input.path(frame);
+        if let Some(v) = &mut p.volumes {
+            for v in &mut v.list {
+                v.file = FramePattern::new(&v.file).path(frame);
+            }
+        }
         p.outputs.path = self.output.path(frame);
         p.outputs.exr.input_file = Some(p.input.display().to_string());
         if let Some(shot) = &mut p.camera.request.shot {
@@ -70,6 +82,9 @@ impl FramePaths {
         }
         if let Some(pat) = &self.shadow_cache {
             p.shadows.cache = Some(pat.path(frame));
+        }
+        if let (Some(d), Some(pat)) = (&mut p.outputs.deep, &self.deep) {
+            d.path = pat.path(frame);
         }
         p
     }
@@ -167,6 +182,11 @@ pub fn choose_frames(
             paths.shadow_cache.as_ref(),
             "--shadow-cache ",
             plan.shadows.cache.as_deref(),
+        ),
+        (
+            paths.deep.as_ref(),
+            "--deep ",
+            plan.outputs.deep.as_ref().map(|d| d.path.as_path()),
         ),
     ];
     for (pattern, flag, path) in given {

@@ -9,6 +9,7 @@ pub mod conventions;
 mod error;
 pub mod film;
 pub mod frames;
+pub mod holdout;
 pub mod light;
 pub mod lights;
 pub mod options;
@@ -21,6 +22,7 @@ mod scene_file;
 pub mod shot;
 pub mod source;
 pub mod transport;
+pub mod volumes;
 
 pub use options::RenderOptions;
 pub use plan::RenderPlan;
@@ -172,7 +174,10 @@ impl Scene {
         let mut report = SceneReport::default();
         // Load: descriptors and metadata only.
         let t = Instant::now();
-        let source = source::open(&plan.input)?;
+        let source = match plan.volumes {
+            Some(_) => None,
+            None => Some(source::open(&plan.input)?),
+        };
         report
             .stages
             .insert("load".into(), Stage::ran(t.elapsed().as_secs_f64()));
@@ -181,7 +186,11 @@ impl Scene {
         let scatters = lit && medium.scatters();
         // Build: decode only the fields in a role.
         let t = Instant::now();
-        let fields = load_fields(source.as_ref(), plan, scatters, &mut report)?;
+        let fields = match (&plan.volumes, source) {
+            (Some(v), _) => volumes::load_volumes(plan, v, &mut report)?,
+            (None, Some(source)) => load_fields(source.as_ref(), plan, scatters, &mut report)?,
+            (None, None) => return Err(SceneError::input(&plan.input, "nothing to render")),
+        };
         report
             .stages
             .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));

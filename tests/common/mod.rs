@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod camera;
+pub mod deep;
 pub mod frames;
 pub mod march;
 pub mod tools;

@@ -225,5 +225,6 @@ pub fn render_pixels(
         rays: ((c1.saturating_sub(c0) * w) as u64) * job.spp as u64
             + resampled * (job.antialias as u64).pow(2),
         samples,
+        deep: None,
     })
 }

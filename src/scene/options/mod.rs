@@ -7,6 +7,7 @@
 //! fills in while it checks each value.
 
 mod flag;
+pub mod volume;
 
 pub use flag::{Commands, DefaultValue, FlagDef, FlagValue, Group, Kind, Slot};
 use serde::Deserialize;
@@ -31,6 +32,9 @@ macro_rules! render_options {
             /// Scene files only: named lights, `[[lights]] name = "key"  spec = "sun:..."`.
             #[serde(default)]
             pub lights: Vec<NamedLight>,
+            /// Scene files only: volumes placed in the world, `[[volume]] file = "..."`.
+            #[serde(default)]
+            pub volume: Vec<volume::VolumeTable>,
             $(
                 $(#[doc = $doc])+
                 #[serde(default)]
@@ -79,9 +83,15 @@ macro_rules! render_options {
                 } else {
                     self.lights
                 };
+                let volume = if self.volume.is_empty() {
+                    base.volume
+                } else {
+                    self.volume
+                };
                 RenderOptions {
                     input: self.input.or(base.input),
                     lights,
+                    volume,
                     $($field: Slot::over(self.$field, base.$field),)*
                 }
             }
@@ -218,6 +228,12 @@ render_options! {
     float: bool = (Image, "", NoDefault, Render);
     /// Write an 8-bit sRGB PNG of the beauty pass.
     preview: Option<PathBuf> = (Image, "FILE.png", NoDefault, Render);
+    /// Also write a deep scanline EXR: the volume as samples in depth (Z..ZBack,
+    /// premultiplied R,G,B,A), for deep compositing. Not with --scattering path.
+    deep: Option<PathBuf> = (Image, "FILE.exr", NoDefault, Render);
+    /// Largest error in opacity (and in colour, relative to the pixel's) that merging
+    /// deep samples may make at any depth inside a merged sample: larger, fewer samples.
+    deep_tolerance: Option<f64> = (Image, "T", Value("0.01"), Render);
     /// Preview exposure in stops.
     exposure: Option<f32> = (Image, "STOPS", Value("0"), Render);
     /// Preview background: transparent, black, checker or r,g,b.
@@ -232,11 +248,15 @@ render_options! {
     /// Crop the EXR's dataWindow to the non-empty pixels (a smaller file; Blender's
     /// compositor misplaces a cropped dataWindow). Off: dataWindow = displayWindow.
     crop_data_window: bool = (Production, "", NoDefault, Render);
+    /// Cut the volume where a depth image from the same camera says (the CG render's Z):
+    /// FILE.exr[:CHANNEL], channel Z, depth.Z or Depth.Z when not named. Rays stop at its
+    /// depth, so alpha, light and every layer are cut; the lights' shadows are not.
+    holdout_depth: Option<String> = (Production, "FILE[:CHANNEL]", NoDefault, Render);
     /// Colour space of the EXR's colour channels: lin_rec709 or acescg (converted, with
     /// chromaticities to match).
     colorspace: Option<String> = (Production, "lin_rec709|acescg", Value("lin_rec709"), Render);
 
-    /// Frames to render, e.g. 1-10,20,30-40x2. INPUT, -o, --preview, --stats and
+    /// Frames to render, e.g. 1-10,20,30-40x2. INPUT, -o, --preview, --stats, --deep and
     /// --shadow-cache may hold a frame pattern: #### (one # per digit), %04d, $F4 or $F.
     frames: Option<String> = (Sequence, "LIST", Described("every frame the input pattern finds"), Render);
 
@@ -310,6 +330,7 @@ pub fn scene_keys_markdown() -> String {
     let mut out = String::from(
         "| key | value | what it sets |\n|---|---|---|\n| `input` | path | the input to render, relative to the scene file (scene files only) |\n| `[[lights]]` | `name`, `spec` | a named light: `spec` as `light` takes it; its layer is `scatter_<name>` (scene files only) |\n| `[camera]` | `focal_length`, `horizontal_aperture`, `vertical_aperture`, `horizontal_aperture_offset`, `vertical_aperture_offset`, `clipping_range`, `pixel_aspect`, `projection`, `translate`, `rotate`, `[[camera.keys]]` with `frame` | the shot camera's film back and placement, keyable per frame (docs/guide.md, scene files only) |\n",
     );
+    out.push_str(volume::VOLUME_ROW);
     for f in FLAGS {
         let value = match f.kind {
             Kind::Switch => "true/false".to_string(),
@@ -337,11 +358,17 @@ impl RenderOptions {
         let mut o: RenderOptions =
             toml::from_str(&text).map_err(|e| bad(super::scene_file::describe(&e, &text)))?;
         let dir = path.parent().unwrap_or(std::path::Path::new("."));
+        if let Some(h) = &mut o.holdout_depth
+            && std::path::Path::new(h.as_str()).is_relative()
+        {
+            *h = dir.join(h.as_str()).display().to_string();
+        }
         for p in [
             &mut o.input,
             &mut o.output,
             &mut o.stats,
             &mut o.preview,
+            &mut o.deep,
             &mut o.shadow_cache,
             &mut o.camera_file,
         ]
@@ -350,6 +377,11 @@ impl RenderOptions {
         {
             if p.is_relative() {
                 *p = dir.join(&*p);
+            }
+        }
+        for v in &mut o.volume {
+            if v.file.is_relative() {
+                v.file = dir.join(&v.file);
             }
         }
         Ok(o)

@@ -34,6 +34,8 @@ pub const SPP: u32 = 1;
 pub const ANTIALIAS: u32 = 4;
 pub const SEED: u64 = 0;
 pub const EXPOSURE: f32 = 0.0;
+/// `--deep-tolerance`: the opacity error merged deep samples may make.
+pub const DEEP_TOLERANCE: f64 = 0.01;
 /// Z written where nothing is (`--z-empty`), as Cycles does.
 pub const Z_EMPTY: f32 = 1e10;
 /// `--scattering`, and the most scattering events of a path (`--scattering path`).

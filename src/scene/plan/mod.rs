@@ -13,15 +13,17 @@ mod outputs;
 mod quality;
 mod shot;
 mod values;
+mod volumes;
 
 pub use camera::{CameraPlan, CameraRequest};
 pub use defaults::{MAX_FRAME_BYTES, MAX_LIGHTS, MAX_THREADS, MIN_STEP_VOXELS};
 pub use device::Device;
 pub use lighting::{ShadowMode, ShadowPlan, safe_layer_name};
 pub use look::{EmissionPlan, GridChoice, GridRoles};
-pub use outputs::{OutputPlan, ProductionPlan};
+pub use outputs::{DeepPlan, OutputPlan, ProductionPlan};
 pub use quality::{MarchPlan, SamplingPlan};
 pub use shot::{ShotCameraAt, ShotPlan};
+pub use volumes::{VolumePlan, VolumesPlan};
 
 use super::PlanError;
 use super::light::Light;
@@ -56,6 +58,9 @@ pub struct RenderPlan {
     pub production: ProductionPlan,
     /// The scattering mode, its bounces and the environment light.
     pub transport: TransportPlan,
+    /// A scene file's `[[volume]]` tables (then `input` is the first one's file, and
+    /// `medium` their sum's), `None` for one input.
+    pub volumes: Option<VolumesPlan>,
 }
 
 impl RenderPlan {
@@ -70,13 +75,20 @@ impl RenderPlan {
         let (lights, environment) = lighting::lights(o)?;
         outputs::check_frame_size(camera.width, camera.height, lights.len())?;
         let transport = TransportPlan::new(o, environment)?;
+        if outputs.deep.is_some() && transport.mode == crate::integrate::ScatteringMode::Path {
+            return Err("{deep} needs --scattering single or fast: the path tracer keeps no record of its rays in depth".into());
+        }
         let shadow_mode = ShadowMode::from_options(o)?;
         let march = MarchPlan::from_options(o, shadow_mode, transport.mode)?;
+        let (volumes, medium) = match volumes::volumes(o, look::medium(o)?)? {
+            Some((v, m)) => (Some(v), m),
+            None => (None, look::medium(o)?),
+        };
         Ok(RenderPlan {
             input,
             camera,
             grids: GridRoles::from_options(o),
-            medium: look::medium(o)?,
+            medium,
             phase: o.phase.unwrap_or_default(),
             drop_radius_um: look::drop_radius_um(o)?,
             emission: EmissionPlan::from_options(o)?,
@@ -88,6 +100,7 @@ impl RenderPlan {
             outputs,
             production: ProductionPlan::from_options(o)?,
             transport,
+            volumes,
         })
     }
 

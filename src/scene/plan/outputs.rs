@@ -18,6 +18,15 @@ pub struct OutputPlan {
     pub preview: Option<(PathBuf, PreviewOptions)>,
     pub stats: Option<PathBuf>,
     pub quiet: bool,
+    /// `--deep`: the deep EXR and its merge tolerance (`--deep-tolerance`).
+    pub deep: Option<DeepPlan>,
+}
+
+/// The deep EXR written beside the flat one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeepPlan {
+    pub path: PathBuf,
+    pub tolerance: f64,
 }
 
 impl OutputPlan {
@@ -50,7 +59,23 @@ impl OutputPlan {
             }
             None => None,
         };
+        let tolerance = o.deep_tolerance.unwrap_or(defaults::DEEP_TOLERANCE);
+        if !(0.0..1.0).contains(&tolerance) {
+            return Err(format!(
+                "{{deep_tolerance}} must be at least 0 and below 1 (an opacity), not {tolerance}"
+            ));
+        }
+        let deep = o.deep.as_ref().map(|p| DeepPlan {
+            path: p.clone(),
+            tolerance,
+        });
+        if deep.as_ref().is_some_and(|d| d.path == path) {
+            return Err(
+                "{deep} names the same file as the flat EXR (-o); give it its own name".into(),
+            );
+        }
         Ok(OutputPlan {
+            deep,
             path,
             exr: ExrOptions {
                 compression,
@@ -99,6 +124,8 @@ pub struct ProductionPlan {
     pub temperature_explicit: bool,
     /// The scene names no light: the default sun, which follows the up axis.
     pub default_light: bool,
+    /// `--holdout-depth`: the depth image that cuts the volume.
+    pub holdout: Option<crate::scene::holdout::HoldoutSpec>,
 }
 
 impl ProductionPlan {
@@ -108,6 +135,11 @@ impl ProductionPlan {
             up_explicit: o.up.is_some(),
             temperature_explicit: o.temperature_scale.is_some() || o.temperature_offset.is_some(),
             default_light: !o.no_lights && o.lights.is_empty() && o.light.is_empty(),
+            holdout: o
+                .holdout_depth
+                .as_deref()
+                .map(crate::scene::holdout::HoldoutSpec::parse)
+                .transpose()?,
         })
     }
 }

@@ -1,0 +1,375 @@
+//! Deep samples: what a camera ray passes through, kept in depth instead of summed.
+//!
+//! With `--deep` on, the march records a [`DeepTrace`] per camera ray: at the end of
+//! every segment that holds anything, the ray's opacity so far (`A`, the same mean over
+//! the channels as the flat alpha) and premultiplied colour so far (`C`). Empty space
+//! between such segments is a gap. The pixel loop turns the traces of a pixel's rays
+//! into deep samples ([`pixel_samples`]): the mean of the rays' curves, thinned by
+//! [`simplify`], each kept interval one sample `(Z, ZBack, colour, alpha)` with
+//! `alpha = 1 − T₁/T₀` and `colour = (C₁ − C₀)/T₀` (`T = 1 − A`). Flattening the samples
+//! front to back with "over" gives back the curves' last point, the flat pixel, exactly:
+//! every kept point is a point of the mean curve.
+
+use glam::DVec3;
+
+/// One point of a ray's or a pixel's cumulative curves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DeepPoint {
+    /// Ray parameter (in a [`DeepTrace`]) or camera-space depth (in a curve).
+    pub depth: f64,
+    /// Opacity from the camera to here.
+    pub alpha: f64,
+    /// Premultiplied colour from the camera to here.
+    pub color: DVec3,
+    /// The first point of a run: empty space lies between it and the point before.
+    pub starts_run: bool,
+}
+
+/// The record of one camera ray: runs of points, each run contiguous, gaps between.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DeepTrace {
+    pub points: Vec<DeepPoint>,
+}
+
+impl DeepTrace {
+    pub fn clear(&mut self) {
+        self.points.clear();
+    }
+
+    /// Records the segment `[a, b]` of the ray that took the curves from `(a0, c0)` to
+    /// `(a1, c1)`; a segment that changed neither is left out (a gap).
+    #[inline]
+    pub fn segment(&mut self, a: f64, b: f64, a0: f64, c0: DVec3, a1: f64, c1: DVec3) {
+        if a1 == a0 && c1 == c0 {
+            return;
+        }
+        let joined = self.points.last().is_some_and(|p| p.depth == a);
+        if !joined {
+            self.points.push(DeepPoint {
+                depth: a,
+                alpha: a0,
+                color: c0,
+                starts_run: true,
+            });
+        }
+        self.points.push(DeepPoint {
+            depth: b,
+            alpha: a1,
+            color: c1,
+            starts_run: false,
+        });
+    }
+
+    /// The curves so far (zero before the first point).
+    pub fn last(&self) -> (f64, DVec3) {
+        self.points
+            .last()
+            .map_or((0.0, DVec3::ZERO), |p| (p.alpha, p.color))
+    }
+
+    /// The trace with ray parameters turned into depths (`t × rate`).
+    pub fn to_depth(&self, rate: f64) -> Vec<DeepPoint> {
+        self.points
+            .iter()
+            .map(|p| DeepPoint {
+                depth: p.depth * rate,
+                ..*p
+            })
+            .collect()
+    }
+}
+
+/// One deep sample as written: camera-space depths and premultiplied colour and alpha.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DeepSample {
+    pub z: f32,
+    pub z_back: f32,
+    pub rgb: [f32; 3],
+    pub alpha: f32,
+}
+
+/// How far apart, as a fraction of a split point's distance from the sample's front, the
+/// depth at which a merged sample reaches that point's opacity may be from the point.
+pub const DEPTH_FRACTION: f64 = 0.5;
+
+/// The points of `curve` (one or more runs) kept when segments are merged: the first and
+/// last of each run, and as few others as keep every dropped point within `tolerance`
+/// of the merged sample split there by OpenEXR's rule (`1 − T(d) = 1 − T₀ (T₁/T₀)^f`,
+/// colour in proportion to opacity): opacity within `tolerance`, colour within
+/// `tolerance × color_scale`, and the depth at which the merged sample reaches the
+/// point's opacity within [`DEPTH_FRACTION`] of the point's distance from its front.
+/// Greedy from the front, O(points): each dropped point narrows the range of slopes
+/// (of `ln T` against depth, and of colour against opacity) the merged sample may have.
+pub fn simplify(curve: &[DeepPoint], tolerance: f64, color_scale: f64) -> Vec<DeepPoint> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for end in 1..=curve.len() {
+        if end == curve.len() || curve[end].starts_run {
+            simplify_run(&curve[start..end], tolerance, color_scale, &mut out);
+            start = end;
+        }
+    }
+    out
+}
+
+/// The slopes a merged sample from `s` may have, narrowed by each dropped point.
+struct Cone {
+    s: DeepPoint,
+    ln_t: f64,
+    slope: (f64, f64),
+    color: [(f64, f64); 3],
+    /// A dropped point had no opacity past `s` and a colour out of tolerance: nothing
+    /// fits (a sample without opacity cannot place colour in depth).
+    closed: bool,
+}
+
+fn ln_t(alpha: f64) -> f64 {
+    (1.0 - alpha).max(0.0).ln()
+}
+
+impl Cone {
+    fn new(s: DeepPoint) -> Self {
+        Cone {
+            s,
+            ln_t: ln_t(s.alpha),
+            slope: (f64::NEG_INFINITY, f64::INFINITY),
+            color: [(f64::NEG_INFINITY, f64::INFINITY); 3],
+            closed: false,
+        }
+    }
+
+    /// Narrows the cone by point `k`, dropped inside the merged sample.
+    fn drop_point(&mut self, k: &DeepPoint, tol: f64, ctol: f64) {
+        let dz = k.depth - self.s.depth;
+        if !(dz > 0.0) {
+            self.closed = true;
+            return;
+        }
+        let t = 1.0 - k.alpha;
+        // Opacity: T at k within tol.
+        let lo = if t - tol <= 0.0 {
+            f64::NEG_INFINITY
+        } else {
+            (t - tol).ln()
+        };
+        let hi = (t + tol).min(1.0).ln();
+        let mut smin = (lo - self.ln_t) / dz;
+        let mut smax = (hi - self.ln_t) / dz;
+        // Depth: the merged sample reaches ln T_k at s + (ΔL / slope); within
+        // DEPTH_FRACTION × dz of k.
+        let dl = ln_t(k.alpha) - self.ln_t;
+        if dl.is_finite() {
+            let near = dz * (1.0 - DEPTH_FRACTION);
+            let far = dz * (1.0 + DEPTH_FRACTION);
+            smax = smax.min(dl / far);
+            if near > 0.0 {
+                smin = smin.max(dl / near);
+            }
+        }
+        self.slope = (self.slope.0.max(smin), self.slope.1.min(smax));
+        let da = k.alpha - self.s.alpha;
+        for c in 0..3 {
+            let dc = k.color[c] - self.s.color[c];
+            if da > 0.0 {
+                let (a, b) = ((dc - ctol) / da, (dc + ctol) / da);
+                self.color[c] = (self.color[c].0.max(a), self.color[c].1.min(b));
+            } else if dc.abs() > ctol {
+                self.closed = true;
+            }
+        }
+    }
+
+    /// Whether the merged sample from `s` to `j` keeps every dropped point in tolerance.
+    fn fits(&self, j: &DeepPoint) -> bool {
+        let dz = j.depth - self.s.depth;
+        if self.closed || !(dz > 0.0) {
+            return false;
+        }
+        let slope = (ln_t(j.alpha) - self.ln_t) / dz;
+        let slope_ok = if slope == f64::NEG_INFINITY {
+            self.slope.0 == f64::NEG_INFINITY
+        } else {
+            slope >= self.slope.0 && slope <= self.slope.1
+        };
+        if !slope_ok {
+            return false;
+        }
+        let da = j.alpha - self.s.alpha;
+        if !(da > 0.0) {
+            // No opacity: every dropped point's colour was within tolerance (else the
+            // cone is closed); the end's must be too.
+            return self.color.iter().all(|(lo, hi)| lo <= hi)
+                && (0..3).all(|c| (j.color[c] - self.s.color[c]).abs() == 0.0);
+        }
+        (0..3).all(|c| {
+            let sc = (j.color[c] - self.s.color[c]) / da;
+            sc >= self.color[c].0 && sc <= self.color[c].1
+        })
+    }
+}
+
+fn simplify_run(run: &[DeepPoint], tol: f64, color_scale: f64, out: &mut Vec<DeepPoint>) {
+    let Some(first) = run.first() else {
+        return;
+    };
+    let ctol = tol * color_scale;
+    out.push(*first);
+    let mut cone = Cone::new(*first);
+    let mut s = 0;
+    for j in 1..run.len() {
+        if j > s + 1 && !cone.fits(&run[j]) {
+            s = j - 1;
+            out.push(run[s]);
+            cone = Cone::new(run[s]);
+        }
+        if j + 1 < run.len() {
+            cone.drop_point(&run[j], tol, ctol);
+        }
+    }
+    if run.len() > 1 {
+        out.push(run[run.len() - 1]);
+    }
+}
+
+/// The deep samples of a kept curve: one per interval inside a run, front to back,
+/// leaving out those that add nothing. A sample behind full opacity adds nothing either.
+pub fn samples_of(curve: &[DeepPoint], out: &mut Vec<DeepSample>) {
+    for w in curve.windows(2) {
+        let (p, q) = (w[0], w[1]);
+        if q.starts_run {
+            continue;
+        }
+        let t0 = 1.0 - p.alpha;
+        if !(t0 > 0.0) {
+            break;
+        }
+        let alpha = (1.0 - (1.0 - q.alpha) / t0).clamp(0.0, 1.0);
+        let color = (q.color - p.color) / t0;
+        if alpha == 0.0 && color == DVec3::ZERO {
+            continue;
+        }
+        out.push(DeepSample {
+            z: p.depth as f32,
+            z_back: q.depth.max(p.depth) as f32,
+            rgb: [color.x as f32, color.y as f32, color.z as f32],
+            alpha: alpha as f32,
+        });
+    }
+}
+
+/// A curve's value at `depth`: inside an interval by OpenEXR's split rule (ln T linear in
+/// depth, colour in proportion to opacity), in a gap or past the end its last value.
+/// `cursor` walks forward over calls with growing depths.
+fn value_at(curve: &[DeepPoint], depth: f64, cursor: &mut usize) -> (f64, DVec3) {
+    while *cursor < curve.len() && curve[*cursor].depth <= depth {
+        *cursor += 1;
+    }
+    let i = *cursor;
+    if i == 0 {
+        return (0.0, DVec3::ZERO);
+    }
+    let p = curve[i - 1];
+    if i == curve.len() || curve[i].starts_run {
+        return (p.alpha, p.color);
+    }
+    let q = curve[i];
+    let f = ((depth - p.depth) / (q.depth - p.depth)).clamp(0.0, 1.0);
+    let (t0, t1) = (1.0 - p.alpha, 1.0 - q.alpha);
+    let t = if t0 > 0.0 {
+        t0 * (t1 / t0).powf(f)
+    } else {
+        0.0
+    };
+    let alpha = 1.0 - t;
+    let da = q.alpha - p.alpha;
+    let share = if da > 0.0 {
+        ((alpha - p.alpha) / da).clamp(0.0, 1.0)
+    } else {
+        f
+    };
+    (alpha, p.color + (q.color - p.color) * share)
+}
+
+/// The mean of several curves (each a pixel sample's, in depth), as one curve whose
+/// points are the union of theirs: exact at every one of their points.
+pub fn mean_curve(curves: &[Vec<DeepPoint>]) -> Vec<DeepPoint> {
+    let mut depths: Vec<f64> = curves.iter().flatten().map(|p| p.depth).collect();
+    depths.sort_by(f64::total_cmp);
+    depths.dedup();
+    let n = curves.len().max(1) as f64;
+    let mut cursors = vec![0usize; curves.len()];
+    let mut out: Vec<DeepPoint> = Vec::with_capacity(depths.len());
+    for &z in &depths {
+        let (mut a, mut c) = (0.0, DVec3::ZERO);
+        for (curve, cur) in curves.iter().zip(cursors.iter_mut()) {
+            let (ai, ci) = value_at(curve, z, cur);
+            a += ai;
+            c += ci;
+        }
+        let point = DeepPoint {
+            depth: z,
+            alpha: a / n,
+            color: c / n,
+            starts_run: false,
+        };
+        match out.last_mut() {
+            // Nothing changed since the last point: empty space (or its end).
+            Some(last) if last.alpha == point.alpha && last.color == point.color => {
+                let start = DeepPoint {
+                    starts_run: true,
+                    ..point
+                };
+                if last.starts_run {
+                    *last = start;
+                } else {
+                    out.push(start);
+                }
+            }
+            _ => out.push(point),
+        }
+    }
+    if let Some(first) = out.first_mut() {
+        first.starts_run = true;
+    }
+    // A point that starts a run after a gap and is followed by another run start is a
+    // lone point of nothing: drop it.
+    let mut kept: Vec<DeepPoint> = Vec::with_capacity(out.len());
+    for (i, p) in out.iter().enumerate() {
+        let alone = p.starts_run && out.get(i + 1).is_none_or(|q| q.starts_run);
+        if !alone {
+            kept.push(*p);
+        }
+    }
+    kept
+}
+
+/// The deep samples of one pixel from its samples' curves (each in depth): each thinned
+/// with half the tolerance, their mean thinned with the other half.
+pub fn pixel_samples(curves: &[Vec<DeepPoint>], tolerance: f64, out: &mut Vec<DeepSample>) {
+    let scale = |c: &[DeepPoint]| c.last().map_or(0.0, |p| p.color.max_element().max(0.0));
+    match curves {
+        [] => {}
+        [one] => samples_of(&simplify(one, tolerance, scale(one)), out),
+        many => {
+            let half = 0.5 * tolerance;
+            let thinned: Vec<Vec<DeepPoint>> =
+                many.iter().map(|c| simplify(c, half, scale(c))).collect();
+            let mean = mean_curve(&thinned);
+            samples_of(&simplify(&mean, half, scale(&mean)), out);
+        }
+    }
+}
+
+/// Flattens deep samples front to back with "over": `(R, G, B, A)`.
+pub fn flatten(samples: &[DeepSample]) -> [f64; 4] {
+    let (mut c, mut t) = (DVec3::ZERO, 1.0);
+    for s in samples {
+        c += t * DVec3::new(s.rgb[0] as f64, s.rgb[1] as f64, s.rgb[2] as f64);
+        t *= 1.0 - s.alpha as f64;
+    }
+    [c.x, c.y, c.z, 1.0 - t]
+}
+
+#[cfg(test)]
+#[path = "deep_tests.rs"]
+mod tests;

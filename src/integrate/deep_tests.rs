@@ -1,0 +1,185 @@
+use super::*;
+
+/// The trace a march through a uniform slab `[z0, z1]` of extinction `sigma_t` records
+/// in steps of `h`, with a colour of `k` per unit opacity.
+fn slab(z0: f64, z1: f64, sigma_t: f64, h: f64, k: f64) -> DeepTrace {
+    let mut tr = DeepTrace::default();
+    let mut a = z0;
+    while a < z1 {
+        let b = (a + h).min(z1);
+        let (a0, c0) = tr.last();
+        let a1 = 1.0 - (-sigma_t * (b - z0)).exp();
+        tr.segment(a, b, a0, c0, a1, DVec3::splat(k * a1));
+        a = b;
+    }
+    tr
+}
+
+/// Opacity of deep samples in front of depth `d`, each split there by OpenEXR's rule.
+fn alpha_before(samples: &[DeepSample], d: f64) -> f64 {
+    let mut t = 1.0;
+    for s in samples {
+        let (z, zb, a) = (s.z as f64, s.z_back as f64, s.alpha as f64);
+        if d <= z {
+            break;
+        }
+        let f = if zb > z {
+            ((d - z) / (zb - z)).min(1.0)
+        } else {
+            1.0
+        };
+        t *= (1.0 - a).powf(f);
+    }
+    1.0 - t
+}
+
+#[test]
+fn a_uniform_slab_splits_as_its_closed_form() {
+    let (z0, z1, sigma_t) = (2.0, 6.0, 0.8);
+    let tr = slab(z0, z1, sigma_t, 0.01, 1.0);
+    let mut out = Vec::new();
+    pixel_samples(&[tr.to_depth(1.0)], 0.01, &mut out);
+    // Uniform: ln T is linear, so one sample holds it all.
+    assert_eq!(out.len(), 1, "{out:?}");
+    for i in 0..=400 {
+        let d = z0 - 0.5 + 5.0 * i as f64 / 400.0;
+        let want = 1.0 - (-sigma_t * (d.clamp(z0, z1) - z0)).exp();
+        let got = alpha_before(&out, d);
+        assert!((got - want).abs() < 0.01, "d {d}: {got} against {want}");
+    }
+}
+
+/// A cloud-like ray: density that changes along it, with a gap, and colour that does
+/// not follow opacity.
+fn lumpy(seed: u64) -> DeepTrace {
+    let mut tr = DeepTrace::default();
+    let mut tau = 0.0f64;
+    let mut c = DVec3::ZERO;
+    let mut z = 1.0 + (seed % 7) as f64 * 0.01;
+    for i in 0..600 {
+        let h = 0.02;
+        let x = i as f64 * 0.05 + seed as f64;
+        let rho = if (200..260).contains(&i) {
+            0.0
+        } else {
+            (x.sin() * 0.5 + 0.6).max(0.0) * 2.0
+        };
+        let (a0, c0) = tr.last();
+        let t0 = (-tau).exp();
+        tau += rho * h;
+        let a1 = 1.0 - (-tau).exp();
+        c += DVec3::new(1.0, 0.5 + 0.4 * (x * 0.3).cos(), 0.2) * (t0 - (1.0 - a1));
+        tr.segment(z, z + h, a0, c0, a1, c);
+        z += h;
+    }
+    tr
+}
+
+fn check_tidy(samples: &[DeepSample]) {
+    for w in samples.windows(2) {
+        assert!(w[0].z <= w[0].z_back && w[0].z_back <= w[1].z, "{w:?}");
+    }
+    if let Some(s) = samples.last() {
+        assert!(s.z <= s.z_back);
+    }
+}
+
+#[test]
+fn flattening_gives_back_the_flat_pixel() {
+    for seed in 0..5 {
+        let tr = lumpy(seed);
+        let (a, c) = tr.last();
+        let mut out = Vec::new();
+        pixel_samples(&[tr.to_depth(1.3)], 0.01, &mut out);
+        check_tidy(&out);
+        let f = flatten(&out);
+        assert!((f[3] - a).abs() < 1e-5, "alpha {} against {a}", f[3]);
+        for ch in 0..3 {
+            assert!((f[ch] - c[ch]).abs() < 1e-5, "{f:?} against {c}");
+        }
+        assert!(out.len() < 60, "{} samples", out.len());
+    }
+}
+
+#[test]
+fn several_rays_flatten_to_their_mean() {
+    let traces: Vec<Vec<DeepPoint>> = (0..9)
+        .map(|s| lumpy(s).to_depth(1.0 + 0.01 * s as f64))
+        .collect();
+    let mut out = Vec::new();
+    pixel_samples(&traces, 0.01, &mut out);
+    check_tidy(&out);
+    let n = traces.len() as f64;
+    let a: f64 = traces.iter().map(|t| t.last().unwrap().alpha).sum::<f64>() / n;
+    let c: DVec3 = traces
+        .iter()
+        .map(|t| t.last().unwrap().color)
+        .sum::<DVec3>()
+        / n;
+    let f = flatten(&out);
+    assert!((f[3] - a).abs() < 1e-5, "alpha {} against {a}", f[3]);
+    for ch in 0..3 {
+        assert!((f[ch] - c[ch]).abs() < 1e-5, "{f:?} against {c}");
+    }
+}
+
+#[test]
+fn merged_samples_split_within_the_tolerance() {
+    // Every point of the trace, split from the samples, within the tolerance.
+    for tol in [0.01, 0.002] {
+        let tr = lumpy(3);
+        let curve = tr.to_depth(1.0);
+        let mut out = Vec::new();
+        pixel_samples(std::slice::from_ref(&curve), tol, &mut out);
+        let exact = simplify(&curve, 0.0, 1.0);
+        assert!(out.len() < exact.len(), "{} of {}", out.len(), exact.len());
+        for p in &curve {
+            let got = alpha_before(&out, p.depth);
+            assert!(
+                (got - p.alpha).abs() <= tol * 1.0001,
+                "tol {tol}, depth {}: {got} against {}",
+                p.depth,
+                p.alpha
+            );
+        }
+    }
+}
+
+#[test]
+fn a_gap_stays_empty() {
+    let mut out = Vec::new();
+    pixel_samples(&[lumpy(1).to_depth(1.0)], 0.05, &mut out);
+    // Steps 200..260 are empty: depths 5.0..6.2 from z = 1.01.
+    for s in &out {
+        assert!(s.z_back <= 5.02 || s.z >= 6.2, "a sample in the gap: {s:?}");
+    }
+}
+
+#[test]
+fn rays_apart_in_depth_flatten_to_their_mean() {
+    // Half the rays meet the medium far behind the others: the mean has a gap between.
+    let traces: Vec<Vec<DeepPoint>> = (0..6)
+        .map(|s| {
+            let mut c = lumpy(s).to_depth(1.0);
+            if s % 2 == 1 {
+                c.iter_mut().for_each(|p| p.depth += 40.0);
+            }
+            c
+        })
+        .collect();
+    let mut out = Vec::new();
+    pixel_samples(&traces, 0.01, &mut out);
+    check_tidy(&out);
+    let n = traces.len() as f64;
+    let a: f64 = traces.iter().map(|t| t.last().unwrap().alpha).sum::<f64>() / n;
+    let c: DVec3 = traces
+        .iter()
+        .map(|t| t.last().unwrap().color)
+        .sum::<DVec3>()
+        / n;
+    let f = flatten(&out);
+    assert!((f[3] - a).abs() < 1e-5, "alpha {} against {a}", f[3]);
+    for ch in 0..3 {
+        assert!((f[ch] - c[ch]).abs() < 1e-5, "{f:?} against {c}");
+    }
+}

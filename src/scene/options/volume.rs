@@ -1,0 +1,54 @@
+//! A scene file's `[[volume]]` tables: several inputs placed in one world, each with its
+//! own medium. What is not given is the scene's (its keys or flags, then the defaults).
+
+use serde::Deserialize;
+use std::path::PathBuf;
+
+/// One `[[volume]]` table as written.
+#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeTable {
+    /// Names the volume in messages and its `volume_<name>` layer; `volume<N>` (from 1)
+    /// when not given.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// The input, relative to the scene file; the same file listed twice is read once.
+    pub file: PathBuf,
+    /// Moves the volume by x,y,z (world units), after `rotate` and `scale`.
+    #[serde(default)]
+    pub translate: Option<[f64; 3]>,
+    /// Turns the volume by x, y, z degrees about the world axes, in that order, after
+    /// `scale`.
+    #[serde(default)]
+    pub rotate: Option<[f64; 3]>,
+    /// Scales the volume: one factor or x,y,z.
+    #[serde(default)]
+    pub scale: Option<Scale>,
+    /// The placement as a 4×4 matrix, four rows, the translation in the last column (the
+    /// last row 0,0,0,1); instead of translate/rotate/scale.
+    #[serde(default)]
+    pub matrix: Option<[[f64; 4]; 4]>,
+    /// As the scene's `density_grid`, for this volume.
+    #[serde(default)]
+    pub density_grid: Option<String>,
+    /// As the scene's `sigma_a`, for this volume.
+    #[serde(default)]
+    pub sigma_a: Option<String>,
+    /// As the scene's `sigma_s`, for this volume.
+    #[serde(default)]
+    pub sigma_s: Option<String>,
+    /// As the scene's `density_scale`, for this volume.
+    #[serde(default)]
+    pub density_scale: Option<f64>,
+}
+
+/// A uniform or per-axis scale.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Scale {
+    Uniform(f64),
+    Axes([f64; 3]),
+}
+
+/// The `[[volume]]` row of docs/scene-file.md.
+pub const VOLUME_ROW: &str = "| `[[volume]]` | `file`, `name`, `translate`, `rotate`, `scale`, `matrix`, `density_grid`, `sigma_a`, `sigma_s`, `density_scale` | a volume placed in the world (scene files only, instead of `input`): `file` relative to the scene file, read once however often it is listed; `translate = [x, y, z]`, `rotate = [x, y, z]` (degrees about the world axes, in that order), `scale = s` or `[x, y, z]` (applied scale, rotate, translate) or `matrix` (four rows, translation in the last column); the medium keys as the scene's, for this volume (unset: the scene's). Where volumes overlap their coefficients add. |\n";
