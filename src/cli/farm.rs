@@ -49,8 +49,9 @@ folders are made by the tasks.";
 /// The flags of `murk render` that the template sets itself: the paths (job
 /// parameters), the frames and pieces (task parameters), `--quiet`, and this command's
 /// own. A user's are not forwarded (twice, `murk render` refuses them).
-const SET_BY_THE_TEMPLATE: [&str; 11] = [
+const SET_BY_THE_TEMPLATE: [&str; 12] = [
     "-o",
+    "--camera-file",
     "--output",
     "--stats",
     "--preview",
@@ -184,6 +185,7 @@ struct Job<'a> {
     stats: bool,
     preview: bool,
     shadow_cache: bool,
+    camera_file: bool,
     /// Whether a bake per frame is shared by its pieces.
     share_bake: bool,
     /// The preview's exposure and background, for `murk stitch`.
@@ -217,6 +219,7 @@ fn tasks(raw: &[String], input: &Path, job: &Job) -> Tasks {
     param(job.stats && whole, "--stats", "Stats");
     param(job.preview && whole, "--preview", "Preview");
     param(job.shadow_cache, "--shadow-cache", "ShadowCache");
+    param(job.camera_file, "--camera-file", "CameraFile");
     let bake = (job.share_bake && !whole).then(|| {
         let mut bake: Vec<String> = vec![
             "bake-shadows".into(),
@@ -298,6 +301,7 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
         merged.stats.as_ref(),
         merged.preview.as_ref(),
         merged.shadow_cache.as_ref(),
+        merged.camera_file.as_ref(),
     ];
     for p in given.into_iter().flatten() {
         no_expression(&p.to_string_lossy(), &p.display().to_string())?;
@@ -330,6 +334,7 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
         ("Stats", "--stats", &merged.stats, "OUT"),
         ("Preview", "--preview", &merged.preview, "OUT"),
         ("ShadowCache", "--shadow-cache", &merged.shadow_cache, "IN"),
+        ("CameraFile", "--camera-file", &merged.camera_file, "IN"),
     ] {
         if let Some(p) = path {
             params.push(path_param(name, p, &job_dir, flow, flag)?);
@@ -358,6 +363,7 @@ pub fn openjd(input: &Path, options: RenderArgs, tiles: usize, job: &Path) -> Re
         stats: merged.stats.is_some(),
         preview: merged.preview.is_some(),
         shadow_cache: merged.shadow_cache.is_some(),
+        camera_file: merged.camera_file.is_some(),
         share_bake,
         look: &look,
     };
@@ -480,6 +486,7 @@ mod tests {
             ("{{Param.Stats}}", "render/f_####.json"),
             ("{{Param.Preview}}", "render/f_####.png"),
             ("{{Param.ShadowCache}}", "cache/shadows_####.vdb"),
+            ("{{Param.CameraFile}}", "shot.chan"),
             ("{{Task.Param.Frame}}", "7"),
             ("{{Task.Param.Tile}}", "2"),
         ];
@@ -533,6 +540,7 @@ mod tests {
                         stats: outputs,
                         preview: outputs,
                         shadow_cache: outputs,
+                        camera_file: outputs,
                         share_bake,
                         look: &look,
                     };

@@ -113,8 +113,10 @@ fn render_pilot<I: Integrator>(
             |(scratch, acc), &(x, y)| {
                 acc.fill(0.0);
                 let (o, d) = camera.ray(&frame, x as f64 + 0.5, y as f64 + 0.5);
+                let mut ray = WorldRay::new(o, d);
+                (ray.t_min, ray.t_max) = camera.clip(&frame, ray.dir);
                 let sample = CameraSample {
-                    ray: WorldRay::new(o, d),
+                    ray,
                     depth_rate: d.dot(frame.forward),
                 };
                 let mut rng = SampleRng::new(seed, x, y, 0);

@@ -150,8 +150,10 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                 )
             };
             let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
+            let mut ray = WorldRay::new(o, d);
+            (ray.t_min, ray.t_max) = job.camera.clip(&frame, ray.dir);
             let mut sample = CameraSample {
-                ray: WorldRay::new(o, d),
+                ray,
                 depth_rate: d.dot(frame.forward),
             };
             if let Some(depth) = job.holdout.and_then(|h| h.get(y * w + x)) {

@@ -71,6 +71,9 @@ impl FramePaths {
         }
         p.outputs.path = self.output.path(frame);
         p.outputs.exr.input_file = Some(p.input.display().to_string());
+        if let Some(shot) = &mut p.camera.request.shot {
+            shot.time = Some(frame as f64);
+        }
         if let (Some((path, _)), Some(pat)) = (&mut p.outputs.preview, &self.preview) {
             *path = pat.path(frame);
         }
@@ -309,7 +312,12 @@ fn sequence_box(
     frames: &[i64],
 ) -> Option<(glam::DVec3, glam::DVec3)> {
     let req = &plan.camera.request;
-    if frames.len() < 2 || !paths.input.is_pattern() || req.eye.is_some() || req.look_at.is_some() {
+    if frames.len() < 2
+        || !paths.input.is_pattern()
+        || req.eye.is_some()
+        || req.look_at.is_some()
+        || req.shot.is_some()
+    {
         return None;
     }
     frames

@@ -1,6 +1,7 @@
 //! Pinhole and orthographic cameras. Camera space is right-handed, y up, looking down
 //! −z (as Nuke, Houdini and OpenGL); the EXR's `Z` is the distance along the view axis.
 
+use super::film::Window;
 use glam::{DMat4, DVec3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -9,6 +10,9 @@ pub enum Projection {
     Perspective { fov_deg: f64 },
     /// Width of the view in world units.
     Orthographic { width: f64 },
+    /// A film back's screen window (cameras from files and the scene's `[camera]`
+    /// table), with its clipping planes.
+    Film(Window),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -36,7 +40,7 @@ impl Camera {
         self.check().map_err(super::PlanError::Invalid)
     }
 
-    fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), String> {
         let f = self.look_at - self.eye;
         if !(f.length() > 0.0) || !f.is_finite() {
             return Err("the camera's eye and look-at are the same point".into());
@@ -50,6 +54,15 @@ impl Camera {
             }
             Projection::Orthographic { width } if !(width > 0.0 && width.is_finite()) => {
                 Err(format!("{{ortho_width}} {width} must be a positive number"))
+            }
+            Projection::Film(w)
+                if !(w.right > w.left
+                    && w.top > w.bottom
+                    && [w.left, w.right, w.bottom, w.top]
+                        .iter()
+                        .all(|v| v.is_finite())) =>
+            {
+                Err("the camera's film window is empty".into())
             }
             _ => Ok(()),
         }
@@ -87,6 +100,28 @@ impl Camera {
                     self.eye + frame.right * (sx * half) + frame.up * (sy * half * self.aspect());
                 (o, frame.forward)
             }
+            Projection::Film(w) => {
+                let x = w.left + px / self.width as f64 * (w.right - w.left);
+                let y = w.top - py / self.height as f64 * (w.top - w.bottom);
+                if w.orthographic {
+                    (self.eye + frame.right * x + frame.up * y, frame.forward)
+                } else {
+                    let d = frame.forward + frame.right * x + frame.up * y;
+                    (self.eye, d.normalize())
+                }
+            }
+        }
+    }
+
+    /// The stretch `[t_min, t_max]` of the ray along unit `dir` between the clipping
+    /// planes: a film back's, else the whole ray.
+    pub fn clip(&self, frame: &CameraFrame, dir: DVec3) -> (f64, f64) {
+        match self.projection {
+            Projection::Film(w) => {
+                let cos = dir.dot(frame.forward).max(1e-300);
+                (w.near / cos, w.far / cos)
+            }
+            _ => (0.0, f64::INFINITY),
         }
     }
 
@@ -105,6 +140,21 @@ impl Camera {
             Projection::Orthographic { width } => {
                 let (hw, hh) = (width * 0.5, width * 0.5 * self.aspect());
                 glam::dcamera::rh::proj::opengl::orthographic(-hw, hw, -hh, hh, near, far)
+            }
+            Projection::Film(w) if w.orthographic => glam::dcamera::rh::proj::opengl::orthographic(
+                w.left, w.right, w.bottom, w.top, w.near, w.far,
+            ),
+            Projection::Film(w) => {
+                // A near plane at 0 (allowed for rays) has no frustum.
+                let n = w.near.max(w.far * 1e-7);
+                glam::dcamera::rh::proj::opengl::frustum(
+                    w.left * n,
+                    w.right * n,
+                    w.bottom * n,
+                    w.top * n,
+                    n,
+                    w.far,
+                )
             }
         };
         proj * self.world_to_camera()
@@ -166,6 +216,7 @@ impl Camera {
                 cam.projection = Projection::Orthographic { width };
                 cam.eye = centre + back * (depth * 2.0 + 1e-3);
             }
+            Projection::Film(_) => {}
         }
         cam
     }

@@ -7,6 +7,7 @@
 pub mod camera;
 pub mod conventions;
 mod error;
+pub mod film;
 pub mod frames;
 pub mod holdout;
 pub mod light;
@@ -18,6 +19,7 @@ pub mod report;
 pub mod reuse;
 pub mod roles;
 mod scene_file;
+pub mod shot;
 pub mod source;
 pub mod transport;
 pub mod volumes;
@@ -192,11 +194,29 @@ impl Scene {
         report
             .stages
             .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
-        let (up_axis, up_why) = conventions::resolve_up_axis(
+        let shot = match &plan.camera.request.shot {
+            Some(s) => Some(
+                s.camera(plan.camera.width, plan.camera.height)
+                    .map_err(PlanError::Invalid)?,
+            ),
+            None => None,
+        };
+        let (mut up_axis, mut up_why) = conventions::resolve_up_axis(
             plan.production.up_axis,
             &fields.tool,
             fields.up_from_data.as_ref(),
         );
+        // A USD camera's stage says the world's up axis (the default sun follows it).
+        if let Some(z) = shot.as_ref().and_then(|s| s.up_z)
+            && plan.production.up_axis == conventions::UpAxisChoice::Auto
+        {
+            up_axis = if z {
+                conventions::UpAxis::Z
+            } else {
+                conventions::UpAxis::Y
+            };
+            up_why = format!("{} (auto: the camera's USD stage)", up_axis.name());
+        }
         if fields.tool.is_none() && plan.production.up_axis == conventions::UpAxisChoice::Auto {
             report.notes.push(format!(
                 "no tool recognised (no creator metadata, no grid set of Blender, Mantaflow, Houdini or EmberGen): up axis {up_why}; --up-axis y or z to say"
@@ -204,7 +224,13 @@ impl Scene {
         }
         report.up_axis = up_why;
         let plan = &*turned_for_up(plan, up_axis);
-        let camera = resolve_camera(plan, fields.density.as_ref(), up_axis, reuse.frame_box)?;
+        let camera = match shot {
+            Some(s) => {
+                report.notes.extend(s.notes);
+                s.camera
+            }
+            None => resolve_camera(plan, fields.density.as_ref(), up_axis, reuse.frame_box)?,
+        };
         let mut emission_plan = plan.emission;
         if let Some(m) = &fields.temperature_mapping {
             emission_plan.temperature_scale = m.scale;

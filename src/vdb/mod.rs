@@ -152,6 +152,16 @@ fn guarded<T>(path: &Path, f: impl FnOnce() -> Result<T, VdbError>) -> Result<T,
     }
 }
 
+/// Runs `f`, a reader of another format (a USD camera), under the guard of the VDB
+/// reader: a panic on malformed data becomes an error message, and prints nothing.
+pub fn without_panics<T>(f: impl FnOnce() -> T) -> Result<T, String> {
+    install_quiet_panic_hook();
+    let quiet = QuietPanics::on();
+    let result = catch_unwind(AssertUnwindSafe(f));
+    drop(quiet);
+    result.map_err(error::panic_message)
+}
+
 impl VdbFile {
     /// Opens a file and reads everything but the trees.
     pub fn open(path: impl AsRef<Path>) -> Result<VdbFile, VdbError> {

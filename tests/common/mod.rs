@@ -3,6 +3,7 @@
 //! `tools`), which skips it where the tool is missing.
 #![allow(dead_code)]
 
+pub mod camera;
 pub mod deep;
 pub mod frames;
 pub mod march;

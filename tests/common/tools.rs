@@ -84,6 +84,15 @@ pub const PYPI_REFERENCES: Tool = Tool {
         "meshio, vtk, miepython",
     ),
 };
+/// Pixar's USD (`from pxr import Usd`), the reference of the USD camera reader.
+pub const USD_CORE: Tool = Tool {
+    name: "usd-core",
+    package: "pip package usd-core, in /opt/murk-venv as .ci/run makes it",
+    probe: Probe::Python(
+        &["/opt/murk-venv/bin/python", "/usr/bin/python3"],
+        "pxr.Usd, pxr.UsdGeom",
+    ),
+};
 pub const OPENJD: Tool = Tool {
     name: "openjd",
     package: "pip package openjd-cli in /opt/murk-venv, or MURK_OPENJD",
@@ -109,7 +118,7 @@ macro_rules! need {
     };
 }
 
-const ALL: [&Tool; 10] = [
+const ALL: [&Tool; 11] = [
     &EXRHEADER,
     &OIIOTOOL,
     &IDIFF,
@@ -119,6 +128,7 @@ const ALL: [&Tool; 10] = [
     &PYOPENVDB,
     &PYPI_REFERENCES,
     &OPENJD,
+    &USD_CORE,
     &LAVAPIPE,
 ];
 

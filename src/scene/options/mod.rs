@@ -107,8 +107,20 @@ render_options! {
 
     /// Image size, WxH.
     res: Option<String> = (Camera, "WxH", Value("640x360"), Render);
-    /// persp or ortho.
-    camera: Option<String> = (Camera, "persp|ortho", Value("persp"), Render);
+    /// persp or ortho. In a scene file, also a [camera] table: a film back and where
+    /// the camera is, keyable per frame (docs/guide.md).
+    camera: Option<CameraSetting> = (Camera, "persp|ortho", Value("persp"), Render);
+    /// The shot's camera from a file: USD (.usd, .usda, .usdc, .usdz) or a Nuke .chan;
+    /// each frame of --frames is the camera's time.
+    camera_file: Option<PathBuf> = (Camera, "FILE", NoDefault, Render);
+    /// The USD camera prim to render through.
+    camera_prim: Option<String> = (Camera, "/PATH", Described("the stage's only camera"), Render);
+    /// Euler order of a .chan's (and the [camera] table's) rotations, first axis first:
+    /// xyz, xzy, yxz, yzx, zxy or zyx.
+    camera_rotation_order: Option<String> = (Camera, "ORDER", Described("zxy, Nuke's"), Render);
+    /// How a camera file's film gate fits the image: horizontal, vertical, fill or
+    /// overscan.
+    film_fit: Option<String> = (Camera, "FIT", Described("horizontal; vertical for a .chan"), Render);
     /// Camera position x,y,z.
     eye: Option<String> = (Camera, "x,y,z", Described("framing the density's bounds"), Render);
     /// Point the camera looks at, x,y,z.
@@ -260,6 +272,50 @@ render_options! {
     quiet: bool = (Run, "", NoDefault, RenderAndBake);
 }
 
+/// The `camera` key: `persp` or `ortho` (a flag or a scene file's string), or a scene
+/// file's `[camera]` table.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CameraSetting {
+    Kind(String),
+    Table(Box<crate::scene::shot::table::CameraTable>),
+}
+
+impl From<&str> for CameraSetting {
+    fn from(kind: &str) -> Self {
+        CameraSetting::Kind(kind.to_string())
+    }
+}
+
+impl FlagValue for CameraSetting {
+    fn parse_flag(raw: &str) -> Result<Self, String> {
+        Ok(CameraSetting::Kind(raw.to_string()))
+    }
+}
+
+impl<'de> Deserialize<'de> for CameraSetting {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Either;
+        impl<'de> serde::de::Visitor<'de> for Either {
+            type Value = CameraSetting;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("\"persp\", \"ortho\" or a [camera] table")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<CameraSetting, E> {
+                Ok(CameraSetting::Kind(v.to_string()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<CameraSetting, A::Error> {
+                let table =
+                    Deserialize::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                Ok(CameraSetting::Table(Box::new(table)))
+            }
+        }
+        d.deserialize_any(Either)
+    }
+}
+
 /// A light in a scene file, with the name its scatter layer gets.
 #[derive(Clone, Debug, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -272,7 +328,7 @@ pub struct NamedLight {
 /// docs/scene-file.md holds it (a test keeps it current).
 pub fn scene_keys_markdown() -> String {
     let mut out = String::from(
-        "| key | value | what it sets |\n|---|---|---|\n| `input` | path | the input to render, relative to the scene file (scene files only) |\n| `[[lights]]` | `name`, `spec` | a named light: `spec` as `light` takes it; its layer is `scatter_<name>` (scene files only) |\n",
+        "| key | value | what it sets |\n|---|---|---|\n| `input` | path | the input to render, relative to the scene file (scene files only) |\n| `[[lights]]` | `name`, `spec` | a named light: `spec` as `light` takes it; its layer is `scatter_<name>` (scene files only) |\n| `[camera]` | `focal_length`, `horizontal_aperture`, `vertical_aperture`, `horizontal_aperture_offset`, `vertical_aperture_offset`, `clipping_range`, `pixel_aspect`, `projection`, `translate`, `rotate`, `[[camera.keys]]` with `frame` | the shot camera's film back and placement, keyable per frame (docs/guide.md, scene files only) |\n",
     );
     out.push_str(volume::VOLUME_ROW);
     for f in FLAGS {
@@ -314,6 +370,7 @@ impl RenderOptions {
             &mut o.preview,
             &mut o.deep,
             &mut o.shadow_cache,
+            &mut o.camera_file,
         ]
         .into_iter()
         .flatten()

@@ -2,10 +2,11 @@
 //! `res`, `camera`, `fov`, `ortho_width`, `eye`, `look_at`, `up`.
 
 use super::defaults;
+use super::shot::ShotPlan;
 use super::values::{positive, resolution};
 use crate::scene::camera::Projection;
 use crate::scene::light::parse_triple;
-use crate::scene::options::RenderOptions;
+use crate::scene::options::{CameraSetting, RenderOptions};
 use glam::DVec3;
 
 /// The camera as far as it can be known before the grid's bounds are.
@@ -15,6 +16,8 @@ pub struct CameraRequest {
     pub eye: Option<DVec3>,
     pub look_at: Option<DVec3>,
     pub up: DVec3,
+    /// The shot's camera, from a file or the `[camera]` table: it replaces the rest.
+    pub shot: Option<ShotPlan>,
 }
 
 /// The image and the camera.
@@ -31,7 +34,11 @@ impl CameraPlan {
         let perspective = || Projection::Perspective {
             fov_deg: o.fov.unwrap_or(defaults::FOV_DEG),
         };
-        let projection = match o.camera.as_deref() {
+        let kind = match &o.camera {
+            Some(CameraSetting::Kind(k)) => Some(k.as_str()),
+            _ => None,
+        };
+        let projection = match kind {
             None if o.ortho_width.is_some() => Projection::Orthographic {
                 width: positive(o.ortho_width, 1.0, "{ortho_width}")?,
             },
@@ -60,6 +67,14 @@ impl CameraPlan {
                 eye: vec(&o.eye, "{eye}")?,
                 look_at: vec(&o.look_at, "{look_at}")?,
                 up: vec(&o.up, "{up}")?.unwrap_or(DVec3::Y),
+                shot: match ShotPlan::from_options(o)? {
+                    Some(shot) => {
+                        // Read now, so that a bad file stops the render before it starts.
+                        shot.camera(width, height)?;
+                        Some(shot)
+                    }
+                    None => None,
+                },
             },
         })
     }

@@ -11,6 +11,7 @@ mod lighting;
 mod look;
 mod outputs;
 mod quality;
+mod shot;
 mod values;
 mod volumes;
 
@@ -21,6 +22,7 @@ pub use lighting::{ShadowMode, ShadowPlan, safe_layer_name};
 pub use look::{EmissionPlan, GridChoice, GridRoles};
 pub use outputs::{DeepPlan, OutputPlan, ProductionPlan};
 pub use quality::{MarchPlan, SamplingPlan};
+pub use shot::{ShotCameraAt, ShotPlan};
 pub use volumes::{VolumePlan, VolumesPlan};
 
 use super::PlanError;
