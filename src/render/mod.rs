@@ -2,7 +2,9 @@
 //! assembled from the passes, and [`run`], a whole render: build the scene → render →
 //! write, timing every stage.
 
+mod bake_file;
 pub mod channels;
+mod device;
 mod error;
 pub mod error_budget;
 pub mod gpu;
@@ -22,10 +24,10 @@ use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, Integrator, ScatteringMode};
 use crate::output::{DeepExrOptions, DeepImage, Frame, write_deep_exr, write_exr, write_preview};
 use crate::scene::Scene;
-use crate::scene::lights::bake_maps;
-use crate::scene::plan::{Device, GridChoice, ShadowMode};
+use crate::scene::plan::ShadowMode;
 use crate::scene::reuse::FrameReuse;
-use crate::scene::roles::load_fields;
+pub use bake_file::bake_shadow_file;
+use device::{choose_device, render_frame_gpu};
 pub use error::RenderError;
 use piece::Piece;
 use stats::{RenderStats, Stage};
@@ -438,77 +440,6 @@ fn march_settings<I: Integrator>(
     march
 }
 
-/// The GPU a render runs on under `--device gpu|auto`, or none (the CPU); and under
-/// `auto`, a note saying why the CPU renders. Under `gpu` a scene the GPU backend does not
-/// render, or no GPU, is an error naming what is missing.
-fn choose_device(
-    plan: &RenderPlan,
-    scene: &Scene,
-) -> Result<(Option<&'static gpu::Gpu>, Option<String>)> {
-    let device = plan.sampling.device;
-    if device == Device::Cpu {
-        return Ok((None, None));
-    }
-    let opened = match gpu::unsupported(plan, scene) {
-        Some(feature) => Err(format!("the GPU backend does not render {feature} yet")),
-        None if plan.outputs.deep.is_some() => {
-            Err("the GPU backend does not write deep samples (--deep) yet".into())
-        }
-        None if plan.production.holdout.is_some() => {
-            Err("the GPU backend does not cut at a holdout (--holdout-depth) yet".into())
-        }
-        None => gpu::Gpu::shared(),
-    };
-    match opened {
-        Ok(g) => Ok((Some(g), None)),
-        Err(why) if device == Device::Gpu => {
-            Err(RenderError::Device(format!("--device gpu: {why}")))
-        }
-        Err(why) => Ok((
-            None,
-            Some(format!("--device auto rendered on the CPU: {why}")),
-        )),
-    }
-}
-
-/// [`render_frame`] with the march on `gpu`: the stages `gpu_upload` and `render` (rays,
-/// march and readback) go in the stats. What failed on the GPU (a grid over its buffer
-/// limit, say) is an error under `--device gpu`, and the inner `Err` (the CPU renders
-/// instead) under `auto`.
-fn render_frame_gpu(
-    gpu: &gpu::Gpu,
-    integrator: &SingleScattering,
-    scene: &Scene,
-    plan: &RenderPlan,
-    rows: std::ops::Range<usize>,
-    st: &mut RenderStats,
-) -> Result<std::result::Result<(Frame, f64), String>> {
-    let t = Instant::now();
-    let job = pixels::PixelJob {
-        integrator,
-        camera: &scene.camera,
-        spp: plan.sampling.spp,
-        seed: plan.sampling.seed,
-        rows,
-        antialias: plan.sampling.antialias,
-        deep: None,
-        holdout: None,
-    };
-    let (passes, times) = match gpu::render_pixels(gpu, scene, &job) {
-        Ok(done) => done,
-        Err(why) if plan.sampling.device == Device::Auto => return Ok(Err(why)),
-        Err(why) => return Err(RenderError::Device(format!("--device gpu: {why}"))),
-    };
-    let render_seconds = t.elapsed().as_secs_f64();
-    st.scene
-        .stages
-        .insert("gpu_upload".into(), Stage::ran(times.upload));
-    st.rays = passes.rays;
-    st.samples = passes.samples;
-    st.samples_per_second = passes.samples as f64 / times.march.max(1e-9);
-    Ok(Ok((channels::assemble(&passes)?, render_seconds)))
-}
-
 /// Which pixels a render computes and what it keeps of them: its rows, deep samples
 /// (with their merge tolerance) and the holdout's depth per pixel.
 #[derive(Clone)]
@@ -564,100 +495,6 @@ fn render_frame<I: Integrator>(
             .collect(),
     });
     Ok((channels::assemble(&passes)?, render_seconds, deep))
-}
-
-/// `murk bake-shadows`: bakes the deep shadow map of every light of `plan` over its
-/// density grid and writes them to `plan.outputs.path` (a `.vdb`), for `--shadow-cache`.
-pub fn bake_shadow_file(plan: &RenderPlan, progress: &dyn Progress) -> Result<RenderStats> {
-    on_plan_threads(plan, || bake_shadow_file_here(plan, progress))
-}
-
-fn bake_shadow_file_here(plan: &RenderPlan, progress: &dyn Progress) -> Result<RenderStats> {
-    let start = Instant::now();
-    check_output_dirs(plan)?;
-    if !plan
-        .outputs
-        .path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("vdb"))
-    {
-        return Err(RenderError::output_path(
-            &plan.outputs.path,
-            "a shadow cache is a .vdb file; name the output NAME.vdb",
-        ));
-    }
-    if plan.lights.is_empty() {
-        return Err(RenderError::NoLights);
-    }
-    let mut density_only = plan.clone();
-    density_only.grids.emission = GridChoice::Off;
-    density_only.grids.temperature = GridChoice::Off;
-    density_only.grids.color = GridChoice::Off;
-    density_only.shadows.cache = None;
-    let mut st = RenderStats {
-        murk_version: env!("CARGO_PKG_VERSION").into(),
-        input: plan.input.display().to_string(),
-        output: plan.outputs.path.display().to_string(),
-        ..Default::default()
-    };
-    let report = &mut st.scene;
-    let t = Instant::now();
-    let fields = match &plan.volumes {
-        // A scene of several volumes: their summed density, as the render sees it.
-        Some(v) => crate::scene::volumes::load_volumes(&density_only, v, report)
-            .map_err(RenderError::Scene)?,
-        None => {
-            let source = crate::scene::source::open(&plan.input)?;
-            load_fields(source.as_ref(), &density_only, false, report)
-                .map_err(RenderError::Scene)?
-        }
-    };
-    report
-        .stages
-        .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
-    let (up, _) = crate::scene::conventions::resolve_up_axis(
-        plan.production.up_axis,
-        &fields.tool,
-        fields.up_from_data.as_ref(),
-    );
-    // The lights as a render of this input turns them, so that it finds them in the cache.
-    let turned = crate::scene::turned_for_up(plan, up);
-    let plan = &*turned;
-    density_only.lights = plan.lights.clone();
-    let density = fields.density.as_ref();
-    let sigma_t = plan.medium.sigma_t();
-    let hash = density.content_hash().ok_or_else(|| RenderError::Input {
-        path: plan.input.clone(),
-        problem: "this input cannot be fingerprinted for a shadow cache".into(),
-    })?;
-    let t = Instant::now();
-    let (maps, map_stats) = bake_maps(&density_only, density, hash, sigma_t, progress)?;
-    report
-        .stages
-        .insert("shadows".into(), Stage::ran(t.elapsed().as_secs_f64()));
-    let t = Instant::now();
-    crate::shadow::cache::write(
-        &plan.outputs.path,
-        hash,
-        &plan.lights,
-        &maps,
-        &map_stats,
-        plan.shadows.dsm_tolerance,
-        sigma_t,
-    )?;
-    report
-        .stages
-        .insert("write".into(), Stage::ran(t.elapsed().as_secs_f64()));
-    report.shadow_map_memory_bytes = map_stats.iter().map(|s| s.bake.memory_bytes).sum();
-    report.density_memory_bytes = density.memory_bytes();
-    report.shadow_maps = map_stats;
-    report.lights = plan.lights.iter().map(|l| l.name.clone()).collect();
-    report.shadows = "dsm".into();
-    st.total_seconds = start.elapsed().as_secs_f64();
-    if let Some(path) = &plan.outputs.stats {
-        write_stats(path, &st)?;
-    }
-    Ok(st)
 }
 
 /// Writes the stats as pretty JSON, atomically; `-` writes them to standard output.

@@ -1,0 +1,80 @@
+//! Which device renders a frame under `--device`, and a frame's march on the GPU.
+
+use super::{RenderError, Result, channels, gpu, pixels};
+use crate::integrate::single::SingleScattering;
+use crate::output::Frame;
+use crate::render::stats::{RenderStats, Stage};
+use crate::scene::plan::Device;
+use crate::scene::{RenderPlan, Scene};
+use std::time::Instant;
+
+/// The GPU a render runs on under `--device gpu|auto`, or none (the CPU); and under
+/// `auto`, a note saying why the CPU renders. Under `gpu` a scene the GPU backend does not
+/// render, or no GPU, is an error naming what is missing.
+pub(super) fn choose_device(
+    plan: &RenderPlan,
+    scene: &Scene,
+) -> Result<(Option<&'static gpu::Gpu>, Option<String>)> {
+    let device = plan.sampling.device;
+    if device == Device::Cpu {
+        return Ok((None, None));
+    }
+    let opened = match gpu::unsupported(plan, scene) {
+        Some(feature) => Err(format!("the GPU backend does not render {feature} yet")),
+        None if plan.outputs.deep.is_some() => {
+            Err("the GPU backend does not write deep samples (--deep) yet".into())
+        }
+        None if plan.production.holdout.is_some() => {
+            Err("the GPU backend does not cut at a holdout (--holdout-depth) yet".into())
+        }
+        None => gpu::Gpu::shared(),
+    };
+    match opened {
+        Ok(g) => Ok((Some(g), None)),
+        Err(why) if device == Device::Gpu => {
+            Err(RenderError::Device(format!("--device gpu: {why}")))
+        }
+        Err(why) => Ok((
+            None,
+            Some(format!("--device auto rendered on the CPU: {why}")),
+        )),
+    }
+}
+
+/// [`render_frame`] with the march on `gpu`: the stages `gpu_upload` and `render` (rays,
+/// march and readback) go in the stats. What failed on the GPU (a grid over its buffer
+/// limit, say) is an error under `--device gpu`, and the inner `Err` (the CPU renders
+/// instead) under `auto`.
+pub(super) fn render_frame_gpu(
+    gpu: &gpu::Gpu,
+    integrator: &SingleScattering,
+    scene: &Scene,
+    plan: &RenderPlan,
+    rows: std::ops::Range<usize>,
+    st: &mut RenderStats,
+) -> Result<std::result::Result<(Frame, f64), String>> {
+    let t = Instant::now();
+    let job = pixels::PixelJob {
+        integrator,
+        camera: &scene.camera,
+        spp: plan.sampling.spp,
+        seed: plan.sampling.seed,
+        rows,
+        antialias: plan.sampling.antialias,
+        deep: None,
+        holdout: None,
+    };
+    let (passes, times) = match gpu::render_pixels(gpu, scene, &job) {
+        Ok(done) => done,
+        Err(why) if plan.sampling.device == Device::Auto => return Ok(Err(why)),
+        Err(why) => return Err(RenderError::Device(format!("--device gpu: {why}"))),
+    };
+    let render_seconds = t.elapsed().as_secs_f64();
+    st.scene
+        .stages
+        .insert("gpu_upload".into(), Stage::ran(times.upload));
+    st.rays = passes.rays;
+    st.samples = passes.samples;
+    st.samples_per_second = passes.samples as f64 / times.march.max(1e-9);
+    Ok(Ok((channels::assemble(&passes)?, render_seconds)))
+}
