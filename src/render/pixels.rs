@@ -175,21 +175,7 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
             deep.clear();
             pixel_samples(&curves, tolerance, deep);
         }
-        let inv = 1.0 / count as f64;
-        for (dst, a) in px.iter_mut().zip(acc.iter()) {
-            let v = (a * inv) as f32;
-            *dst = if v.is_finite() { v } else { 0.0 };
-        }
-        // Z follows the pixel's opacity: finite only where the mean alpha reaches 0.5
-        // (then at least one sample crossed it), the mean of the crossings.
-        if let Some(d) = depth_at {
-            let opaque = alpha_at.is_none_or(|a| acc[a] * inv >= 0.5);
-            px[d] = if acc[d + 1] > 0.0 && opaque {
-                (acc[d] / acc[d + 1]) as f32
-            } else {
-                f32::INFINITY
-            };
-        }
+        finish_pixel(px, acc, count as usize, alpha_at, depth_at);
         n_samples
     };
     // Pass 1: the centres (or the job's samples), 16×16 tiles in parallel, into one
@@ -446,5 +432,30 @@ mod tests {
                 }
             }
         }
+    }
+}
+
+/// A pixel's values from the sums of its `count` samples: their means (non-finite ones 0),
+/// and Z, which follows the pixel's opacity: finite only where the mean alpha reaches 0.5
+/// (then at least one sample crossed it), the mean of the crossings.
+pub(crate) fn finish_pixel(
+    px: &mut [f32],
+    acc: &[f64],
+    count: usize,
+    alpha_at: Option<usize>,
+    depth_at: Option<usize>,
+) {
+    let inv = 1.0 / count.max(1) as f64;
+    for (dst, a) in px.iter_mut().zip(acc.iter()) {
+        let v = (a * inv) as f32;
+        *dst = if v.is_finite() { v } else { 0.0 };
+    }
+    if let Some(d) = depth_at {
+        let opaque = alpha_at.is_none_or(|a| acc[a] * inv >= 0.5);
+        px[d] = if acc[d + 1] > 0.0 && opaque {
+            (acc[d] / acc[d + 1]) as f32
+        } else {
+            f32::INFINITY
+        };
     }
 }

@@ -11,7 +11,7 @@ use crate::integrate::integrator::{Integrator, SampleRng, unit_random};
 use crate::integrate::pass::PassKind;
 use crate::integrate::single::SingleScattering;
 use crate::integrate::{RayResult, WorldRay};
-use crate::render::pixels::{EDGE_ALPHA, PixelJob, PixelPasses};
+use crate::render::pixels::{EDGE_ALPHA, PixelJob, PixelPasses, finish_pixel};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -136,19 +136,7 @@ fn render_picks(
                     &mut acc,
                 );
             }
-            let inv = 1.0 / (starts[k + 1] - starts[k]).max(1) as f64;
-            for (dst, a) in px.iter_mut().zip(acc.iter()) {
-                let v = (a * inv) as f32;
-                *dst = if v.is_finite() { v } else { 0.0 };
-            }
-            if let Some(d) = depth_at {
-                let opaque = alpha_at.is_none_or(|a| acc[a] * inv >= 0.5);
-                px[d] = if acc[d + 1] > 0.0 && opaque {
-                    (acc[d] / acc[d + 1]) as f32
-                } else {
-                    f32::INFINITY
-                };
-            }
+            finish_pixel(px, &acc, starts[k + 1] - starts[k], alpha_at, depth_at);
             n_samples
         })
         .sum();
