@@ -6,6 +6,7 @@
 
 pub mod camera;
 pub mod conventions;
+pub mod density_level;
 mod error;
 pub mod film;
 pub mod frames;
@@ -13,6 +14,7 @@ pub mod holdout;
 pub mod light;
 pub mod lights;
 pub mod options;
+pub mod pilot;
 pub mod plan;
 pub mod progress;
 pub mod report;
@@ -102,7 +104,7 @@ use camera::{Camera, Projection};
 pub use error::SceneError;
 use glam::DVec3;
 use lights::{SceneLights, bake_maps, light_shadows};
-use plan::{EmissionPlan, GridChoice, ShadowMode};
+use plan::{EmissionPlan, GridChoice, MarchPlan, ShadowMode};
 use progress::Progress;
 use report::{SceneReport, Stage};
 use roles::{SceneFields, load_fields};
@@ -127,6 +129,9 @@ pub struct Scene {
     shadows: Vec<lights::LightShadow>,
     plan_shadows: (crate::shadow::ShadowQuadrature, f64),
     pub ground: Option<Ground>,
+    /// With `--max-error`: the density's level the pilot chose (the density in `fields`
+    /// is that level), and what it measured.
+    pub density_level: Option<density_level::DensityLevelReport>,
     /// Something scatters light toward the camera (lights and σs > 0).
     pub scatters: bool,
     /// Something emits (an emission or temperature field with a non-zero intensity).
@@ -263,6 +268,7 @@ impl Scene {
                     / medium.sigma_t().min_element().max(1e-30),
             ),
             ground: plan.ground,
+            density_level: None,
             scatters,
             emits: false,
             report,
@@ -273,6 +279,25 @@ impl Scene {
                 || (scene.fields.temperature.is_some() && e.blackbody_intensity > 0.0)
         });
         scene.report_emission_and_scatter(plan);
+        // With --max-error, the density's level first: the map is baked at that level,
+        // with its share of what the level leaves of the error.
+        let leveled;
+        let plan = match plan.march.max_error {
+            Some(e) => {
+                density_level::apply(&mut scene, plan, e);
+                match &scene.density_level {
+                    Some(r) if r.level > 0 && plan.shadows.mode == ShadowMode::Dsm => {
+                        let mut p = plan.clone();
+                        p.shadows.dsm_tolerance =
+                            MarchPlan::tolerance_of(MarchPlan::remaining_error(e, r.error));
+                        leveled = p;
+                        &leveled
+                    }
+                    _ => plan,
+                }
+            }
+            None => plan,
+        };
         scene.prepare_shadows(plan, progress, reuse)?;
         Ok(scene)
     }
@@ -463,6 +488,8 @@ impl Scene {
                 .as_ref()
                 .map(|c| ColorTint::new(c.as_ref() as &dyn ColorField, density)),
             traversal,
+            // A coarse level's steps span several of its voxels: two samples a step.
+            sampled_means: self.density_level.as_ref().is_some_and(|l| l.level > 0),
         }
     }
 
