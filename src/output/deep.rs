@@ -14,7 +14,7 @@
 //! where that does not make it smaller.
 
 use super::OutputError;
-use crate::files::write_atomically;
+use crate::files::{FileError, write_atomically};
 use flate2::Compression;
 use flate2::write::ZlibEncoder;
 use rayon::prelude::*;
@@ -283,15 +283,19 @@ pub fn write_deep_exr(
     image: &DeepImage,
     opts: &DeepExrOptions,
 ) -> Result<DeepWriteSummary, OutputError> {
-    let invalid = |reason: String| OutputError::Invalid {
-        path: path.to_owned(),
-        reason,
+    let invalid = |reason: String| {
+        OutputError::File(FileError::Invalid {
+            path: path.to_owned(),
+            reason,
+        })
     };
     let (bytes, summary) = encode(image, opts).map_err(invalid)?;
     write_atomically(path, |temp| {
-        std::fs::write(temp, &bytes).map_err(|source| OutputError::Io {
-            path: path.to_owned(),
-            source,
+        std::fs::write(temp, &bytes).map_err(|source| {
+            OutputError::File(FileError::Io {
+                path: path.to_owned(),
+                source,
+            })
         })
     })?;
     Ok(summary)

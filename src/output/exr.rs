@@ -13,7 +13,7 @@ use exr::prelude::{
 
 use super::OutputError;
 use super::frame::{Frame, PixelRect, is_depth_channel};
-use crate::files::write_atomically;
+use crate::files::{FileError, write_atomically};
 
 /// EXR compression methods offered on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -237,9 +237,11 @@ pub fn write_exr(
     frame: &Frame,
     opts: &ExrOptions,
 ) -> Result<ExrWriteSummary, OutputError> {
-    let invalid = |reason: String| OutputError::Invalid {
-        path: path.to_owned(),
-        reason,
+    let invalid = |reason: String| {
+        OutputError::File(FileError::Invalid {
+            path: path.to_owned(),
+            reason,
+        })
     };
     let (w, h) = (frame.width, frame.height);
     if w == 0 || h == 0 {
