@@ -63,6 +63,7 @@ pub(super) fn render_frame_gpu(
         antialias: plan.sampling.antialias,
         deep: None,
         holdout: None,
+        shutter: None,
     };
     let (passes, times) = match gpu::render_pixels(gpu, scene, &job) {
         Ok(done) => done,

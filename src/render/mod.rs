@@ -469,6 +469,7 @@ fn render_frame<I: Integrator>(
         antialias: plan.sampling.antialias,
         deep: extent.deep,
         holdout: extent.holdout,
+        shutter: plan.motion.shutter,
     };
     progress.start("rendering", job.tiles() as u64, "tiles");
     // On the plan's threads: the caller runs inside `on_plan_threads`.

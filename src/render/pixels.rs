@@ -3,7 +3,9 @@
 
 use crate::integrate::WorldRay;
 use crate::integrate::deep::{DeepPoint, DeepSample, pixel_samples};
-use crate::integrate::integrator::{CameraSample, Integrator, SampleRng, unit_random};
+use crate::integrate::integrator::{
+    CameraSample, Integrator, SampleRng, shutter_time, unit_random,
+};
 use crate::integrate::pass::{PassKind, PassLayout};
 use crate::scene::camera::Camera;
 use crate::scene::progress::Progress;
@@ -52,6 +54,9 @@ pub struct PixelJob<'a, I: Integrator> {
     pub deep: Option<f64>,
     /// `--holdout-depth`: per pixel, the camera-space depth at which its rays stop.
     pub holdout: Option<&'a [f32]>,
+    /// `--shutter`: open and close in frames from the frame; each sample is taken at a
+    /// time in it ([`shutter_time`]). `None`: every sample at the frame's time.
+    pub shutter: Option<(f64, f64)>,
 }
 
 impl<I: Integrator> PixelJob<'_, I> {
@@ -152,6 +157,9 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
             let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
             let mut ray = WorldRay::new(o, d);
             (ray.t_min, ray.t_max) = job.camera.clip(&frame, ray.dir);
+            if let Some(shutter) = job.shutter {
+                ray.time = shutter_time(job.seed, x, y, s, count, shutter);
+            }
             let mut sample = CameraSample {
                 ray,
                 depth_rate: d.dot(frame.forward),
@@ -380,6 +388,7 @@ mod tests {
             antialias,
             deep: None,
             holdout: None,
+            shutter: None,
         };
         render_pixels(&job, &Silent)
     }

@@ -22,6 +22,7 @@ mod scene_file;
 pub mod shot;
 pub mod source;
 pub mod transport;
+pub mod velocity;
 pub mod volumes;
 
 pub use options::RenderOptions;
@@ -131,6 +132,8 @@ pub struct Scene {
     pub scatters: bool,
     /// Something emits (an emission or temperature field with a non-zero intensity).
     pub emits: bool,
+    /// The velocity that blurs the volume within the shutter.
+    pub motion: Option<velocity::SceneMotion>,
     pub report: SceneReport,
 }
 
@@ -186,11 +189,28 @@ impl Scene {
         let scatters = lit && medium.scatters();
         // Build: decode only the fields in a role.
         let t = Instant::now();
-        let fields = match (&plan.volumes, source) {
+        let fields = match (&plan.volumes, &source) {
             (Some(v), _) => volumes::load_volumes(plan, v, &mut report)?,
             (None, Some(source)) => load_fields(source.as_ref(), plan, scatters, &mut report)?,
             (None, None) => return Err(SceneError::input(&plan.input, "nothing to render")),
         };
+        let motion = match &source {
+            Some(source) => {
+                velocity::load(source.as_ref(), plan, fields.density.as_ref(), &mut report)?
+            }
+            None => {
+                if plan.motion.shutter.is_some() {
+                    report.notes.push("--shutter: [[volume]] scenes are not blurred from velocity yet: they render sharp".into());
+                }
+                None
+            }
+        };
+        if motion.is_some() && plan.transport.mode == crate::integrate::ScatteringMode::Path {
+            return Err(PlanError::Invalid(
+                "{scattering} path does not blur a volume from its velocity yet: use --scattering single or fast, or --velocity-grid none".into(),
+            )
+            .into());
+        }
         report
             .stages
             .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
@@ -265,6 +285,7 @@ impl Scene {
             ground: plan.ground,
             scatters,
             emits: false,
+            motion,
             report,
             fields,
         };
@@ -463,6 +484,7 @@ impl Scene {
                 .as_ref()
                 .map(|c| ColorTint::new(c.as_ref() as &dyn ColorField, density)),
             traversal,
+            motion: self.motion.as_ref().map(|m| m.motion()),
         }
     }
 

@@ -51,6 +51,9 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
     if scene.ground.is_some() {
         return Some("the ground plane (--ground)".into());
     }
+    if scene.motion.is_some() {
+        return Some("motion blur from a velocity grid (--shutter)".into());
+    }
     if scene.lights.len() > upload::MAX_LIGHTS {
         return Some(format!("more than {} lights", upload::MAX_LIGHTS));
     }
