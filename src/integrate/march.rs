@@ -349,7 +349,7 @@ pub fn march(
     scratch: &mut Scratch,
 ) -> RayResult {
     match &vol.motion {
-        Some(m) if m.shift(ray_w.time) != 0.0 => {
+        Some(m) if m.max_displacement(ray_w.time) > 0.0 => {
             let fields = MovedFields::new(
                 vol.density,
                 vol.traversal,
