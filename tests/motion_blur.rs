@@ -149,7 +149,7 @@ mod cli {
     /// Writes `moving.vdb` into `dir`: a box of density 1 (voxels 0..=39, 0..=39, 0..=19 at
     /// 0.05: x from 0 to 1.95) and a vec3 grid `vel` of (vx, 0, 0) over a larger box, as a
     /// simulation writes velocity beyond the smoke; `still.vdb` without `vel`.
-    fn write_caches(dir: &Path, vx: f64) {
+    pub fn write_caches(dir: &Path, vx: f64) {
         let script = "import pyopenvdb as vdb, numpy as np, sys\n\
             d = vdb.FloatGrid()\n\
             d.name = 'density'\n\
@@ -172,7 +172,7 @@ mod cli {
     }
 
     /// The alpha plane of an EXR, row-major.
-    fn alpha(path: &Path) -> (usize, Vec<f32>) {
+    pub fn alpha(path: &Path) -> (usize, Vec<f32>) {
         let img = read_all_flat_layers_from_file(path).unwrap();
         let layer = &img.layer_data[0];
         let a = layer
@@ -309,5 +309,170 @@ mod cli {
             "--velocity-grid",
         );
         let _ = murk;
+    }
+}
+
+/// The bias of shadows taken at the frame's time (one map at a centred shutter's centre)
+/// against shadows of the volume as it is at each sample's time, on the Houdini pyro
+/// fixture moved by its own `vel` grid, its motion scaled up to a blur of several voxels:
+/// what docs/how-it-works.md states.
+#[test]
+fn shadows_at_the_shutters_centre_are_near_those_per_time() {
+    use common::march::Sun;
+    use murk::field::Field;
+    use murk::field::VoxelGrid;
+    use murk::field::advect::{Advected, GridVelocity, VelocityField};
+    use murk::vdb::VdbFile;
+    let path = format!("{}/fixtures/pyro.vdb", env!("CARGO_MANIFEST_DIR"));
+    let file = VdbFile::open(path).unwrap();
+    let pyro = VoxelGrid::load(&file, "density").unwrap();
+    let vel = GridVelocity::vector(VoxelGrid::load(&file, "vel").unwrap(), false).unwrap();
+    let (lo, hi) = pyro.world_bounds();
+    let voxel = (hi - lo).x / pyro.active_bounds().extent().x as f64;
+    // Scaled so the fastest voxel moves 4 voxels over the shutter.
+    let shutter = (-0.25, 0.25);
+    let per_frame = 4.0 * voxel / (vel.max_speed() * (shutter.1 - shutter.0));
+    let motion = Motion {
+        velocity: &vel,
+        per_frame,
+    };
+    let vol = Volume {
+        motion: Some(motion),
+        ..Volume::of(&pyro, medium(0.5, 4.0, 0.0))
+    };
+    let toward = DVec3::new(0.6, 1.0, 0.5).normalize();
+    let settings = MarchSettings {
+        step_voxels: 0.5,
+        termination: 0.0,
+    };
+    let mut scratch = Scratch::new(1);
+    let n = 24;
+    let times = 16;
+    let (mut still_sum, mut timed_sum, mut sq) = (0.0, 0.0, 0.0);
+    for j in 0..n {
+        for i in 0..n {
+            let x = lo.x + (hi.x - lo.x) * (i as f64 + 0.5) / n as f64;
+            let y = lo.y + (hi.y - lo.y) * (j as f64 + 0.5) / n as f64;
+            let (mut still, mut timed) = (0.0, 0.0);
+            for s in 0..times {
+                let mut ray = WorldRay::new(DVec3::new(x, y, hi.z + 1.0), DVec3::NEG_Z);
+                ray.time = shutter_time(3, i, j, s, times, shutter);
+                let frame_sun = Sun {
+                    field: &pyro,
+                    toward,
+                    irradiance: 1.0,
+                };
+                let moved = Advected::new(&pyro, &vel, motion.shift(ray.time));
+                let time_sun = Sun {
+                    field: &moved,
+                    toward,
+                    irradiance: 1.0,
+                };
+                let run = |sun: &Sun, scratch: &mut Scratch| {
+                    march(&vol, Some(sun), &ray, &settings, 0.5, scratch)
+                        .scatter
+                        .x
+                };
+                still += run(&frame_sun, &mut scratch);
+                timed += run(&time_sun, &mut scratch);
+            }
+            still_sum += still / times as f64;
+            timed_sum += timed / times as f64;
+            sq += ((still - timed) / times as f64).powi(2);
+        }
+    }
+    let mean = timed_sum / (n * n) as f64;
+    let rmse = (sq / (n * n) as f64).sqrt() / mean;
+    let energy = (still_sum - timed_sum) / timed_sum;
+    eprintln!("shadows at the frame's time: relative RMSE {rmse:.2e}, energy {energy:+.2e}");
+    assert!(mean > 0.0);
+    assert!(
+        rmse < 0.02 && energy.abs() < 0.01,
+        "rmse {rmse}, energy {energy}"
+    );
+}
+
+mod camera {
+    use super::cli::{alpha, write_caches};
+    use super::common::frames::{ok, scratch};
+    use super::common::tools;
+    use crate::need;
+
+    /// A camera keyed to move along −x at 1 world unit a frame, over a still box, blurs as
+    /// the box moving along +x at 1 unit a frame (its `vel` grid: 24 units a second at 24
+    /// fps) does under the same shutter: the same samples see the same points, so the
+    /// images agree to rounding — and that one matches the closed form of the ramp
+    /// (`a_velocity_grid_blurs_the_render_as_the_closed_form_says`).
+    #[test]
+    fn a_moving_camera_blurs_as_the_same_motion_of_the_volume() {
+        need!(tools::PYOPENVDB);
+        let dir = scratch("motion-camera");
+        write_caches(&dir, 24.0);
+        std::fs::write(
+            dir.join("shot.toml"),
+            "input = \"still.vdb\"\n\
+             [camera]\n\
+             projection = \"orthographic\"\n\
+             horizontal_aperture = 32\n\
+             vertical_aperture = 32\n\
+             translate = [1.95, 1, 5]\n\
+             [[camera.keys]]\n\
+             frame = 1\n\
+             translate = [2.95, 1, 5]\n\
+             [[camera.keys]]\n\
+             frame = 3\n\
+             translate = [0.95, 1, 5]\n",
+        )
+        .unwrap();
+        let look = [
+            "--res",
+            "96x8",
+            "--no-lights",
+            "--sigma-a",
+            "1.5,1.5,1.5",
+            "--sigma-s",
+            "0,0,0",
+            "--float",
+            "--spp",
+            "64",
+            "--shutter",
+            "-0.25,0.25",
+        ];
+        let mut args = vec!["render", "shot.toml", "-o", "cam.exr", "--frames", "2"];
+        args.extend(look);
+        ok(&dir, &args);
+        let mut args = vec![
+            "render",
+            "moving.vdb",
+            "-o",
+            "vel.exr",
+            "--camera",
+            "ortho",
+            "--eye",
+            "1.95,1,5",
+            "--look-at",
+            "1.95,1,0",
+            "--ortho-width",
+            "3.2",
+        ];
+        args.extend(look);
+        ok(&dir, &args);
+        let (w, cam) = alpha(&dir.join("cam.exr"));
+        let (_, vel) = alpha(&dir.join("vel.exr"));
+        assert_eq!(cam.len(), vel.len());
+        let worst = cam
+            .iter()
+            .zip(&vel)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0f32, f32::max);
+        assert!(
+            worst < 1e-4,
+            "largest |Δα| {worst}: {:?} {:?}",
+            &cam[..w],
+            &vel[..w]
+        );
+        // And it is blurred: a ramp, not an edge.
+        let ramp = cam[..w].iter().filter(|a| **a > 0.01 && **a < 0.76).count();
+        assert!(ramp >= 12, "{ramp} ramp pixels: {:?}", &cam[..w]);
     }
 }

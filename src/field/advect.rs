@@ -45,16 +45,12 @@ impl VelocityField for ConstantVelocity {
 /// Mantaflow writes its MAC velocity) holds each component on the voxel face below it
 /// along its axis, half a voxel from the centre, and is read there.
 pub struct GridVelocity {
-    components: Components,
+    /// One vec3 grid, or three float grids x, y, z.
+    grids: Vec<VoxelGrid>,
     staggered: bool,
     max_speed: f64,
     /// Speeds above this are clamped to it.
     limit: f64,
-}
-
-enum Components {
-    Vector(VoxelGrid),
-    Channels([VoxelGrid; 3]),
 }
 
 impl GridVelocity {
@@ -71,7 +67,7 @@ impl GridVelocity {
         };
         let max_speed = DVec3::new(bound(0), bound(1), bound(2)).length();
         Some(GridVelocity {
-            components: Components::Vector(grid),
+            grids: vec![grid],
             staggered,
             max_speed,
             limit: f64::INFINITY,
@@ -88,7 +84,7 @@ impl GridVelocity {
         };
         let max_speed = DVec3::new(bound(&xyz[0]), bound(&xyz[1]), bound(&xyz[2])).length();
         GridVelocity {
-            components: Components::Channels(xyz),
+            grids: xyz.into(),
             staggered,
             max_speed,
             limit: f64::INFINITY,
@@ -116,8 +112,8 @@ impl VelocityField for GridVelocity {
             q[c] += half;
             q
         };
-        let v = match &self.components {
-            Components::Vector(g) => {
+        let v = match &self.grids[..] {
+            [g] => {
                 let i = Field::transform(g).world_to_index(p);
                 DVec3::new(
                     g.sample_channel(at(0, i), 0) as f64,
@@ -125,11 +121,13 @@ impl VelocityField for GridVelocity {
                     g.sample_channel(at(2, i), 2) as f64,
                 )
             }
-            Components::Channels(xyz) => DVec3::new(
-                xyz[0].sample_channel(at(0, Field::transform(&xyz[0]).world_to_index(p)), 0) as f64,
-                xyz[1].sample_channel(at(1, Field::transform(&xyz[1]).world_to_index(p)), 0) as f64,
-                xyz[2].sample_channel(at(2, Field::transform(&xyz[2]).world_to_index(p)), 0) as f64,
-            ),
+            [x, y, z] => {
+                let one = |c: usize, g: &VoxelGrid| {
+                    g.sample_channel(at(c, Field::transform(g).world_to_index(p)), 0) as f64
+                };
+                DVec3::new(one(0, x), one(1, y), one(2, z))
+            }
+            _ => DVec3::ZERO,
         };
         if self.limit.is_finite() {
             v.clamp_length_max(self.limit)

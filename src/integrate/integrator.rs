@@ -27,7 +27,7 @@ pub fn shutter_time(seed: u64, x: usize, y: usize, s: u32, n: u32, shutter: (f64
     // Sample index u32::MAX is never taken: its numbers are the pixel's own.
     let r = unit_random(seed, x, y, u32::MAX, SHUTTER_DIMENSION);
     let s = s.min(n.saturating_sub(1));
-    let within = if s % 2 == 0 { r } else { 1.0 - r };
+    let within = if s.is_multiple_of(2) { r } else { 1.0 - r };
     let f = (s as f64 + within) / n.max(1) as f64;
     shutter.0 + (shutter.1 - shutter.0) * f
 }

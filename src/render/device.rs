@@ -64,6 +64,7 @@ pub(super) fn render_frame_gpu(
         deep: None,
         holdout: None,
         shutter: None,
+        camera_motion: None,
     };
     let (passes, times) = match gpu::render_pixels(gpu, scene, &job) {
         Ok(done) => done,

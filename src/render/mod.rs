@@ -470,6 +470,7 @@ fn render_frame<I: Integrator>(
         deep: extent.deep,
         holdout: extent.holdout,
         shutter: plan.motion.shutter,
+        camera_motion: scene.camera_motion.as_ref(),
     };
     progress.start("rendering", job.tiles() as u64, "tiles");
     // On the plan's threads: the caller runs inside `on_plan_threads`.

@@ -8,6 +8,7 @@ use crate::integrate::integrator::{
 };
 use crate::integrate::pass::{PassKind, PassLayout};
 use crate::scene::camera::Camera;
+use crate::scene::camera_motion::CameraMotion;
 use crate::scene::progress::Progress;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -57,6 +58,8 @@ pub struct PixelJob<'a, I: Integrator> {
     /// `--shutter`: open and close in frames from the frame; each sample is taken at a
     /// time in it ([`shutter_time`]). `None`: every sample at the frame's time.
     pub shutter: Option<(f64, f64)>,
+    /// With the shutter: the camera's motion while it is open (`None`: still).
+    pub camera_motion: Option<&'a CameraMotion>,
 }
 
 impl<I: Integrator> PixelJob<'_, I> {
@@ -154,12 +157,25 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                     s,
                 )
             };
-            let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
+            let time = job
+                .shutter
+                .map(|shutter| shutter_time(job.seed, x, y, s, count, shutter));
+            // A moving camera is where it is at the sample's time.
+            let moved = match (job.camera_motion, time) {
+                (Some(m), Some(t)) => {
+                    let c = m.at(t);
+                    Some((c, c.frame()))
+                }
+                _ => None,
+            };
+            let (camera, frame) = match &moved {
+                Some((c, f)) => (c, f),
+                None => (job.camera, &frame),
+            };
+            let (o, d) = camera.ray(frame, x as f64 + jx, y as f64 + jy);
             let mut ray = WorldRay::new(o, d);
-            (ray.t_min, ray.t_max) = job.camera.clip(&frame, ray.dir);
-            if let Some(shutter) = job.shutter {
-                ray.time = shutter_time(job.seed, x, y, s, count, shutter);
-            }
+            (ray.t_min, ray.t_max) = camera.clip(frame, ray.dir);
+            ray.time = time.unwrap_or(0.0);
             let mut sample = CameraSample {
                 ray,
                 depth_rate: d.dot(frame.forward),
@@ -318,6 +334,31 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
     }
 }
 
+/// A pixel's values from the sums of its `count` samples: their means (non-finite ones 0),
+/// and Z, which follows the pixel's opacity: finite only where the mean alpha reaches 0.5
+/// (then at least one sample crossed it), the mean of the crossings.
+pub(crate) fn finish_pixel(
+    px: &mut [f32],
+    acc: &[f64],
+    count: usize,
+    alpha_at: Option<usize>,
+    depth_at: Option<usize>,
+) {
+    let inv = 1.0 / count.max(1) as f64;
+    for (dst, a) in px.iter_mut().zip(acc.iter()) {
+        let v = (a * inv) as f32;
+        *dst = if v.is_finite() { v } else { 0.0 };
+    }
+    if let Some(d) = depth_at {
+        let opaque = alpha_at.is_none_or(|a| acc[a] * inv >= 0.5);
+        px[d] = if acc[d + 1] > 0.0 && opaque {
+            (acc[d] / acc[d + 1]) as f32
+        } else {
+            f32::INFINITY
+        };
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -389,6 +430,7 @@ mod tests {
             deep: None,
             holdout: None,
             shutter: None,
+            camera_motion: None,
         };
         render_pixels(&job, &Silent)
     }
@@ -441,30 +483,5 @@ mod tests {
                 }
             }
         }
-    }
-}
-
-/// A pixel's values from the sums of its `count` samples: their means (non-finite ones 0),
-/// and Z, which follows the pixel's opacity: finite only where the mean alpha reaches 0.5
-/// (then at least one sample crossed it), the mean of the crossings.
-pub(crate) fn finish_pixel(
-    px: &mut [f32],
-    acc: &[f64],
-    count: usize,
-    alpha_at: Option<usize>,
-    depth_at: Option<usize>,
-) {
-    let inv = 1.0 / count.max(1) as f64;
-    for (dst, a) in px.iter_mut().zip(acc.iter()) {
-        let v = (a * inv) as f32;
-        *dst = if v.is_finite() { v } else { 0.0 };
-    }
-    if let Some(d) = depth_at {
-        let opaque = alpha_at.is_none_or(|a| acc[a] * inv >= 0.5);
-        px[d] = if acc[d + 1] > 0.0 && opaque {
-            (acc[d] / acc[d + 1]) as f32
-        } else {
-            f32::INFINITY
-        };
     }
 }

@@ -5,6 +5,7 @@
 //! shadow maps — and reports each stage (ran, or skipped and why).
 
 pub mod camera;
+pub mod camera_motion;
 pub mod conventions;
 mod error;
 pub mod film;
@@ -134,6 +135,8 @@ pub struct Scene {
     pub emits: bool,
     /// The velocity that blurs the volume within the shutter.
     pub motion: Option<velocity::SceneMotion>,
+    /// The camera's motion while the shutter is open (a shot camera that moves).
+    pub camera_motion: Option<camera_motion::CameraMotion>,
     pub report: SceneReport,
 }
 
@@ -194,23 +197,12 @@ impl Scene {
             (None, Some(source)) => load_fields(source.as_ref(), plan, scatters, &mut report)?,
             (None, None) => return Err(SceneError::input(&plan.input, "nothing to render")),
         };
-        let motion = match &source {
-            Some(source) => {
-                velocity::load(source.as_ref(), plan, fields.density.as_ref(), &mut report)?
-            }
-            None => {
-                if plan.motion.shutter.is_some() {
-                    report.notes.push("--shutter: [[volume]] scenes are not blurred from velocity yet: they render sharp".into());
-                }
-                None
-            }
-        };
-        if motion.is_some() && plan.transport.mode == crate::integrate::ScatteringMode::Path {
-            return Err(PlanError::Invalid(
-                "{scattering} path does not blur a volume from its velocity yet: use --scattering single or fast, or --velocity-grid none".into(),
-            )
-            .into());
-        }
+        let motion = velocity::load_for(
+            plan,
+            source.as_deref(),
+            fields.density.as_ref(),
+            &mut report,
+        )?;
         report
             .stages
             .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
@@ -251,6 +243,7 @@ impl Scene {
             }
             None => resolve_camera(plan, fields.density.as_ref(), up_axis, reuse.frame_box)?,
         };
+        let camera_motion = camera_motion::CameraMotion::of_plan(plan)?;
         let mut emission_plan = plan.emission;
         if let Some(m) = &fields.temperature_mapping {
             emission_plan.temperature_scale = m.scale;
@@ -286,6 +279,7 @@ impl Scene {
             scatters,
             emits: false,
             motion,
+            camera_motion,
             report,
             fields,
         };

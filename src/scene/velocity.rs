@@ -1,12 +1,13 @@
 //! The velocity role: which grid moves the volume within the shutter, detected by the
 //! names Houdini, Blender and EmberGen give it, decoded only when a shutter is open.
 
-use super::SceneError;
 use super::plan::{GridChoice, RenderPlan};
 use super::report::SceneReport;
 use super::source::{FieldKind, FieldSource, VelocityNames};
+use super::{PlanError, SceneError};
 use crate::field::Field;
 use crate::field::advect::{GridVelocity, VelocityField};
+use crate::integrate::ScatteringMode;
 use crate::integrate::motion::Motion;
 
 /// Vector grids of velocity, by name, in order of preference: Houdini's `vel` (and
@@ -107,6 +108,34 @@ fn choose(
             .map(VelocityNames::Vector)
             .or_else(|| VELOCITY_CHANNEL_NAMES.iter().find_map(|t| triplet(*t)))),
     }
+}
+
+/// [`load`] from the scene's one input (`None`: a scene of `[[volume]]` tables, which is
+/// not blurred yet: a note says so). The path tracer does not blur: a velocity with
+/// `--scattering path` is refused.
+pub fn load_for(
+    plan: &RenderPlan,
+    source: Option<&dyn FieldSource>,
+    density: &dyn Field,
+    report: &mut SceneReport,
+) -> Result<Option<SceneMotion>, SceneError> {
+    let Some(source) = source else {
+        if plan.motion.shutter.is_some() {
+            report.notes.push(
+                "--shutter: [[volume]] scenes are not blurred from velocity yet: they render sharp"
+                    .into(),
+            );
+        }
+        return Ok(None);
+    };
+    let motion = load(source, plan, density, report)?;
+    if motion.is_some() && plan.transport.mode == ScatteringMode::Path {
+        return Err(PlanError::Invalid(
+            "{scattering} path does not blur a volume from its velocity yet: use --scattering single or fast, or --velocity-grid none".into(),
+        )
+        .into());
+    }
+    Ok(motion)
 }
 
 /// The velocity that blurs the volume within the shutter, decoded and recorded in the
