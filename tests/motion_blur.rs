@@ -5,6 +5,7 @@
 mod common;
 
 use common::march::{fixture, medium};
+use common::tools;
 use glam::DVec3;
 use murk::field::advect::ConstantVelocity;
 use murk::integrate::integrator::shutter_time;
@@ -308,6 +309,10 @@ mod cli {
             &[&base[..], &shutter, &["--velocity-grid", "density"]].concat(),
             "--velocity-grid",
         );
+        // A velocity that would carry the box past its own size is clamped, with a note.
+        let fast = [&shutter[..], &["--velocity-scale", "1000"]].concat();
+        let err = render(&dir, "moving.vdb", "fast.exr", &fast);
+        assert!(err.contains("speeds clamped"), "{err}");
         let _ = murk;
     }
 }
@@ -475,4 +480,68 @@ mod camera {
         let ramp = cam[..w].iter().filter(|a| **a > 0.01 && **a < 0.76).count();
         assert!(ramp >= 12, "{ramp} ramp pixels: {:?}", &cam[..w]);
     }
+}
+
+/// Velocity grids as files hold them: NaN and Inf made 0 and counted, a staggered grid
+/// read on its faces, three float grids with their negative values kept.
+#[test]
+fn velocity_grids_are_sanitised_staggered_and_signed() {
+    use murk::field::advect::VelocityField;
+    use murk::scene::source::{FieldSource, VdbSource, VelocityNames};
+    need!(tools::PYOPENVDB);
+    let dir = common::frames::scratch("motion-grids");
+    let script = "import pyopenvdb as vdb, numpy as np, sys\n\
+        t = vdb.createLinearTransform(0.5)\n\
+        a = np.zeros((8, 8, 8, 3), dtype=np.float32)\n\
+        a[..., 0] = 1.0\n\
+        a[2, 2, 2, 1] = float('nan')\n\
+        a[3, 3, 3, 2] = float('inf')\n\
+        v = vdb.Vec3SGrid(); v.name = 'vel'; v.copyFromArray(a); v.transform = t\n\
+        i = np.arange(8, dtype=np.float32)\n\
+        s = np.zeros((8, 8, 8, 3), dtype=np.float32)\n\
+        s[..., 0] = i[:, None, None]\n\
+        s[..., 1] = 2 * i[None, :, None]\n\
+        s[..., 2] = 3 * i[None, None, :]\n\
+        g = vdb.Vec3SGrid(); g.name = 'stag'; g.copyFromArray(s); g.transform = t\n\
+        g.gridClass = vdb.GridClass.STAGGERED\n\
+        c = vdb.Vec3SGrid(); c.name = 'cent'; c.copyFromArray(s); c.transform = t\n\
+        grids = [v, g, c]\n\
+        for n, val in (('x', -2.0), ('y', 0.5), ('z', 1.0)):\n\
+        \x20   f = vdb.FloatGrid(); f.name = 'vel.' + n\n\
+        \x20   f.copyFromArray(np.full((8, 8, 8), val, dtype=np.float32)); f.transform = t\n\
+        \x20   grids.append(f)\n\
+        vdb.write(sys.argv[1], grids=grids)\n";
+    let path = dir.join("grids.vdb");
+    let o = tools::command(&tools::PYOPENVDB)
+        .args(["-c", script, path.to_str().unwrap()])
+        .output()
+        .expect("/usr/bin/python3 with pyopenvdb");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let src = VdbSource::open(&path).unwrap();
+    let load = |n: VelocityNames| src.load_velocity(&n).unwrap().unwrap();
+    let vel = load(VelocityNames::Vector("vel".into()));
+    assert_eq!((vel.sanitised.nan, vel.sanitised.inf), (1, 1));
+    let p = DVec3::new(1.25, 1.5, 1.75); // index (2.5, 3, 3.5)
+    assert_eq!(
+        vel.field.velocity_at_world(DVec3::splat(1.0)),
+        DVec3::X * 1.0
+    );
+    // Staggered: component c at index p lies half a voxel below p along c, so a value
+    // linear in the index reads 0.5 (times its slope) more than on the centres.
+    let stag = load(VelocityNames::Vector("stag".into())).field;
+    let cent = load(VelocityNames::Vector("cent".into())).field;
+    let (vs, vc) = (stag.velocity_at_world(p), cent.velocity_at_world(p));
+    assert!(
+        (vc - DVec3::new(2.5, 6.0, 10.5)).abs().max_element() < 1e-5,
+        "{vc}"
+    );
+    assert!(
+        (vs - vc - DVec3::new(0.5, 1.0, 1.5)).abs().max_element() < 1e-5,
+        "{vs}"
+    );
+    let xyz = load(VelocityNames::Channels(
+        ["vel.x", "vel.y", "vel.z"].map(String::from),
+    ));
+    assert_eq!(xyz.field.velocity_at_world(p), DVec3::new(-2.0, 0.5, 1.0));
+    assert!((xyz.field.max_speed() - (4.0f64 + 0.25 + 1.0).sqrt()).abs() < 1e-9);
 }
