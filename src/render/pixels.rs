@@ -7,7 +7,7 @@ use crate::integrate::integrator::{
     CameraSample, Integrator, SampleRng, shutter_time, unit_random,
 };
 use crate::integrate::pass::{PassKind, PassLayout};
-use crate::scene::camera::Camera;
+use crate::scene::camera::{Camera, CameraFrame};
 use crate::scene::camera_motion::CameraMotion;
 use crate::scene::progress::Progress;
 use rayon::prelude::*;
@@ -60,9 +60,59 @@ pub struct PixelJob<'a, I: Integrator> {
     pub shutter: Option<(f64, f64)>,
     /// With the shutter: the camera's motion while it is open (`None`: still).
     pub camera_motion: Option<&'a CameraMotion>,
+    /// The frame's overscan (x, y): random streams are keyed by the pixel's place in
+    /// the image, so that an overscanned frame holds the image's pixels unchanged.
+    pub overscan: (usize, usize),
 }
 
 impl<I: Integrator> PixelJob<'_, I> {
+    /// The pixel `(x, y)` of the frame as its random streams know it: its place in the
+    /// image, whatever the overscan (wrapping left of and above the image).
+    pub(super) fn stream_pixel(&self, x: usize, y: usize) -> (usize, usize) {
+        (
+            x.wrapping_sub(self.overscan.0),
+            y.wrapping_sub(self.overscan.1),
+        )
+    }
+
+    /// The camera ray through `(x + jx, y + jy)`, cut to the camera's clipping planes
+    /// and to the pixel's holdout depth, taken at `time` in the shutter (frames from the
+    /// frame; a moving camera is where it is then).
+    pub(super) fn camera_sample(
+        &self,
+        frame: &CameraFrame,
+        x: usize,
+        y: usize,
+        jx: f64,
+        jy: f64,
+        time: Option<f64>,
+    ) -> CameraSample {
+        let moved = match (self.camera_motion, time) {
+            (Some(m), Some(t)) => {
+                let c = m.at(t);
+                Some((c, c.frame()))
+            }
+            _ => None,
+        };
+        let (camera, frame) = match &moved {
+            Some((c, f)) => (c, f),
+            None => (self.camera, frame),
+        };
+        let (o, d) = camera.ray(frame, x as f64 + jx, y as f64 + jy);
+        let mut ray = WorldRay::new(o, d);
+        (ray.t_min, ray.t_max) = camera.clip(frame, ray.dir);
+        ray.time = time.unwrap_or(0.0);
+        let depth_rate = d.dot(frame.forward);
+        if let Some(depth) = self.holdout.and_then(|h| h.get(y * self.camera.width + x)) {
+            // Depth is t × depth_rate along the ray.
+            let t = *depth as f64 / depth_rate;
+            if t < ray.t_max {
+                ray.t_max = t.max(0.0);
+            }
+        }
+        CameraSample { ray, depth_rate }
+    }
+
     /// Whether edges are antialiased: one sample a pixel, `antialias` > 1, and an alpha
     /// pass to find them by.
     pub(super) fn edges(&self) -> bool {
@@ -139,55 +189,30 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         let mut curves: Vec<Vec<DeepPoint>> = Vec::new();
         let mut n_samples = 0;
         let count = if grid == 0 { job.spp } else { grid * grid };
+        let (sx, sy) = job.stream_pixel(x, y);
         for s in 0..count {
             let (jx, jy, stream) = if grid > 0 {
                 // Streams 1.. (the centre's is 0).
                 let s1 = s + 1;
                 (
-                    ((s % grid) as f64 + unit_random(job.seed, x, y, s1, 1)) / grid as f64,
-                    ((s / grid) as f64 + unit_random(job.seed, x, y, s1, 2)) / grid as f64,
+                    ((s % grid) as f64 + unit_random(job.seed, sx, sy, s1, 1)) / grid as f64,
+                    ((s / grid) as f64 + unit_random(job.seed, sx, sy, s1, 2)) / grid as f64,
                     s1,
                 )
             } else if job.spp == 1 {
                 (0.5, 0.5, 0)
             } else {
                 (
-                    unit_random(job.seed, x, y, s, 1),
-                    unit_random(job.seed, x, y, s, 2),
+                    unit_random(job.seed, sx, sy, s, 1),
+                    unit_random(job.seed, sx, sy, s, 2),
                     s,
                 )
             };
             let time = job
                 .shutter
-                .map(|shutter| shutter_time(job.seed, x, y, s, count, shutter));
-            // A moving camera is where it is at the sample's time.
-            let moved = match (job.camera_motion, time) {
-                (Some(m), Some(t)) => {
-                    let c = m.at(t);
-                    Some((c, c.frame()))
-                }
-                _ => None,
-            };
-            let (camera, frame) = match &moved {
-                Some((c, f)) => (c, f),
-                None => (job.camera, &frame),
-            };
-            let (o, d) = camera.ray(frame, x as f64 + jx, y as f64 + jy);
-            let mut ray = WorldRay::new(o, d);
-            (ray.t_min, ray.t_max) = camera.clip(frame, ray.dir);
-            ray.time = time.unwrap_or(0.0);
-            let mut sample = CameraSample {
-                ray,
-                depth_rate: d.dot(frame.forward),
-            };
-            if let Some(depth) = job.holdout.and_then(|h| h.get(y * w + x)) {
-                // Depth is t × depth_rate along the ray.
-                let t = *depth as f64 / sample.depth_rate;
-                if t < sample.ray.t_max {
-                    sample.ray.t_max = t.max(0.0);
-                }
-            }
-            let mut rng = SampleRng::new(job.seed, x, y, stream);
+                .map(|shutter| shutter_time(job.seed, sx, sy, s, count, shutter));
+            let sample = job.camera_sample(&frame, x, y, jx, jy, time);
+            let mut rng = SampleRng::new(job.seed, sx, sy, stream);
             n_samples += job.integrator.sample(&sample, &mut rng, scratch, acc);
             if job.deep.is_some()
                 && let Some(trace) = job.integrator.deep_trace(scratch)
@@ -431,6 +456,7 @@ mod tests {
             holdout: None,
             shutter: None,
             camera_motion: None,
+            overscan: (0, 0),
         };
         render_pixels(&job, &Silent)
     }

@@ -52,9 +52,13 @@ impl CameraMotion {
         let offsets: Vec<f64> = (0..=n)
             .map(|k| open + (close - open) * k as f64 / n as f64)
             .collect();
+        let (ox, oy) = plan.camera.overscan;
         let cameras = shot
             .cameras_at(plan.camera.width, plan.camera.height, &offsets)
-            .map_err(PlanError::Invalid)?;
+            .map_err(PlanError::Invalid)?
+            .iter()
+            .map(|c| c.overscanned(ox, oy))
+            .collect();
         Ok(CameraMotion::new(open, close, cameras))
     }
 

@@ -137,6 +137,14 @@ render_options! {
     shutter: Option<String> = (Camera, "OPEN,CLOSE", Described("off"), Render);
     /// Frames per second: how a velocity per second becomes a displacement per frame.
     fps: Option<f64> = (Camera, "FPS", Value("24"), Render);
+    /// Pixels rendered beyond each edge of the image, for lens distortion: the EXR's
+    /// data window grows by X left and right and Y above and below, its display window
+    /// stays the image of --res through the same camera.
+    overscan: Option<String> = (Camera, "X[,Y]", Value("0"), Render);
+    /// The volumes' world unit in metres: a USD camera from a stage of another
+    /// metersPerUnit is scaled into it (1 for Houdini's metres; by default the stage's
+    /// units are taken to be the volumes').
+    scene_meters_per_unit: Option<f64> = (Camera, "M", Described("the camera stage's units"), Render);
 
     /// Grid that holds density.
     density_grid: Option<String> = (Grids, "NAME", Described("detected: density"), RenderAndBake);
