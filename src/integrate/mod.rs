@@ -9,6 +9,7 @@ pub mod ground;
 pub mod integrator;
 pub mod march;
 pub mod medium;
+pub mod motion;
 pub mod ms_diffusion;
 pub mod ms_lattice;
 mod ms_orders;
