@@ -35,10 +35,12 @@
 
 use super::deep::DeepTrace;
 use super::medium::{ColorTint, Emission, Medium};
+use super::motion::{Motion, MovedFields};
 use super::optics::{one_minus_exp, phi};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
+use super::sampled_means::sampled_integrals;
 use crate::accel::{IndexRay, Spans};
-use crate::field::{Field, GL2_HALF_OFFSET};
+use crate::field::Field;
 use glam::DVec3;
 
 /// How a light reaches a point: unshadowed irradiance and propagation direction, and
@@ -160,6 +162,9 @@ pub struct Volume<'a> {
     /// the step's error takes in, for a march whose steps are several voxels long
     /// (`--max-error` on a coarse density level). Off: opacity does not depend on the step.
     pub sampled_means: bool,
+    /// How the volume moves during the shutter: a ray with a time marches the fields as
+    /// they are then (`None`: still).
+    pub motion: Option<Motion<'a>>,
 }
 
 impl<'a> Volume<'a> {
@@ -174,6 +179,7 @@ impl<'a> Volume<'a> {
             color: None,
             traversal: density,
             sampled_means: false,
+            motion: None,
         }
     }
 }
@@ -276,6 +282,8 @@ pub struct WorldRay {
     pub dir: DVec3,
     pub t_min: f64,
     pub t_max: f64,
+    /// When the ray is taken, in frames from the frame's time (0 without a shutter).
+    pub time: f64,
 }
 
 impl WorldRay {
@@ -286,6 +294,7 @@ impl WorldRay {
             dir: dir.normalize_or_zero(),
             t_min: 0.0,
             t_max: f64::INFINITY,
+            time: 0.0,
         }
     }
 }
@@ -306,33 +315,6 @@ fn next_segments(a: f64, t1: f64, h: f64, u: f64, first: &mut bool, ends: &mut V
         let b = if b > e { b } else { t1 };
         ends.push(b);
         e = b;
-    }
-}
-
-/// `out[i] = ∫ρ dt` over `[ends[i−1], ends[i]]` (`ends[−1] = a`) by two-point
-/// Gauss–Legendre: the density at two points of each segment, looked up along the ray in
-/// one pass (`nodes` and `values` are the scratch for them).
-fn sampled_integrals(
-    density: &dyn Field,
-    ray: &IndexRay,
-    a: f64,
-    ends: &[f64],
-    (nodes, values): (&mut Vec<f64>, &mut Vec<f32>),
-    out: &mut [f64],
-) {
-    nodes.clear();
-    let mut s = a;
-    for &b in ends {
-        let (mid, off) = (0.5 * (s + b), GL2_HALF_OFFSET * (b - s));
-        nodes.extend([mid - off, mid + off]);
-        s = b;
-    }
-    values.resize(nodes.len(), 0.0);
-    density.values_along(ray, nodes, values);
-    let mut s = a;
-    for (i, (&b, o)) in ends.iter().zip(out.iter_mut()).enumerate() {
-        *o = 0.5 * (b - s) * (f64::from(values[2 * i]) + f64::from(values[2 * i + 1]));
-        s = b;
     }
 }
 
@@ -369,8 +351,43 @@ fn record_deep(
 
 /// Integrates one ray.
 /// `jitter` in [0, 1) shortens the first segment of every cell; 0.5 gives midpoints of a
-/// regular grid of segments.
+/// regular grid of segments. A moving volume is marched as it is at the ray's time.
 pub fn march(
+    vol: &Volume,
+    lights: Option<&dyn Illumination>,
+    ray_w: &WorldRay,
+    settings: &MarchSettings,
+    jitter: f64,
+    scratch: &mut Scratch,
+) -> RayResult {
+    match &vol.motion {
+        Some(m) if m.max_displacement(ray_w.time) > 0.0 => {
+            let fields = MovedFields::new(
+                vol.density,
+                vol.traversal,
+                vol.emission.as_ref(),
+                vol.color.as_ref(),
+                m.velocity,
+                m.shift(ray_w.time),
+            );
+            let moved = Volume {
+                density: &fields.density,
+                medium: vol.medium,
+                phase: vol.phase.clone(),
+                emission: vol.emission.as_ref().map(|e| fields.emission(e)),
+                color: fields.color(),
+                traversal: fields.traversal(),
+                sampled_means: vol.sampled_means,
+                motion: None,
+            };
+            march_still(&moved, lights, ray_w, settings, jitter, scratch)
+        }
+        _ => march_still(vol, lights, ray_w, settings, jitter, scratch),
+    }
+}
+
+/// [`march`] through the volume as it is at the frame's time.
+fn march_still(
     vol: &Volume,
     lights: Option<&dyn Illumination>,
     ray_w: &WorldRay,

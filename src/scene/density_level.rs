@@ -15,13 +15,14 @@
 //!
 //! Not tried where the density is not one voxel grid, where emission, temperature or
 //! colour grids sit on its lattice (they would need their own levels), where a shadow
-//! cache is read (it holds the full grid's maps), or where nothing scatters (the radiance
+//! cache is read (it holds the full grid's maps), where the volume moves (velocity
+//! grids), or where nothing scatters (the radiance
 //! would not see the level, but alpha would).
 
 use super::Scene;
 use super::lights::{LightShadow, SceneLights};
 use super::pilot::{PILOT_PIXELS, pixel_lattice, relative_rmse, render_pilot};
-use super::plan::RenderPlan;
+use super::plan::{MarchPlan, RenderPlan};
 use crate::field::{Field, VoxelGrid};
 use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, MarchSettings, Volume};
@@ -81,6 +82,8 @@ fn unsupported(scene: &Scene, plan: &RenderPlan) -> Option<&'static str> {
     let f = &scene.fields;
     if f.emission.is_some() || f.temperature.is_some() || f.color.is_some() {
         Some("emission, temperature or colour grids")
+    } else if scene.motion.is_some() {
+        Some("the volume moves during the shutter")
     } else if plan.shadows.cache.is_some() {
         Some("a shadow cache")
     } else if !scene.scatters {
@@ -94,22 +97,25 @@ fn unsupported(scene: &Scene, plan: &RenderPlan) -> Option<&'static str> {
 
 /// Chooses the density's level for `max_error` and puts it in the scene (its
 /// `fields.density`), recording what was measured. Level 0 leaves the scene as it is.
-pub fn apply(scene: &mut Scene, plan: &RenderPlan, max_error: f64) {
+/// Returns the plan to bake the map with where a level was taken: its tolerance the
+/// map's share of what the level's error leaves.
+pub fn apply(scene: &mut Scene, plan: &RenderPlan, max_error: f64) -> Option<RenderPlan> {
     if let Some(why) = unsupported(scene, plan) {
         scene.report.notes.push(format!(
             "--max-error: the density is marched at its own voxels ({why})"
         ));
-        return;
+        return None;
     }
-    let Some(grid) = scene.fields.density.as_voxel_grid() else {
-        return;
-    };
+    let grid = scene.fields.density.as_voxel_grid()?;
     let (chosen, report) = choose(scene, grid, level_share(max_error));
     scene.report.notes.push(report.note());
-    if let Some(g) = chosen {
-        scene.fields.density = Box::new(g);
-    }
+    let error = report.error;
     scene.density_level = Some(report);
+    let g = chosen?;
+    scene.fields.density = Box::new(g);
+    let mut p = plan.clone();
+    p.shadows.dsm_tolerance = MarchPlan::tolerance_of(MarchPlan::remaining_error(max_error, error));
+    Some(p)
 }
 
 /// The pilot over the levels of `grid`: the chosen level (`None` for the grid itself) and

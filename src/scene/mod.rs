@@ -5,6 +5,7 @@
 //! shadow maps — and reports each stage (ran, or skipped and why).
 
 pub mod camera;
+pub mod camera_motion;
 pub mod conventions;
 pub mod density_level;
 mod error;
@@ -24,6 +25,7 @@ mod scene_file;
 pub mod shot;
 pub mod source;
 pub mod transport;
+pub mod velocity;
 pub mod volumes;
 
 pub use options::RenderOptions;
@@ -104,7 +106,7 @@ use camera::{Camera, Projection};
 pub use error::SceneError;
 use glam::DVec3;
 use lights::{SceneLights, bake_maps, light_shadows};
-use plan::{EmissionPlan, GridChoice, MarchPlan, ShadowMode};
+use plan::{EmissionPlan, GridChoice, ShadowMode};
 use progress::Progress;
 use report::{SceneReport, Stage};
 use roles::{SceneFields, load_fields};
@@ -140,6 +142,10 @@ pub struct Scene {
     pub scatters: bool,
     /// Something emits (an emission or temperature field with a non-zero intensity).
     pub emits: bool,
+    /// The velocity that blurs the volume within the shutter.
+    pub motion: Option<velocity::SceneMotion>,
+    /// The camera's motion while the shutter is open (a shot camera that moves).
+    pub camera_motion: Option<camera_motion::CameraMotion>,
     pub report: SceneReport,
 }
 
@@ -195,11 +201,17 @@ impl Scene {
         let scatters = lit && medium.scatters();
         // Build: decode only the fields in a role.
         let t = Instant::now();
-        let fields = match (&plan.volumes, source) {
+        let fields = match (&plan.volumes, &source) {
             (Some(v), _) => volumes::load_volumes(plan, v, &mut report)?,
             (None, Some(source)) => load_fields(source.as_ref(), plan, scatters, &mut report)?,
             (None, None) => return Err(SceneError::input(&plan.input, "nothing to render")),
         };
+        let motion = velocity::load_for(
+            plan,
+            source.as_deref(),
+            fields.density.as_ref(),
+            &mut report,
+        )?;
         report
             .stages
             .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
@@ -238,6 +250,7 @@ impl Scene {
             }
             None => resolve_camera(plan, fields.density.as_ref(), up_axis, reuse.frame_box)?,
         };
+        let camera_motion = camera_motion::CameraMotion::of_plan(plan)?;
         let (ox, oy) = plan.camera.overscan;
         let camera = plate_camera.overscanned(ox, oy);
         let mut emission_plan = plan.emission;
@@ -276,6 +289,8 @@ impl Scene {
             density_level: None,
             scatters,
             emits: false,
+            motion,
+            camera_motion,
             report,
             fields,
         };
@@ -284,25 +299,12 @@ impl Scene {
                 || (scene.fields.temperature.is_some() && e.blackbody_intensity > 0.0)
         });
         scene.report_emission_and_scatter(plan);
-        // With --max-error, the density's level first: the map is baked at that level,
-        // with its share of what the level leaves of the error.
-        let leveled;
-        let plan = match plan.march.max_error {
-            Some(e) => {
-                density_level::apply(&mut scene, plan, e);
-                match &scene.density_level {
-                    Some(r) if r.level > 0 && plan.shadows.mode == ShadowMode::Dsm => {
-                        let mut p = plan.clone();
-                        p.shadows.dsm_tolerance =
-                            MarchPlan::tolerance_of(MarchPlan::remaining_error(e, r.error));
-                        leveled = p;
-                        &leveled
-                    }
-                    _ => plan,
-                }
-            }
-            None => plan,
-        };
+        // With --max-error, the density's level first: the map is baked at that level.
+        let leveled = plan
+            .march
+            .max_error
+            .and_then(|e| density_level::apply(&mut scene, plan, e));
+        let plan = leveled.as_ref().unwrap_or(plan);
         scene.prepare_shadows(plan, progress, reuse)?;
         Ok(scene)
     }
@@ -495,6 +497,7 @@ impl Scene {
             traversal,
             // A coarse level's steps span several of its voxels: two samples a step.
             sampled_means: self.density_level.as_ref().is_some_and(|l| l.level > 0),
+            motion: self.motion.as_ref().map(|m| m.motion()),
         }
     }
 
