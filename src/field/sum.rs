@@ -204,6 +204,16 @@ impl Member {
         self.weight
     }
 
+    /// The member's weighted integrals over the pieces of a ray of the sum's local index
+    /// space, as [`Field::piece_integrals`] (zeros where the ray misses it).
+    pub fn piece_integrals(&self, ray: &IndexRay, t0: f64, ends: &[f64], out: &mut [f64]) {
+        out.iter_mut().for_each(|o| *o = 0.0);
+        if self.crossed(ray, t0, ends.last().copied().unwrap_or(t0)) {
+            self.field.piece_integrals(&self.map_ray(ray), t0, ends, out);
+            out.iter_mut().for_each(|o| *o *= self.weight);
+        }
+    }
+
     /// The member's value (unweighted) at the sum's local index point `p`.
     #[inline]
     pub fn value_at_sum_index(&self, p: DVec3) -> f32 {

@@ -155,6 +155,8 @@ pub struct Volume<'a> {
     /// Fields whose non-zero cells must be visited even where density is zero (emission
     /// and temperature grids on the density's lattice).
     pub traversal: &'a dyn Field,
+    /// Several volumes summed in `density`: each one's alpha is a layer of its own.
+    pub mattes: Option<super::Mattes<'a>>,
 }
 
 impl<'a> Volume<'a> {
@@ -168,6 +170,7 @@ impl<'a> Volume<'a> {
             emission: None,
             color: None,
             traversal: density,
+            mattes: None,
         }
     }
 }
@@ -192,6 +195,8 @@ pub struct Scratch {
     temperatures: Vec<f32>,
     /// With deep output on: the current ray's record (`integrate::deep`).
     pub deep: Option<DeepTrace>,
+    /// The per-volume alphas' buffers ([`super::Mattes`]).
+    pub mattes: super::mattes::MatteScratch,
 }
 
 impl Scratch {
@@ -206,6 +211,7 @@ impl Scratch {
             mids: Vec::with_capacity(SEGMENT_BATCH),
             temperatures: vec![0.0; SEGMENT_BATCH],
             deep: None,
+            mattes: Default::default(),
         }
     }
 }
@@ -443,7 +449,7 @@ pub fn march(
                             Some(c) => Some(c.value(p, xw)),
                             None => None,
                         };
-                        e.from_samples(grid_mean, temperature)
+                        e.from_samples(grid_mean, temperature) + e.others(&ray, a, b, p, xw)
                     } else {
                         e.mean(&ray, a, b, p, xw)
                     };

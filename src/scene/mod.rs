@@ -96,7 +96,7 @@ use crate::field::{ColorField, Field};
 use crate::integrate::blackbody::BlackbodyTable;
 use crate::integrate::ground::Ground;
 use crate::integrate::phase::PhaseFunction;
-use crate::integrate::{ColorTint, Companion, Emission, Medium, Volume};
+use crate::integrate::{ColorTint, Companion, Emission, Mattes, Medium, Volume};
 use crate::shadow::ShadowMap;
 use camera::{Camera, Projection};
 pub use error::SceneError;
@@ -187,7 +187,7 @@ impl Scene {
         // Build: decode only the fields in a role.
         let t = Instant::now();
         let fields = match (&plan.volumes, source) {
-            (Some(v), _) => volumes::load_volumes(plan, v, &mut report)?,
+            (Some(v), _) => volumes::load_volumes(plan, v, scatters, &mut report)?,
             (None, Some(source)) => load_fields(source.as_ref(), plan, scatters, &mut report)?,
             (None, None) => return Err(SceneError::input(&plan.input, "nothing to render")),
         };
@@ -236,8 +236,10 @@ impl Scene {
             emission_plan.temperature_scale = m.scale;
             emission_plan.temperature_offset = m.offset;
         }
-        let emission = (fields.emission.is_some() || fields.temperature.is_some())
-            .then(|| (emission_plan, BlackbodyTable::new(200.0, 40000.0, 2048)));
+        let emission = (fields.emission.is_some()
+            || fields.temperature.is_some()
+            || !fields.emitters.is_empty())
+        .then(|| (emission_plan, BlackbodyTable::new(200.0, 40000.0, 2048)));
         let lights = plan.lights.clone();
         // The phase function: water-drop tables are built (or read from the disk
         // cache) here, once per process and radius.
@@ -268,9 +270,18 @@ impl Scene {
             report,
             fields,
         };
+        let glows = |e: &plan::EmissionPlan, emission: bool, temperature: bool| {
+            (emission && e.intensity > 0.0 && e.color.max_element() > 0.0)
+                || (temperature && e.blackbody_intensity > 0.0)
+        };
         scene.emits = scene.emission.as_ref().is_some_and(|(e, _)| {
-            (scene.fields.emission.is_some() && e.intensity > 0.0 && e.color.max_element() > 0.0)
-                || (scene.fields.temperature.is_some() && e.blackbody_intensity > 0.0)
+            glows(
+                e,
+                scene.fields.emission.is_some(),
+                scene.fields.temperature.is_some(),
+            )
+        }) || scene.fields.emitters.iter().any(|e| {
+            glows(&e.plan, e.emission.is_some(), e.temperature.is_some())
         });
         scene.report_emission_and_scatter(plan);
         scene.prepare_shadows(plan, progress, reuse)?;
@@ -279,13 +290,12 @@ impl Scene {
 
     fn report_emission_and_scatter(&mut self, plan: &RenderPlan) {
         let density = self.fields.density.as_ref();
-        for f in [&self.fields.emission, &self.fields.temperature]
-            .into_iter()
-            .flatten()
-        {
-            if Companion::new(f.as_ref(), density).offset().is_none() {
-                self.report.notes.push("an emission grid is not on the density's lattice: it is sampled only where density is non-zero".into());
-            }
+        let off_lattice = self
+            .emission_fields()
+            .filter(|f| Companion::new(*f, density).offset().is_none())
+            .count();
+        for _ in 0..off_lattice {
+            self.report.notes.push("an emission grid is not on the density's lattice: it is sampled only where density is non-zero".into());
         }
         let turned_off =
             plan.grids.emission == GridChoice::Off && plan.grids.temperature == GridChoice::Off;
@@ -426,15 +436,26 @@ impl Scene {
     pub fn traversal(&self) -> FieldUnion<'_> {
         let density = self.fields.density.as_ref();
         let mut traversal = FieldUnion::new(density);
-        for f in [&self.fields.emission, &self.fields.temperature]
-            .into_iter()
-            .flatten()
-        {
-            if let Some(o) = Companion::new(f.as_ref(), density).offset() {
-                traversal = traversal.with(f.as_ref(), o.as_ivec3());
+        for f in self.emission_fields() {
+            if let Some(o) = Companion::new(f, density).offset() {
+                traversal = traversal.with(f, o.as_ivec3());
             }
         }
         traversal
+    }
+
+    /// The emission and temperature fields of the input or of every volume.
+    fn emission_fields(&self) -> impl Iterator<Item = &dyn Field> {
+        let own = [&self.fields.emission, &self.fields.temperature];
+        let volumes = self
+            .fields
+            .emitters
+            .iter()
+            .flat_map(|e| [&e.emission, &e.temperature]);
+        own.into_iter()
+            .chain(volumes)
+            .flatten()
+            .map(|f| f.as_ref() as &dyn Field)
     }
 
     /// The volume the integrators march, traversed over `traversal`
@@ -443,19 +464,41 @@ impl Scene {
         let density = self.fields.density.as_ref();
         let companion =
             |f: &'a Option<Box<dyn Field>>| f.as_ref().map(|g| Companion::new(g.as_ref(), density));
+        let emission = |e: &EmissionPlan,
+                        grid: &'a Option<Box<dyn Field>>,
+                        temperature: &'a Option<Box<dyn Field>>,
+                        table: &BlackbodyTable| Emission {
+            grid: companion(grid),
+            color: e.color,
+            intensity: e.intensity,
+            temperature: companion(temperature),
+            temperature_scale: e.temperature_scale,
+            temperature_offset: e.temperature_offset,
+            blackbody_intensity: e.blackbody_intensity,
+            table: table.clone(),
+            more: Vec::new(),
+        };
+        // Several volumes: the first glowing one's emission, the others' added to it.
+        let emission = self.emission.as_ref().map(|(e, table)| {
+            match self.fields.emitters.split_first() {
+                None => emission(e, &self.fields.emission, &self.fields.temperature, table),
+                Some((first, rest)) => Emission {
+                    more: rest
+                        .iter()
+                        .map(|r| emission(&r.plan, &r.emission, &r.temperature, table))
+                        .collect(),
+                    ..emission(&first.plan, &first.emission, &first.temperature, table)
+                },
+            }
+        });
         Volume {
             density,
             medium: self.medium,
             phase: self.phase.clone(),
-            emission: self.emission.as_ref().map(|(e, table)| Emission {
-                grid: companion(&self.fields.emission),
-                color: e.color,
-                intensity: e.intensity,
-                temperature: companion(&self.fields.temperature),
-                temperature_scale: e.temperature_scale,
-                temperature_offset: e.temperature_offset,
-                blackbody_intensity: e.blackbody_intensity,
-                table: table.clone(),
+            emission,
+            mattes: self.fields.parts.as_ref().map(|p| Mattes {
+                sum: &p.sum,
+                names: &p.names,
             }),
             color: self
                 .fields
