@@ -33,13 +33,11 @@ impl AlbedoMix {
         albedo: Vec<DVec3>,
         colors: Vec<Option<Arc<dyn ColorField>>>,
     ) -> Option<Self> {
-        (albedo.len() == sum.members().len() && colors.len() == albedo.len()).then_some(
-            AlbedoMix {
-                sum,
-                albedo,
-                colors,
-            },
-        )
+        (albedo.len() == sum.members().len() && colors.len() == albedo.len()).then_some(AlbedoMix {
+            sum,
+            albedo,
+            colors,
+        })
     }
 }
 
@@ -51,7 +49,13 @@ impl ColorField for AlbedoMix {
     fn color_at_index(&self, p: DVec3) -> Vec3 {
         let (mut num, mut den) = (DVec3::ZERO, 0.0f64);
         let mut world = None;
-        for ((m, a), c) in self.sum.members().iter().zip(&self.albedo).zip(&self.colors) {
+        for ((m, a), c) in self
+            .sum
+            .members()
+            .iter()
+            .zip(&self.albedo)
+            .zip(&self.colors)
+        {
             let v = m.weight() * m.value_at_sum_index(p).max(0.0) as f64;
             if v == 0.0 {
                 continue;
@@ -59,7 +63,8 @@ impl ColorField for AlbedoMix {
             let tint = match c {
                 None => DVec3::ONE,
                 Some(c) => {
-                    let w = *world.get_or_insert_with(|| Field::transform(&self.sum).index_to_world(p));
+                    let w =
+                        *world.get_or_insert_with(|| Field::transform(&self.sum).index_to_world(p));
                     c.color_at_index(c.transform().world_to_index(w))
                         .as_dvec3()
                         .clamp(DVec3::ZERO, DVec3::ONE)
@@ -151,8 +156,8 @@ mod tests {
             (b, DMat4::from_translation(DVec3::new(0.0, 0.0, 0.5)), 3.0),
         ])
         .unwrap();
-        let lattice = IndexToWorld::new(DMat4::from_scale(DVec3::splat(0.05)), glam::IVec3::ZERO)
-            .unwrap();
+        let lattice =
+            IndexToWorld::new(DMat4::from_scale(DVec3::splat(0.05)), glam::IVec3::ZERO).unwrap();
         let red: Arc<dyn ColorField> = Arc::new(
             PlacedColor::new(
                 Arc::new(Flat(Vec3::new(1.0, 0.0, 2.0), lattice)),
@@ -171,7 +176,10 @@ mod tests {
             mix.color_at_index(p)
         };
         let (alone, both) = (at(0.25), at(0.75));
-        assert!((alone - Vec3::new(0.5, 0.0, 0.5)).abs().max_element() < 1e-6, "{alone}");
+        assert!(
+            (alone - Vec3::new(0.5, 0.0, 0.5)).abs().max_element() < 1e-6,
+            "{alone}"
+        );
         let want = Vec3::new(0.5, 0.5 * 3.0 / 4.0, 0.5);
         assert!((both - want).abs().max_element() < 1e-6, "{both}");
     }

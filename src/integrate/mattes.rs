@@ -136,7 +136,10 @@ mod tests {
         let mut scratch = MatteScratch::default();
         let o = DVec3::new(0.013, 0.021, 5.0);
         for (shift, want) in [
-            (-1.5, [-(-1.0f64).exp_m1(), (-1.0f64).exp() * -(-1.5f64).exp_m1()]),
+            (
+                -1.5,
+                [-(-1.0f64).exp_m1(), (-1.0f64).exp() * -(-1.5f64).exp_m1()],
+            ),
             (-0.5, [f64::NAN, f64::NAN]),
         ] {
             let sum = FieldSum::new(vec![
@@ -159,7 +162,10 @@ mod tests {
             }
             // Stopped where the transmittance falls below 0.3: the alphas add up to 1.
             let stopped = m.alphas(sigma, o, DVec3::NEG_Z, 0.0, 20.0, 0.3, &mut scratch);
-            assert!((stopped.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{stopped:?}");
+            assert!(
+                (stopped.iter().sum::<f64>() - 1.0).abs() < 1e-12,
+                "{stopped:?}"
+            );
         }
     }
 }

@@ -172,10 +172,7 @@ impl<'a> PathTracer<'a> {
             indirect: true,
             shadow: false,
             ground_visible: false,
-            volumes: volume
-                .mattes
-                .map(|m| m.names.to_vec())
-                .unwrap_or_default(),
+            volumes: volume.mattes.map(|m| m.names.to_vec()).unwrap_or_default(),
         });
         let sigma_t = volume.medium.sigma_t();
         PathTracer {

@@ -41,10 +41,7 @@ impl<'a> SingleScattering<'a> {
             indirect: lights.as_ref().is_some_and(|(l, _)| l.scatters_multiply()),
             shadow: ground.is_some(),
             ground_visible: ground.is_some_and(|(g, _)| g.visible),
-            volumes: volume
-                .mattes
-                .map(|m| m.names.to_vec())
-                .unwrap_or_default(),
+            volumes: volume.mattes.map(|m| m.names.to_vec()).unwrap_or_default(),
         });
         SingleScattering {
             volume,

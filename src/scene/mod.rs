@@ -280,9 +280,11 @@ impl Scene {
                 scene.fields.emission.is_some(),
                 scene.fields.temperature.is_some(),
             )
-        }) || scene.fields.emitters.iter().any(|e| {
-            glows(&e.plan, e.emission.is_some(), e.temperature.is_some())
-        });
+        }) || scene
+            .fields
+            .emitters
+            .iter()
+            .any(|e| glows(&e.plan, e.emission.is_some(), e.temperature.is_some()));
         scene.report_emission_and_scatter(plan);
         scene.prepare_shadows(plan, progress, reuse)?;
         Ok(scene)
@@ -479,18 +481,19 @@ impl Scene {
             more: Vec::new(),
         };
         // Several volumes: the first glowing one's emission, the others' added to it.
-        let emission = self.emission.as_ref().map(|(e, table)| {
-            match self.fields.emitters.split_first() {
-                None => emission(e, &self.fields.emission, &self.fields.temperature, table),
-                Some((first, rest)) => Emission {
-                    more: rest
-                        .iter()
-                        .map(|r| emission(&r.plan, &r.emission, &r.temperature, table))
-                        .collect(),
-                    ..emission(&first.plan, &first.emission, &first.temperature, table)
-                },
-            }
-        });
+        let emission =
+            self.emission
+                .as_ref()
+                .map(|(e, table)| match self.fields.emitters.split_first() {
+                    None => emission(e, &self.fields.emission, &self.fields.temperature, table),
+                    Some((first, rest)) => Emission {
+                        more: rest
+                            .iter()
+                            .map(|r| emission(&r.plan, &r.emission, &r.temperature, table))
+                            .collect(),
+                        ..emission(&first.plan, &first.emission, &first.temperature, table)
+                    },
+                });
         Volume {
             density,
             medium: self.medium,

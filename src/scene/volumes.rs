@@ -37,11 +37,42 @@ fn key_of(v: &VolumePlan, scatters: bool) -> (PathBuf, GridRoles, String) {
     (v.file.clone(), grids, glow)
 }
 
-/// A field placed in the world: a sum of one member of weight 1.
-fn placed(field: &Arc<dyn Field>, placement: DMat4) -> Result<Box<dyn Field>, String> {
-    FieldSum::new(vec![(field.clone(), placement, 1.0)])
-        .map(|f| Box::new(f) as Box<dyn Field>)
-        .map_err(|e| e.to_string())
+/// A field placed in the world as a sum of one member of weight 1 in the local index
+/// space `frame` (the summed density's, so that the march finds it on the density's
+/// lattice and takes its exact integrals).
+fn placed(
+    field: &Option<Arc<dyn Field>>,
+    placement: DMat4,
+    frame: crate::field::IndexToWorld,
+) -> Result<Option<Box<dyn Field>>, String> {
+    field
+        .as_ref()
+        .map(|f| {
+            FieldSum::in_frame(vec![(f.clone(), placement, 1.0)], frame)
+                .map(|f| Box::new(f) as Box<dyn Field>)
+                .map_err(|e| e.to_string())
+        })
+        .transpose()
+}
+
+/// An error about a volume's file, saying which volume (a grid asked for that it lacks,
+/// say): `FILE: [[volume]] "NAME": problem`.
+fn in_volume(e: SceneError, v: &VolumePlan) -> SceneError {
+    let text = e.to_string();
+    match text.strip_prefix(&format!("{}: ", v.file.display())) {
+        Some(problem) => {
+            SceneError::input(&v.file, format!("[[volume]] \"{}\": {problem}", v.name))
+        }
+        None => e,
+    }
+}
+
+/// A glowing volume's fields and settings, before the summed density is made.
+struct Glowing<'a> {
+    volume: &'a VolumePlan,
+    emission: Option<Arc<dyn Field>>,
+    temperature: Option<Arc<dyn Field>>,
+    plan: super::plan::EmissionPlan,
 }
 
 /// The fields of a scene of several volumes: the summed density, the scattering tint
@@ -62,7 +93,7 @@ pub fn load_volumes(
     let mut emission_found = false;
     let mut members = Vec::with_capacity(volumes.list.len());
     let mut colors: Vec<Option<Arc<dyn ColorField>>> = Vec::with_capacity(volumes.list.len());
-    let mut emitters = Vec::new();
+    let mut glowing = Vec::new();
     for v in &volumes.list {
         let at = |e: String| SceneError::input(&v.file, format!("[[volume]] \"{}\": {e}", v.name));
         let key = key_of(v, scatters);
@@ -76,7 +107,8 @@ pub fn load_volumes(
                 one.grids = key.1.clone();
                 one.emission = v.emission;
                 one.production.temperature_explicit = v.temperature_explicit;
-                let fields = load_fields(source.as_ref(), &one, scatters, report)?;
+                let fields = load_fields(source.as_ref(), &one, scatters, report)
+                    .map_err(|e| in_volume(e, v))?;
                 emission_found |= fields.emission_found;
                 if first.is_none() {
                     first = Some((fields.tool, fields.up_from_data));
@@ -104,20 +136,16 @@ pub fn load_volumes(
             None => None,
         });
         if d.emission.is_some() || d.temperature.is_some() {
-            let mut glow = v.emission;
+            let mut plan = v.emission;
             if let Some(m) = &d.mapping {
-                glow.temperature_scale = m.scale;
-                glow.temperature_offset = m.offset;
+                plan.temperature_scale = m.scale;
+                plan.temperature_offset = m.offset;
             }
-            let place = |f: &Option<Arc<dyn Field>>| -> Result<_, SceneError> {
-                f.as_ref()
-                    .map(|f| placed(f, v.placement).map_err(at))
-                    .transpose()
-            };
-            emitters.push(Emitter {
-                emission: place(&d.emission)?,
-                temperature: place(&d.temperature)?,
-                plan: glow,
+            glowing.push(Glowing {
+                volume: v,
+                emission: d.emission.clone(),
+                temperature: d.temperature.clone(),
+                plan,
             });
         }
     }
@@ -125,6 +153,17 @@ pub fn load_volumes(
         let v = &volumes.list[0];
         SceneError::input(&v.file, format!("[[volume]] \"{}\": {e}", v.name))
     })?;
+    let frame = *sum.transform();
+    let mut emitters = Vec::with_capacity(glowing.len());
+    for g in glowing {
+        let v = g.volume;
+        let at = |e: String| SceneError::input(&v.file, format!("[[volume]] \"{}\": {e}", v.name));
+        emitters.push(Emitter {
+            emission: placed(&g.emission, v.placement, frame).map_err(at)?,
+            temperature: placed(&g.temperature, v.placement, frame).map_err(at)?,
+            plan: g.plan,
+        });
+    }
     report.density_memory_bytes = sum.memory_bytes();
     report.notes.push(format!(
         "{} volumes placed from {} decoded density grid{}",
@@ -166,7 +205,10 @@ fn tint(
         return None;
     }
     if !volumes.tinted && colors.len() == 1 {
-        return colors.pop().flatten().map(|c| Box::new(Shared(c)) as Box<dyn ColorField>);
+        return colors
+            .pop()
+            .flatten()
+            .map(|c| Box::new(Shared(c)) as Box<dyn ColorField>);
     }
     let albedo = volumes
         .list
