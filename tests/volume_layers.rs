@@ -241,3 +241,23 @@ fn bad_volume_emission_keys_are_refused_in_one_line() {
         assert!(!out.exists());
     }
 }
+
+/// A fire cache (flame, temperature and `Cd` grids) given as one `[[volume]]` renders
+/// as it does given as `input`, glow and colour included, bit for bit.
+#[test]
+fn a_fire_as_one_volume_renders_as_its_input() {
+    let dir = scratch("fire-one");
+    let common = "res = \"24x16\"\nfloat = true\n";
+    let pyro = fixture("pyro.vdb");
+    let a = render(&dir, "input", &format!("{common}input = \"{pyro}\"\n"));
+    let b = render(
+        &dir,
+        "table",
+        &format!("{common}[[volume]]\nfile = \"{pyro}\"\n"),
+    );
+    assert!(channel(&a, "emission.R").iter().any(|v| *v > 0.0));
+    assert_eq!(channel_names(&a), channel_names(&b));
+    for c in channel_names(&a) {
+        assert_eq!(channel(&a, &c), channel(&b, &c), "channel {c}");
+    }
+}
