@@ -12,6 +12,7 @@ pub mod frames;
 pub mod holdout;
 pub mod light;
 pub mod lights;
+mod marched;
 pub mod options;
 pub mod plan;
 pub mod progress;
@@ -91,12 +92,11 @@ impl std::fmt::Display for PlanError {
 
 impl std::error::Error for PlanError {}
 
-use crate::field::union::FieldUnion;
-use crate::field::{ColorField, Field};
+use crate::field::Field;
 use crate::integrate::blackbody::BlackbodyTable;
 use crate::integrate::ground::Ground;
 use crate::integrate::phase::PhaseFunction;
-use crate::integrate::{ColorTint, Companion, Emission, Mattes, Medium, Volume};
+use crate::integrate::{Companion, Medium};
 use crate::shadow::ShadowMap;
 use camera::{Camera, Projection};
 pub use error::SceneError;
@@ -435,86 +435,6 @@ impl Scene {
         self.report.lights = self.light_names();
         self.shadows = light_shadows(plan.shadows.mode, maps, plan.lights.len());
         Ok(())
-    }
-
-    /// The fields whose non-zero cells a camera ray visits: the density, and the emission
-    /// and temperature fields on its lattice (elsewhere they are sampled only where the
-    /// density is non-zero, which the report notes).
-    pub fn traversal(&self) -> FieldUnion<'_> {
-        let density = self.fields.density.as_ref();
-        let mut traversal = FieldUnion::new(density);
-        for f in self.emission_fields() {
-            if let Some(o) = Companion::new(f, density).offset() {
-                traversal = traversal.with(f, o.as_ivec3());
-            }
-        }
-        traversal
-    }
-
-    /// The emission and temperature fields of the input or of every volume.
-    fn emission_fields(&self) -> impl Iterator<Item = &dyn Field> {
-        let own = [&self.fields.emission, &self.fields.temperature];
-        let volumes = self
-            .fields
-            .emitters
-            .iter()
-            .flat_map(|e| [&e.emission, &e.temperature]);
-        own.into_iter()
-            .chain(volumes)
-            .flatten()
-            .map(|f| f.as_ref() as &dyn Field)
-    }
-
-    /// The volume the integrators march, traversed over `traversal`
-    /// ([`Scene::traversal`]).
-    pub fn volume<'a>(&'a self, traversal: &'a FieldUnion<'a>) -> Volume<'a> {
-        let density = self.fields.density.as_ref();
-        let companion =
-            |f: &'a Option<Box<dyn Field>>| f.as_ref().map(|g| Companion::new(g.as_ref(), density));
-        let emission = |e: &EmissionPlan,
-                        grid: &'a Option<Box<dyn Field>>,
-                        temperature: &'a Option<Box<dyn Field>>,
-                        table: &BlackbodyTable| Emission {
-            grid: companion(grid),
-            color: e.color,
-            intensity: e.intensity,
-            temperature: companion(temperature),
-            temperature_scale: e.temperature_scale,
-            temperature_offset: e.temperature_offset,
-            blackbody_intensity: e.blackbody_intensity,
-            table: table.clone(),
-            more: Vec::new(),
-        };
-        // Several volumes: the first glowing one's emission, the others' added to it.
-        let emission =
-            self.emission
-                .as_ref()
-                .map(|(e, table)| match self.fields.emitters.split_first() {
-                    None => emission(e, &self.fields.emission, &self.fields.temperature, table),
-                    Some((first, rest)) => Emission {
-                        more: rest
-                            .iter()
-                            .map(|r| emission(&r.plan, &r.emission, &r.temperature, table))
-                            .collect(),
-                        ..emission(&first.plan, &first.emission, &first.temperature, table)
-                    },
-                });
-        Volume {
-            density,
-            medium: self.medium,
-            phase: self.phase.clone(),
-            emission,
-            mattes: self.fields.parts.as_ref().map(|p| Mattes {
-                sum: &p.sum,
-                names: &p.names,
-            }),
-            color: self
-                .fields
-                .color
-                .as_ref()
-                .map(|c| ColorTint::new(c.as_ref() as &dyn ColorField, density)),
-            traversal,
-        }
     }
 
     /// The names of the lights, the environment's last: the per-light layers' order.
