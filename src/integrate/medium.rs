@@ -111,6 +111,11 @@ pub struct ColorTint<'a> {
 }
 
 impl<'a> ColorTint<'a> {
+    /// The colour field.
+    pub fn grid(&self) -> &'a dyn ColorField {
+        self.grid
+    }
+
     pub fn new(grid: &'a dyn ColorField, density: &dyn Field) -> Self {
         ColorTint {
             grid,

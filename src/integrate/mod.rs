@@ -10,6 +10,7 @@ pub mod integrator;
 pub mod march;
 pub mod mattes;
 pub mod medium;
+pub mod motion;
 pub mod ms_diffusion;
 pub mod ms_lattice;
 mod ms_orders;

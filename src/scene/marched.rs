@@ -87,6 +87,7 @@ impl Scene {
                 .as_ref()
                 .map(|c| ColorTint::new(c.as_ref() as &dyn ColorField, density)),
             traversal,
+            motion: self.motion.as_ref().map(|m| m.motion()),
         }
     }
 }

@@ -5,6 +5,7 @@
 //! shadow maps — and reports each stage (ran, or skipped and why).
 
 pub mod camera;
+pub mod camera_motion;
 pub mod conventions;
 mod error;
 pub mod film;
@@ -23,6 +24,7 @@ mod scene_file;
 pub mod shot;
 pub mod source;
 pub mod transport;
+pub mod velocity;
 pub mod volumes;
 
 pub use options::RenderOptions;
@@ -135,6 +137,10 @@ pub struct Scene {
     pub scatters: bool,
     /// Something emits (an emission or temperature field with a non-zero intensity).
     pub emits: bool,
+    /// The velocity that blurs the volume within the shutter.
+    pub motion: Option<velocity::SceneMotion>,
+    /// The camera's motion while the shutter is open (a shot camera that moves).
+    pub camera_motion: Option<camera_motion::CameraMotion>,
     pub report: SceneReport,
 }
 
@@ -190,11 +196,17 @@ impl Scene {
         let scatters = lit && medium.scatters();
         // Build: decode only the fields in a role.
         let t = Instant::now();
-        let fields = match (&plan.volumes, source) {
+        let fields = match (&plan.volumes, &source) {
             (Some(v), _) => volumes::load_volumes(plan, v, scatters, &mut report)?,
             (None, Some(source)) => load_fields(source.as_ref(), plan, scatters, &mut report)?,
             (None, None) => return Err(SceneError::input(&plan.input, "nothing to render")),
         };
+        let motion = velocity::load_for(
+            plan,
+            source.as_deref(),
+            fields.density.as_ref(),
+            &mut report,
+        )?;
         report
             .stages
             .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
@@ -233,6 +245,7 @@ impl Scene {
             }
             None => resolve_camera(plan, fields.density.as_ref(), up_axis, reuse.frame_box)?,
         };
+        let camera_motion = camera_motion::CameraMotion::of_plan(plan)?;
         let (ox, oy) = plan.camera.overscan;
         let camera = plate_camera.overscanned(ox, oy);
         let mut emission_plan = plan.emission;
@@ -272,6 +285,8 @@ impl Scene {
             ground: plan.ground,
             scatters,
             emits: false,
+            motion,
+            camera_motion,
             report,
             fields,
         };
