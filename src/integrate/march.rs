@@ -156,6 +156,8 @@ pub struct Volume<'a> {
     /// Fields whose non-zero cells must be visited even where density is zero (emission
     /// and temperature grids on the density's lattice).
     pub traversal: &'a dyn Field,
+    /// Several volumes summed in `density`: each one's alpha is a layer of its own.
+    pub mattes: Option<super::Mattes<'a>>,
     /// How the volume moves during the shutter: a ray with a time marches the fields as
     /// they are then (`None`: still).
     pub motion: Option<Motion<'a>>,
@@ -172,6 +174,7 @@ impl<'a> Volume<'a> {
             emission: None,
             color: None,
             traversal: density,
+            mattes: None,
             motion: None,
         }
     }
@@ -197,6 +200,8 @@ pub struct Scratch {
     temperatures: Vec<f32>,
     /// With deep output on: the current ray's record (`integrate::deep`).
     pub deep: Option<DeepTrace>,
+    /// The per-volume alphas' buffers ([`super::Mattes`]).
+    pub mattes: super::mattes::MatteScratch,
 }
 
 impl Scratch {
@@ -211,6 +216,7 @@ impl Scratch {
             mids: Vec::with_capacity(SEGMENT_BATCH),
             temperatures: vec![0.0; SEGMENT_BATCH],
             deep: None,
+            mattes: Default::default(),
         }
     }
 }
@@ -365,6 +371,8 @@ pub fn march(
                 emission: vol.emission.as_ref().map(|e| fields.emission(e)),
                 color: fields.color(),
                 traversal: fields.traversal(),
+                // The volumes' alpha layers are taken outside the march.
+                mattes: None,
                 motion: None,
             };
             march_still(&moved, lights, ray_w, settings, jitter, scratch)
@@ -485,7 +493,7 @@ fn march_still(
                             Some(c) => Some(c.value(p, xw)),
                             None => None,
                         };
-                        e.from_samples(grid_mean, temperature)
+                        e.from_samples(grid_mean, temperature) + e.others(&ray, a, b, p, xw)
                     } else {
                         e.mean(&ray, a, b, p, xw)
                     };
