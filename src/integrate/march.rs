@@ -162,6 +162,8 @@ pub struct Volume<'a> {
     /// the step's error takes in, for a march whose steps are several voxels long
     /// (`--max-error` on a coarse density level). Off: opacity does not depend on the step.
     pub sampled_means: bool,
+    /// Several volumes summed in `density`: each one's alpha is a layer of its own.
+    pub mattes: Option<super::Mattes<'a>>,
     /// How the volume moves during the shutter: a ray with a time marches the fields as
     /// they are then (`None`: still).
     pub motion: Option<Motion<'a>>,
@@ -179,6 +181,7 @@ impl<'a> Volume<'a> {
             color: None,
             traversal: density,
             sampled_means: false,
+            mattes: None,
             motion: None,
         }
     }
@@ -207,6 +210,8 @@ pub struct Scratch {
     node_values: Vec<f32>,
     /// With deep output on: the current ray's record (`integrate::deep`).
     pub deep: Option<DeepTrace>,
+    /// The per-volume alphas' buffers ([`super::Mattes`]).
+    pub mattes: super::mattes::MatteScratch,
 }
 
 impl Scratch {
@@ -223,6 +228,7 @@ impl Scratch {
             nodes: Vec::with_capacity(2 * SEGMENT_BATCH),
             node_values: Vec::with_capacity(2 * SEGMENT_BATCH),
             deep: None,
+            mattes: Default::default(),
         }
     }
 }
@@ -378,6 +384,8 @@ pub fn march(
                 color: fields.color(),
                 traversal: fields.traversal(),
                 sampled_means: vol.sampled_means,
+                // The volumes' alpha layers are taken outside the march.
+                mattes: None,
                 motion: None,
             };
             march_still(&moved, lights, ray_w, settings, jitter, scratch)
@@ -507,7 +515,7 @@ fn march_still(
                             Some(c) => Some(c.value(p, xw)),
                             None => None,
                         };
-                        e.from_samples(grid_mean, temperature)
+                        e.from_samples(grid_mean, temperature) + e.others(&ray, a, b, p, xw)
                     } else {
                         e.mean(&ray, a, b, p, xw)
                     };

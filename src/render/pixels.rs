@@ -331,7 +331,7 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         .iter()
         .map(|p| match p.kind {
             PassKind::Rgb => vec![vec![0f32; n]; 3],
-            PassKind::Alpha => vec![vec![0f32; n]],
+            PassKind::Alpha | PassKind::Matte => vec![vec![0f32; n]],
             PassKind::Depth => vec![vec![f32::INFINITY; n]],
         })
         .collect();

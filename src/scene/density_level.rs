@@ -80,7 +80,11 @@ impl DensityLevelReport {
 /// Why the scene's density has no coarser level to choose from, or `None`.
 fn unsupported(scene: &Scene, plan: &RenderPlan) -> Option<&'static str> {
     let f = &scene.fields;
-    if f.emission.is_some() || f.temperature.is_some() || f.color.is_some() {
+    if f.emission.is_some()
+        || f.temperature.is_some()
+        || f.color.is_some()
+        || !f.emitters.is_empty()
+    {
         Some("emission, temperature or colour grids")
     } else if scene.motion.is_some() {
         Some("the volume moves during the shutter")
@@ -88,7 +92,7 @@ fn unsupported(scene: &Scene, plan: &RenderPlan) -> Option<&'static str> {
         Some("a shadow cache")
     } else if !scene.scatters {
         Some("nothing scatters")
-    } else if f.density.as_voxel_grid().is_none() {
+    } else if f.parts.is_some() || f.density.as_voxel_grid().is_none() {
         Some("the density is not one voxel grid")
     } else {
         None

@@ -193,7 +193,7 @@ pub fn render_pixels(
         .iter()
         .map(|p| match p.kind {
             PassKind::Rgb => vec![vec![0f32; w * h]; 3],
-            PassKind::Alpha => vec![vec![0f32; w * h]],
+            PassKind::Alpha | PassKind::Matte => vec![vec![0f32; w * h]],
             PassKind::Depth => vec![vec![f32::INFINITY; w * h]],
         })
         .collect();
