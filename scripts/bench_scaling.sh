@@ -24,7 +24,7 @@
 # Knobs (environment): BENCH_RUNS (3), BENCH_THREAD_LIST (1 2 4 … nproc),
 # BENCH_MURK (a murk binary: no cargo build; for a machine without Rust),
 # BENCH_CLOUD (the 192³ cloud already made: no python needed), BENCH_RES (960x540),
-# BENCH_ERRORS ("3e-2 1e-2 3e-3 1e-3"), BENCH_VDB_STEPS ("0.25 0.5 1 2 4"),
+# BENCH_ERRORS ("0.3 0.15 8e-2 3e-2 1e-2 3e-3 1e-3"), BENCH_VDB_STEPS ("0.25 0.5 1 2 4"),
 # BENCH_REF_DIR (an earlier OUT whose references are reused), BENCH_ERROR_THREADS (nproc).
 #
 # Needs: bash, murk (or cargo); for `error` also /usr/bin/python3 with numpy, oiiotool
@@ -51,7 +51,7 @@ else
     for ((t = 1; t < CORES; t *= 2)); do THREAD_LIST+="$t "; done
     THREAD_LIST+=$CORES
 fi
-ERRORS=${BENCH_ERRORS:-"3e-2 1e-2 3e-3 1e-3"}
+ERRORS=${BENCH_ERRORS:-"0.3 0.15 8e-2 3e-2 1e-2 3e-3 1e-3"}
 VDB_STEPS=${BENCH_VDB_STEPS:-"0.25 0.5 1 2 4"}
 ERROR_THREADS=${BENCH_ERROR_THREADS:-$CORES}
 PY=/usr/bin/python3

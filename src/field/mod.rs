@@ -17,6 +17,7 @@ pub mod floor;
 pub mod grid;
 pub mod grid_build;
 mod grid_integrals;
+mod grid_levels;
 pub mod grid_nodes;
 mod grid_ranges;
 pub mod mesh;

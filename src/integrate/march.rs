@@ -38,6 +38,7 @@ use super::medium::{ColorTint, Emission, Medium};
 use super::motion::{Motion, MovedFields};
 use super::optics::{one_minus_exp, phi};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
+use super::sampled_means::sampled_integrals;
 use crate::accel::{IndexRay, Spans};
 use crate::field::Field;
 use glam::DVec3;
@@ -156,6 +157,11 @@ pub struct Volume<'a> {
     /// Fields whose non-zero cells must be visited even where density is zero (emission
     /// and temperature grids on the density's lattice).
     pub traversal: &'a dyn Field,
+    /// Each segment's mean density from two-point Gauss–Legendre over the segment (two
+    /// samples), not from the exact integral voxel by voxel: a second-order error that
+    /// the step's error takes in, for a march whose steps are several voxels long
+    /// (`--max-error` on a coarse density level). Off: opacity does not depend on the step.
+    pub sampled_means: bool,
     /// Several volumes summed in `density`: each one's alpha is a layer of its own.
     pub mattes: Option<super::Mattes<'a>>,
     /// How the volume moves during the shutter: a ray with a time marches the fields as
@@ -174,6 +180,7 @@ impl<'a> Volume<'a> {
             emission: None,
             color: None,
             traversal: density,
+            sampled_means: false,
             mattes: None,
             motion: None,
         }
@@ -198,6 +205,9 @@ pub struct Scratch {
     emission_integrals: Vec<f64>,
     mids: Vec<f64>,
     temperatures: Vec<f32>,
+    /// With sampled segment means: the Gauss–Legendre nodes of the batch and the density there.
+    nodes: Vec<f64>,
+    node_values: Vec<f32>,
     /// With deep output on: the current ray's record (`integrate::deep`).
     pub deep: Option<DeepTrace>,
     /// The per-volume alphas' buffers ([`super::Mattes`]).
@@ -215,6 +225,8 @@ impl Scratch {
             emission_integrals: vec![0.0; SEGMENT_BATCH],
             mids: Vec::with_capacity(SEGMENT_BATCH),
             temperatures: vec![0.0; SEGMENT_BATCH],
+            nodes: Vec::with_capacity(2 * SEGMENT_BATCH),
+            node_values: Vec::with_capacity(2 * SEGMENT_BATCH),
             deep: None,
             mattes: Default::default(),
         }
@@ -371,6 +383,7 @@ pub fn march(
                 emission: vol.emission.as_ref().map(|e| fields.emission(e)),
                 color: fields.color(),
                 traversal: fields.traversal(),
+                sampled_means: vol.sampled_means,
                 // The volumes' alpha layers are taken outside the march.
                 mattes: None,
                 motion: None,
@@ -452,7 +465,16 @@ fn march_still(
             if scratch.integrals.len() < batch {
                 scratch.integrals.resize(batch, 0.0);
             }
-            if !constant {
+            if !constant && vol.sampled_means {
+                sampled_integrals(
+                    vol.density,
+                    &ray,
+                    a,
+                    &scratch.ends,
+                    (&mut scratch.nodes, &mut scratch.node_values),
+                    &mut scratch.integrals[..batch],
+                );
+            } else if !constant {
                 vol.density.piece_integrals(
                     &ray,
                     a,

@@ -19,6 +19,7 @@ pub mod optics;
 pub mod pass;
 pub mod path;
 pub mod phase;
+mod sampled_means;
 pub mod scatter_passes;
 pub mod scattering;
 pub mod single;

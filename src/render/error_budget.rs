@@ -20,27 +20,30 @@
 //! What was chosen, what the pilot measured and the predicted error go into the stats
 //! (`error_budget`) and a note.
 
-use crate::integrate::integrator::{CameraSample, Integrator, SampleRng};
-use crate::integrate::{MarchSettings, WorldRay};
+use crate::integrate::MarchSettings;
+use crate::integrate::integrator::Integrator;
 use crate::scene::camera::Camera;
+use crate::scene::pilot::{pilot_pixels, render_pilot};
 use crate::scene::plan::MarchPlan;
-use rayon::prelude::*;
 use serde::Serialize;
 
-/// Pixels the pilot renders (a regular lattice over the image).
-pub const PILOT_PIXELS: usize = 2048;
+pub use crate::scene::pilot::{PILOT_PIXELS, relative_rmse};
 /// The pilot's first step, voxels: coarse, so that its error is well above the floor.
 pub const PILOT_STEP: f64 = 2.0;
 /// The finest and the coarsest step `--max-error` chooses, voxels.
 pub const MIN_STEP: f64 = 1.0 / 16.0;
-pub const MAX_STEP: f64 = 4.0;
+pub const MAX_STEP: f64 = 8.0;
 /// Terminations tried, largest first (the first within budget is taken).
-const TERMINATIONS: [f64; 9] = [0.1, 0.05, 0.02, 0.01, 5e-3, 2e-3, 1e-3, 1e-4, 0.0];
+const TERMINATIONS: [f64; 10] = [0.2, 0.1, 0.05, 0.02, 0.01, 5e-3, 2e-3, 1e-3, 1e-4, 0.0];
 
 /// What `--max-error` chose and why (the stats' `error_budget`).
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct ErrorBudgetReport {
     pub max_error: f64,
+    /// The density's level (`scene::density_level`; 0: its own voxels) and the error its
+    /// pilot measured: the step, the termination and the map share what it leaves.
+    pub density_level: u8,
+    pub density_level_error: f64,
     /// Chosen: the source step in voxels, the termination, the shadow map's tolerance
     /// (null without a map).
     pub step_voxels: f64,
@@ -51,7 +54,7 @@ pub struct ErrorBudgetReport {
     pub pilot_pixels: usize,
     pub pilot_step_error: f64,
     pub pilot_termination_error: f64,
-    /// √(step² + termination² + tolerance²), each source's predicted error.
+    /// √(level² + step² + termination² + tolerance²), each source's predicted error.
     pub predicted_error: f64,
     pub pilot_seconds: f64,
 }
@@ -60,8 +63,9 @@ impl ErrorBudgetReport {
     /// One line for the stats' notes.
     pub fn note(&self) -> String {
         format!(
-            "--max-error {}: step {:.3} voxels, termination {}, shadow map tolerance {} (a pilot of {} pixels in {:.2} s; predicted error {:.2e})",
+            "--max-error {}: density level {}, step {:.3} of its voxels, termination {}, shadow map tolerance {} (a pilot of {} pixels in {:.2} s; predicted error {:.2e})",
             self.max_error,
+            self.density_level,
             self.step_voxels,
             self.termination,
             self.dsm_tolerance
@@ -73,86 +77,20 @@ impl ErrorBudgetReport {
     }
 }
 
-/// The pilot's pixels: centres of a regular lattice of about [`PILOT_PIXELS`], or every
-/// pixel of a small image.
-fn pilot_pixels(width: usize, height: usize) -> Vec<(usize, usize)> {
-    let stride = ((width * height) as f64 / PILOT_PIXELS as f64)
-        .sqrt()
-        .ceil()
-        .max(1.0) as usize;
-    let mut px = Vec::new();
-    let mut y = stride / 2;
-    while y < height {
-        let mut x = stride / 2;
-        while x < width {
-            px.push((x, y));
-            x += stride;
-        }
-        y += stride;
-    }
-    px
-}
-
-/// Beauty RGB of each pilot pixel (its centre, sample 0 of `seed`), flattened.
-fn render_pilot<I: Integrator>(
-    integrator: &I,
-    camera: &Camera,
-    seed: u64,
-    pixels: &[(usize, usize)],
-) -> Vec<f64> {
-    let layout = integrator.passes().clone();
-    let beauty: Vec<usize> = (0..layout.passes().len())
-        .filter(|&i| layout.passes()[i].in_beauty)
-        .map(|i| layout.offset(i))
-        .collect();
-    let frame = camera.frame();
-    pixels
-        .par_iter()
-        .map_init(
-            || (integrator.scratch(), vec![0f64; layout.slots()]),
-            |(scratch, acc), &(x, y)| {
-                acc.fill(0.0);
-                let (o, d) = camera.ray(&frame, x as f64 + 0.5, y as f64 + 0.5);
-                let mut ray = WorldRay::new(o, d);
-                (ray.t_min, ray.t_max) = camera.clip(&frame, ray.dir);
-                let sample = CameraSample {
-                    ray,
-                    depth_rate: d.dot(frame.forward),
-                };
-                let mut rng = SampleRng::new(seed, x, y, 0);
-                integrator.sample(&sample, &mut rng, scratch, acc);
-                let mut rgb = [0f64; 3];
-                for &at in &beauty {
-                    for (c, v) in rgb.iter_mut().enumerate() {
-                        *v += acc[at + c];
-                    }
-                }
-                rgb.map(|v| if v.is_finite() { v } else { 0.0 })
-            },
-        )
-        .flatten_iter()
-        .collect()
-}
-
-/// ‖a − b‖₂ / ‖b‖₂ (0 where `b` is all dark: nothing to be wrong about).
-pub fn relative_rmse(a: &[f64], b: &[f64]) -> f64 {
-    let num: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
-    let den: f64 = b.iter().map(|y| y * y).sum();
-    if den > 0.0 { (num / den).sqrt() } else { 0.0 }
-}
-
 /// Chooses the step and termination for `max_error` by rendering the pilot through the
-/// integrators `make` builds from march settings. `dsm_tolerance` is what the plan set
-/// (its share of the error is counted in the prediction).
+/// integrators `make` builds from march settings. `level` is the density's level and its
+/// measured error; `dsm_tolerance` is what the map was baked to (its share of the error
+/// is counted in the prediction).
 pub fn choose<I: Integrator>(
     max_error: f64,
+    level: (u8, f64),
     dsm_tolerance: Option<f64>,
     camera: &Camera,
     seed: u64,
     make: impl Fn(MarchSettings) -> I,
 ) -> (MarchSettings, ErrorBudgetReport) {
     let start = std::time::Instant::now();
-    let budget = MarchPlan::error_share(max_error);
+    let budget = MarchPlan::error_share(MarchPlan::remaining_error(max_error, level.1));
     let pixels = pilot_pixels(camera.width, camera.height);
     let render = |step_voxels: f64, termination: f64| {
         render_pilot(
@@ -192,13 +130,16 @@ pub fn choose<I: Integrator>(
     let tolerance_error = dsm_tolerance.unwrap_or(0.0);
     let report = ErrorBudgetReport {
         max_error,
+        density_level: level.0,
+        density_level_error: level.1,
         step_voxels: step,
         termination,
         dsm_tolerance,
         pilot_pixels: pixels.len(),
         pilot_step_error: step_error,
         pilot_termination_error: termination_error,
-        predicted_error: (predicted_step.powi(2)
+        predicted_error: (level.1.powi(2)
+            + predicted_step.powi(2)
             + termination_error.powi(2)
             + tolerance_error.powi(2))
         .sqrt(),
@@ -211,34 +152,4 @@ pub fn choose<I: Integrator>(
         },
         report,
     )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_pilot_lattice_covers_the_image_evenly() {
-        let px = pilot_pixels(960, 540);
-        assert!(
-            px.len() <= PILOT_PIXELS && px.len() >= PILOT_PIXELS / 2,
-            "{}",
-            px.len()
-        );
-        assert!(px.iter().all(|&(x, y)| x < 960 && y < 540));
-        let (xs, ys): (Vec<_>, Vec<_>) = px.iter().copied().unzip();
-        // Spread over the whole image, not a corner.
-        assert!(*xs.iter().min().unwrap() < 20 && *xs.iter().max().unwrap() > 940);
-        assert!(*ys.iter().min().unwrap() < 20 && *ys.iter().max().unwrap() > 520);
-        // A small image is rendered whole.
-        assert_eq!(pilot_pixels(40, 30).len(), 1200);
-    }
-
-    #[test]
-    fn relative_rmse_is_the_norm_ratio() {
-        assert_eq!(relative_rmse(&[1.0, 2.0], &[1.0, 2.0]), 0.0);
-        let e = relative_rmse(&[1.0, 1.0], &[0.0, 2.0]);
-        assert!((e - (2.0f64 / 4.0).sqrt()).abs() < 1e-15);
-        assert_eq!(relative_rmse(&[1.0], &[0.0]), 0.0);
-    }
 }

@@ -24,7 +24,7 @@ use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, Integrator, ScatteringMode};
 use crate::output::{DeepExrOptions, DeepImage, Frame, write_deep_exr, write_exr, write_preview};
 use crate::scene::Scene;
-use crate::scene::plan::ShadowMode;
+use crate::scene::plan::{MarchPlan, ShadowMode};
 use crate::scene::reuse::FrameReuse;
 pub use bake_file::bake_shadow_file;
 use device::{choose_device, render_frame_gpu};
@@ -440,10 +440,22 @@ fn march_settings<I: Integrator>(
     let Some(max_error) = plan.march.max_error else {
         return plan.march_settings();
     };
-    let tolerance = (plan.shadows.mode == ShadowMode::Dsm && !scene.lights.is_empty())
-        .then_some(plan.shadows.dsm_tolerance);
+    let level = scene
+        .density_level
+        .as_ref()
+        .map_or((0, 0.0), |l| (l.level, l.error));
+    // The map was baked to its share of what the level left (the plan's own share at
+    // level 0).
+    let tolerance = (plan.shadows.mode == ShadowMode::Dsm && !scene.lights.is_empty()).then(|| {
+        if level.0 > 0 {
+            MarchPlan::tolerance_of(MarchPlan::remaining_error(max_error, level.1))
+        } else {
+            plan.shadows.dsm_tolerance
+        }
+    });
     let (march, report) = error_budget::choose(
         max_error,
+        level,
         tolerance,
         &scene.camera,
         plan.sampling.seed,

@@ -225,7 +225,11 @@ pub fn run(
         for _ in 0..runs {
             let image = render_image(&plan)?;
             if let Some(b) = &image.stats.error_budget {
-                chosen = (b.step_voxels, b.termination);
+                // In voxels of the grid as read (a density level's are 2^level of them).
+                chosen = (
+                    b.step_voxels * f64::from(1u32 << b.density_level),
+                    b.termination,
+                );
             }
             bakes.push(stage(&image.stats, "shadows"));
             renders.push(stage(&image.stats, "render"));

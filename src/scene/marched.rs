@@ -87,6 +87,8 @@ impl Scene {
                 .as_ref()
                 .map(|c| ColorTint::new(c.as_ref() as &dyn ColorField, density)),
             traversal,
+            // A coarse level's steps span several of its voxels: two samples a step.
+            sampled_means: self.density_level.as_ref().is_some_and(|l| l.level > 0),
             motion: self.motion.as_ref().map(|m| m.motion()),
         }
     }

@@ -7,6 +7,7 @@
 pub mod camera;
 pub mod camera_motion;
 pub mod conventions;
+pub mod density_level;
 mod error;
 pub mod film;
 pub mod frames;
@@ -15,6 +16,7 @@ pub mod light;
 pub mod lights;
 mod marched;
 pub mod options;
+pub mod pilot;
 pub mod plan;
 pub mod progress;
 pub mod report;
@@ -133,6 +135,9 @@ pub struct Scene {
     shadows: Vec<lights::LightShadow>,
     plan_shadows: (crate::shadow::ShadowQuadrature, f64),
     pub ground: Option<Ground>,
+    /// With `--max-error`: the density's level the pilot chose (the density in `fields`
+    /// is that level), and what it measured.
+    pub density_level: Option<density_level::DensityLevelReport>,
     /// Something scatters light toward the camera (lights and σs > 0).
     pub scatters: bool,
     /// Something emits (an emission or temperature field with a non-zero intensity).
@@ -283,6 +288,7 @@ impl Scene {
                     / medium.sigma_t().min_element().max(1e-30),
             ),
             ground: plan.ground,
+            density_level: None,
             scatters,
             emits: false,
             motion,
@@ -306,6 +312,12 @@ impl Scene {
             .iter()
             .any(|e| glows(&e.plan, e.emission.is_some(), e.temperature.is_some()));
         scene.report_emission_and_scatter(plan);
+        // With --max-error, the density's level first: the map is baked at that level.
+        let leveled = plan
+            .march
+            .max_error
+            .and_then(|e| density_level::apply(&mut scene, plan, e));
+        let plan = leveled.as_ref().unwrap_or(plan);
         scene.prepare_shadows(plan, progress, reuse)?;
         Ok(scene)
     }

@@ -33,7 +33,21 @@ impl MarchPlan {
     /// coarser than 5 % (the map's bound is on transmittance, not on each pixel's
     /// radiance).
     pub fn dsm_tolerance_share(&self) -> Option<f64> {
-        self.max_error.map(|e| Self::error_share(e).min(0.05))
+        self.max_error.map(Self::tolerance_of)
+    }
+
+    /// The shadow map's tolerance for an error `e` shared by the step, the termination
+    /// and the map.
+    pub fn tolerance_of(e: f64) -> f64 {
+        Self::error_share(e).min(0.05)
+    }
+
+    /// What is left of `max_error` for the step, the termination and the map once the
+    /// density's level has taken `level_error` (their squares add up).
+    pub fn remaining_error(max_error: f64, level_error: f64) -> f64 {
+        (max_error * max_error - level_error * level_error)
+            .max(0.0)
+            .sqrt()
     }
 
     pub(super) fn from_options(
