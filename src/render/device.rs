@@ -24,9 +24,10 @@ pub(super) fn choose_device(
         None if plan.outputs.deep.is_some() => {
             Err("the GPU backend does not write deep samples (--deep) yet".into())
         }
-        None if plan.production.holdout.is_some() => {
-            Err("the GPU backend does not cut at a holdout (--holdout-depth) yet".into())
-        }
+        None if plan.production.holdout.is_some() => Err(format!(
+            "the GPU backend does not cut at a holdout ({}) yet",
+            plan.production.holdout.as_ref().map_or("", |h| h.flag())
+        )),
         None => gpu::Gpu::shared(),
     };
     match opened {
