@@ -457,3 +457,69 @@ fn a_farm_job_passes_the_camera_file_to_its_tasks() {
         assert!(samples(&farm) == samples(&direct[f - 1]), "frame {f}");
     }
 }
+
+#[test]
+fn a_stage_in_other_units_is_scaled_into_the_volumes_units() {
+    need!(tools::USD_CORE);
+    let dir = scratch("units");
+    author_stages(&dir);
+    // The stage is in centimetres (metersPerUnit 0.01), taken to be the cloud's units.
+    let cloud = fixture("cloud.vdb");
+    let render = |name: &str, extra: &[&str]| {
+        let out = dir.join(format!("{name}.exr"));
+        let mut args = vec![
+            "render",
+            &cloud,
+            "-o",
+            out.to_str().unwrap(),
+            "--res",
+            "16x12",
+            "--frames",
+            "2",
+            "--camera-file",
+            "yup.usda",
+            "--quiet",
+        ];
+        args.extend(extra);
+        ok(&dir, &args);
+        out
+    };
+    let plain = render("plain", &[]);
+    // The volumes in the stage's own units: nothing changes, bit for bit.
+    let same = render("same", &["--scene-meters-per-unit", "0.01"]);
+    assert!(samples(&plain) == samples(&same));
+    // Volumes in tenths of a millimetre: the camera is 100 times as far in their units.
+    let far = render("far", &["--scene-meters-per-unit", "0.0001"]);
+    let (a, b) = (world_to_camera(&plain), world_to_camera(&far));
+    // Row-vector m44f: rows 0–2 are the rotation (unchanged), row 3 the translation.
+    for i in 0..12 {
+        assert!((a[i] - b[i]).abs() < 1e-6, "rotation {i}: {a:?} vs {b:?}");
+    }
+    for i in 12..15 {
+        assert!(
+            (b[i] - 100.0 * a[i]).abs() <= 1e-5 * (100.0 * a[i]).abs().max(1.0),
+            "translation {i}: {} vs 100 × {}",
+            b[i],
+            a[i]
+        );
+    }
+    fs::write(dir.join("shot.chan"), CHAN).unwrap();
+    for (args, needle) in [
+        (
+            vec!["--camera-file", "shot.chan", "--scene-meters-per-unit", "1"],
+            "a .chan or a [camera] table has no units",
+        ),
+        (
+            vec!["--camera-file", "yup.usda", "--scene-meters-per-unit", "-1"],
+            "must be a positive number of metres",
+        ),
+        (
+            vec!["--scene-meters-per-unit", "1"],
+            "--scene-meters-per-unit needs a camera",
+        ),
+    ] {
+        let mut all = vec!["render", &cloud, "-o", "bad.exr", "--res", "8x8"];
+        all.extend(args);
+        refused(&dir, &all, needle);
+    }
+}

@@ -13,6 +13,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
+use murk::files::FileError;
 use murk::output::{
     Background, ExrCompression, ExrOptions, Frame, OutputError, PreviewOptions, write_atomically,
     write_exr, write_preview,
@@ -521,10 +522,10 @@ fn failed_writes_leave_the_existing_target_untouched() {
     // fails after the temporary file was written
     let e: Result<(), OutputError> = write_atomically(&path, |tmp| {
         fs::write(tmp, b"half a file").unwrap();
-        Err(OutputError::Invalid {
+        Err(OutputError::File(FileError::Invalid {
             path: path.clone(),
             reason: "simulated failure".into(),
-        })
+        }))
     });
     assert!(e.is_err());
     assert_eq!(fs::read(&path).unwrap(), before, "target changed");
@@ -535,7 +536,10 @@ fn failed_writes_leave_the_existing_target_untouched() {
     fs::create_dir(&blocker).unwrap();
     fs::write(blocker.join("keep"), b"keep").unwrap();
     let e = write_exr(&blocker, &test_frame(), &test_options()).unwrap_err();
-    assert!(matches!(e, OutputError::Refused { .. }), "{e:?}");
+    assert!(
+        matches!(e, OutputError::File(FileError::Refused { .. })),
+        "{e:?}"
+    );
     assert!(
         e.to_string().contains(&blocker.display().to_string()),
         "{e}"

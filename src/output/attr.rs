@@ -16,3 +16,6 @@ pub const STORAGE: &str = "murk/storage";
 pub const COLORSPACE: &str = "murk/colorspace";
 pub const Z_EMPTY: &str = "murk/zEmpty";
 pub const CROP: &str = "murk/cropDataWindow";
+/// `X,Y`: the overscan of the frame the piece is a band of (`--overscan`), so that the
+/// stitch knows the frame's size beyond its displayWindow.
+pub const OVERSCAN: &str = "murk/overscan";

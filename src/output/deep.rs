@@ -15,7 +15,7 @@
 //! where that does not make it smaller.
 
 use super::OutputError;
-use crate::files::write_atomically;
+use crate::files::{FileError, write_atomically};
 use exr::prelude::f16;
 use flate2::Compression;
 use flate2::write::ZlibEncoder;
@@ -62,6 +62,8 @@ pub struct DeepExrOptions {
     /// The deep tolerance the samples were merged with: the depths' rounding moves a
     /// split by a share of it.
     pub tolerance: f64,
+    /// The displayWindow (the frame less its overscan) and `pixelAspectRatio`.
+    pub plate: super::Plate,
 }
 
 /// What a written deep file holds.
@@ -104,8 +106,10 @@ impl Header {
     }
 }
 
-fn box2i(w: usize, h: usize) -> Vec<u8> {
-    [0i32, 0, w as i32 - 1, h as i32 - 1]
+/// The box from `(x, y)` over `w` × `h` pixels.
+fn box2i((x, y): (i64, i64), (w, h): (usize, usize)) -> Vec<u8> {
+    [x, y, x + w as i64 - 1, y + h as i64 - 1]
+        .map(|v| v.clamp(i32::MIN as i64, i32::MAX as i64) as i32)
         .iter()
         .flat_map(|v| v.to_le_bytes())
         .collect()
@@ -245,13 +249,27 @@ fn encode(image: &DeepImage, opts: &DeepExrOptions) -> Result<(Vec<u8>, DeepWrit
     hd.attr("chromaticities", "chromaticities", &chroma);
     hd.int("chunkCount", h as i32);
     hd.attr("compression", "compression", &[ZIPS]);
-    hd.attr("dataWindow", "box2i", &box2i(w, h));
+    let Some(display) = opts.plate.size(w, h) else {
+        return Err(format!(
+            "an overscan of {:?} pixels leaves no image",
+            opts.plate.overscan
+        ));
+    };
+    hd.attr(
+        "dataWindow",
+        "box2i",
+        &box2i(opts.plate.from_frame(0, 0), (w, h)),
+    );
     hd.attr("deepImageState", "deepImageState", &[TIDY]);
-    hd.attr("displayWindow", "box2i", &box2i(w, h));
+    hd.attr("displayWindow", "box2i", &box2i((0, 0), display));
     hd.attr("lineOrder", "lineOrder", &[0]);
     hd.int("maxSamplesPerPixel", max.min(i32::MAX as usize) as i32);
     hd.string("name", "volume");
-    hd.attr("pixelAspectRatio", "float", &1f32.to_le_bytes());
+    hd.attr(
+        "pixelAspectRatio",
+        "float",
+        &opts.plate.pixel_aspect.to_le_bytes(),
+    );
     hd.attr("screenWindowCenter", "v2f", &[0u8; 8]);
     hd.attr("screenWindowWidth", "float", &1f32.to_le_bytes());
     hd.string("type", "deepscanline");
@@ -300,15 +318,19 @@ pub fn write_deep_exr(
     image: &DeepImage,
     opts: &DeepExrOptions,
 ) -> Result<DeepWriteSummary, OutputError> {
-    let invalid = |reason: String| OutputError::Invalid {
-        path: path.to_owned(),
-        reason,
+    let invalid = |reason: String| {
+        OutputError::File(FileError::Invalid {
+            path: path.to_owned(),
+            reason,
+        })
     };
     let (bytes, summary) = encode(image, opts).map_err(invalid)?;
     write_atomically(path, |temp| {
-        std::fs::write(temp, &bytes).map_err(|source| OutputError::Io {
-            path: path.to_owned(),
-            source,
+        std::fs::write(temp, &bytes).map_err(|source| {
+            OutputError::File(FileError::Io {
+                path: path.to_owned(),
+                source,
+            })
         })
     })?;
     Ok(summary)

@@ -45,62 +45,9 @@ pub enum OutputError {
         expected: &'static str,
     },
 
-    /// The frame or the options cannot be written to this file.
-    #[error("cannot write {}: {reason}", path.display())]
-    Invalid {
-        /// The target file.
-        path: PathBuf,
-        /// The problem.
-        reason: String,
-    },
-
-    /// The target is not one murk may replace (see [`check_target`](crate::files::guard::check_target)).
-    #[error("{}: {reason}", path.display())]
-    Refused {
-        /// The target file.
-        path: PathBuf,
-        /// Why not.
-        reason: String,
-    },
-
-    /// The temporary file next to the target could not be created.
-    #[error(
-        "cannot write {}: cannot create temporary file {}: {source}",
-        path.display(),
-        temp.display()
-    )]
-    CreateTemp {
-        /// The target file.
-        path: PathBuf,
-        /// The temporary file.
-        temp: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
-
-    /// The finished temporary file could not be renamed over the target.
-    #[error(
-        "cannot write {}: cannot rename temporary file {} over it: {source}",
-        path.display(),
-        temp.display()
-    )]
-    Rename {
-        /// The target file.
-        path: PathBuf,
-        /// The temporary file.
-        temp: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
-
-    /// Any other I/O error while writing the file.
-    #[error("cannot write {}: {source}", path.display())]
-    Io {
-        /// The target file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
+    /// The target file: refused, invalid, or its temporary file not written or renamed.
+    #[error(transparent)]
+    File(#[from] crate::files::FileError),
 
     /// The `exr` crate failed to encode the image.
     #[error("cannot write OpenEXR file {}: {source}", path.display())]
@@ -119,17 +66,4 @@ pub enum OutputError {
         /// The cause.
         source: image::ImageError,
     },
-}
-
-impl From<crate::files::FileError> for OutputError {
-    fn from(e: crate::files::FileError) -> Self {
-        use crate::files::FileError as F;
-        match e {
-            F::Invalid { path, reason } => OutputError::Invalid { path, reason },
-            F::Refused { path, reason } => OutputError::Refused { path, reason },
-            F::CreateTemp { path, temp, source } => OutputError::CreateTemp { path, temp, source },
-            F::Rename { path, temp, source } => OutputError::Rename { path, temp, source },
-            F::Io { path, source } => OutputError::Io { path, source },
-        }
-    }
 }

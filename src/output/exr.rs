@@ -13,7 +13,7 @@ use exr::prelude::{
 
 use super::OutputError;
 use super::frame::{Frame, PixelRect, is_depth_channel};
-use crate::files::write_atomically;
+use crate::files::{FileError, write_atomically};
 
 /// EXR compression methods offered on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -131,6 +131,9 @@ pub struct ExrOptions {
     /// The frame's colour is already in `colorspace` (stitched pieces that were written
     /// in it): stored as it is, not converted again.
     pub colour_converted: bool,
+    /// The plate: the displayWindow, inside the frame by the overscan; and the
+    /// `pixelAspectRatio`.
+    pub plate: super::Plate,
 }
 
 impl Default for ExrOptions {
@@ -148,6 +151,7 @@ impl Default for ExrOptions {
             crop_data_window: false,
             colorspace: super::ColorSpace::default(),
             colour_converted: false,
+            plate: super::Plate::default(),
         }
     }
 }
@@ -155,7 +159,8 @@ impl Default for ExrOptions {
 /// What [`write_exr`] did besides writing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ExrWriteSummary {
-    /// The data window written (the display window is the full frame).
+    /// The data window written, in the frame's pixels (the display window is the plate:
+    /// the frame less its overscan).
     pub data_window: PixelRect,
     /// NaN samples found in the frame (a renderer bug). They were written as
     /// 0, or as `+inf` ("no depth") in depth channels. When non-zero the count
@@ -232,14 +237,22 @@ pub fn write_exr(
     frame: &Frame,
     opts: &ExrOptions,
 ) -> Result<ExrWriteSummary, OutputError> {
-    let invalid = |reason: String| OutputError::Invalid {
-        path: path.to_owned(),
-        reason,
+    let invalid = |reason: String| {
+        OutputError::File(FileError::Invalid {
+            path: path.to_owned(),
+            reason,
+        })
     };
     let (w, h) = (frame.width, frame.height);
     if w == 0 || h == 0 {
         return Err(invalid(format!("the frame is empty ({w}x{h})")));
     }
+    let Some(display) = opts.plate.size(w, h) else {
+        return Err(invalid(format!(
+            "an overscan of {:?} pixels leaves no image in the {w}x{h} frame",
+            opts.plate.overscan
+        )));
+    };
     if i32::try_from(w).is_err() || i32::try_from(h).is_err() {
         return Err(invalid(format!(
             "the frame is too large for OpenEXR ({w}x{h})"
@@ -314,7 +327,10 @@ pub fn write_exr(
     }
 
     let mut layer_attributes = LayerAttributes {
-        layer_position: Vec2(to_i32(window.x), to_i32(window.y)),
+        layer_position: {
+            let (x, y) = opts.plate.from_frame(window.x, window.y);
+            Vec2(x as i32, y as i32)
+        },
         world_to_camera: opts.world_to_camera.map(flatten),
         world_to_normalized_device: opts.world_to_ndc.map(flatten),
         software_name: (!opts.software.is_empty()).then(|| text(&opts.software)),
@@ -360,7 +376,8 @@ pub fn write_exr(
             blue,
             white,
         }),
-        ..ImageAttributes::new(IntegerBounds::from_dimensions((w, h)))
+        pixel_aspect: opts.plate.pixel_aspect,
+        ..ImageAttributes::new(IntegerBounds::from_dimensions(display))
     };
     let image = Image::new(image_attributes, layer);
 
@@ -382,11 +399,6 @@ pub fn write_exr(
 /// EXR strings are byte strings; store UTF-8 bytes as they are.
 fn text(s: &str) -> Text {
     Text::from_slice_unchecked(s.as_bytes())
-}
-
-/// Only called on values already checked to fit (frame size < i32::MAX).
-fn to_i32(v: usize) -> i32 {
-    i32::try_from(v).unwrap_or(i32::MAX)
 }
 
 fn flatten(m: [[f32; 4]; 4]) -> [f32; 16] {

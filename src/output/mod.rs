@@ -11,6 +11,7 @@ pub mod deep_pack;
 mod error;
 mod exr;
 mod frame;
+mod plate;
 mod preview;
 pub mod stitch;
 
@@ -25,6 +26,7 @@ pub use exr::{
     half_overflow_notes, overflowing_layers, write_exr,
 };
 pub use frame::{Channel, Frame, PixelRect, is_depth_channel, names};
+pub use plate::Plate;
 pub use preview::{
     Background, CHECKER_GREYS, CHECKER_SIZE, PreviewOptions, srgb_encode, to_u8, write_preview,
 };

@@ -7,7 +7,7 @@ use image::{ImageBuffer, ImageFormat, Rgb, Rgba};
 
 use super::OutputError;
 use super::frame::{Frame, names};
-use crate::files::write_atomically;
+use crate::files::{FileError, write_atomically};
 
 /// What the premultiplied beauty is composited over.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -108,9 +108,11 @@ pub fn to_u8(v: f32) -> u8 {
 /// background gives an RGBA PNG with un-premultiplied colours; the others an
 /// RGB PNG. Replaced atomically. Fails if any of R, G, B, A is missing.
 pub fn write_preview(path: &Path, frame: &Frame, opts: &PreviewOptions) -> Result<(), OutputError> {
-    let invalid = |reason: String| OutputError::Invalid {
-        path: path.to_owned(),
-        reason,
+    let invalid = |reason: String| {
+        OutputError::File(FileError::Invalid {
+            path: path.to_owned(),
+            reason,
+        })
     };
     let (w, h) = (frame.width, frame.height);
     let (Ok(w32), Ok(h32)) = (u32::try_from(w), u32::try_from(h)) else {

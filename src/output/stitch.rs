@@ -8,6 +8,7 @@ use super::OutputError;
 use super::attr;
 use super::exr::{ExrCompression, ExrOptions, write_exr};
 use super::frame::{Frame, is_depth_channel};
+use super::plate::Plate;
 use exr::block::reader::ChunksReader;
 use exr::image::read::image::{LayersReader, ReadLayers};
 use exr::image::read::layers::ReadChannels;
@@ -72,6 +73,7 @@ struct Piece {
     count: usize,
     rows: (usize, usize),
     size: (usize, usize),
+    plate: Plate,
     /// The data window's origin and size.
     window: (usize, usize, usize, usize),
     channels: Vec<(String, Vec<f32>, bool)>,
@@ -179,15 +181,31 @@ fn read_piece(path: &Path) -> Result<Piece> {
         .split_once('-')
         .and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)))
         .ok_or_else(|| bad(path, format!("a malformed {} attribute", attr::TILE_ROWS)))?;
+    // The frame is the displayWindow (the plate) and its overscan around it.
+    let overscan = match strings.get(attr::OVERSCAN) {
+        Some(t) => Plate::parse_overscan(t)
+            .ok_or_else(|| bad(path, format!("a malformed {} attribute", attr::OVERSCAN)))?,
+        None => (0, 0),
+    };
     let display = image.attributes.display_window;
-    let size = (display.size.0, display.size.1);
+    let size = (
+        display.size.0.saturating_add(overscan.0.saturating_mul(2)),
+        display.size.1.saturating_add(overscan.1.saturating_mul(2)),
+    );
     let pos = layer.attributes.layer_position;
+    let origin = |p: i32, d: i32, o: usize| {
+        usize::try_from(p as i64 - d as i64 + o as i64).unwrap_or(usize::MAX)
+    };
     let window = (
-        usize::try_from(pos.0 - display.position.0).unwrap_or(usize::MAX),
-        usize::try_from(pos.1 - display.position.1).unwrap_or(usize::MAX),
+        origin(pos.0, display.position.0, overscan.0),
+        origin(pos.1, display.position.1, overscan.1),
         layer.size.0,
         layer.size.1,
     );
+    let plate = Plate {
+        overscan,
+        pixel_aspect: image.attributes.pixel_aspect,
+    };
     let (rows_ok, window_ok) = (
         rows.0 < rows.1 && rows.1 <= size.1,
         window.0.saturating_add(window.2) <= size.0 && window.1.saturating_add(window.3) <= size.1,
@@ -214,6 +232,7 @@ fn read_piece(path: &Path) -> Result<Piece> {
         count,
         rows,
         size,
+        plate,
         window,
         channels,
         strings,
@@ -265,7 +284,7 @@ fn same(pieces: &[Piece]) -> Result<()> {
                 ),
             ));
         }
-        if p.size != first.size {
+        if p.size != first.size || p.plate.overscan != first.plate.overscan {
             return Err(bad(
                 &p.path,
                 format!(
@@ -441,6 +460,7 @@ pub fn stitch_frame(pieces: &[PathBuf]) -> Result<Stitched> {
                     attr::COLORSPACE,
                     attr::Z_EMPTY,
                     attr::CROP,
+                    attr::OVERSCAN,
                 ]
                 .contains(&k.as_str())
         })
@@ -475,6 +495,7 @@ pub fn stitch_frame(pieces: &[PathBuf]) -> Result<Stitched> {
         crop_data_window: read
             .iter()
             .any(|p| p.strings.get(attr::CROP).is_some_and(|c| c == "true")),
+        plate: first.plate,
     };
     Ok(Stitched {
         frame,

@@ -24,10 +24,6 @@ pub(super) fn choose_device(
         None if plan.outputs.deep.is_some() => {
             Err("the GPU backend does not write deep samples (--deep) yet".into())
         }
-        None if plan.production.holdout.is_some() => Err(format!(
-            "the GPU backend does not cut at a holdout ({}) yet",
-            plan.production.holdout.as_ref().map_or("", |h| h.flag())
-        )),
         None => gpu::Gpu::shared(),
     };
     match opened {
@@ -52,6 +48,7 @@ pub(super) fn render_frame_gpu(
     scene: &Scene,
     plan: &RenderPlan,
     rows: std::ops::Range<usize>,
+    holdout: Option<&[f32]>,
     st: &mut RenderStats,
 ) -> Result<std::result::Result<(Frame, f64), String>> {
     let t = Instant::now();
@@ -63,7 +60,8 @@ pub(super) fn render_frame_gpu(
         rows,
         antialias: plan.sampling.antialias,
         deep: None,
-        holdout: None,
+        holdout,
+        overscan: plan.camera.overscan,
     };
     let (passes, times) = match gpu::render_pixels(gpu, scene, &job) {
         Ok(done) => done,

@@ -197,12 +197,16 @@ fn render_image_frame_here(
     // The holdout first: a wrong one is refused before anything is built.
     let holdout = match &plan.production.holdout {
         Some(spec) => Some(
-            crate::scene::holdout::load(spec, plan.camera.width, plan.camera.height).map_err(
-                |problem| RenderError::Input {
-                    path: spec.path.clone(),
-                    problem,
-                },
-            )?,
+            crate::scene::holdout::load(
+                spec,
+                plan.camera.width,
+                plan.camera.height,
+                plan.camera.overscan,
+            )
+            .map_err(|problem| RenderError::Input {
+                path: spec.path.clone(),
+                problem,
+            })?,
         ),
         None => None,
     };
@@ -246,7 +250,8 @@ fn render_image_frame_here(
                 make(march_settings(plan, &scene, &mut st, make)).with_deep(deep.is_some());
             let on_gpu = match &gpu {
                 Some(g) => {
-                    render_frame_gpu(g, &integrator, &scene, plan, extent.rows.clone(), &mut st)?
+                    let rows = extent.rows.clone();
+                    render_frame_gpu(g, &integrator, &scene, plan, rows, extent.holdout, &mut st)?
                 }
                 None => Err(String::new()),
             };
@@ -325,6 +330,10 @@ fn render_image_frame_here(
         }
     };
     let mut exr = plan.outputs.exr.clone();
+    exr.plate = crate::output::Plate {
+        overscan: plan.camera.overscan,
+        pixel_aspect: scene.plate_camera.pixel_aspect(),
+    };
     if let Some(f) = job.frame {
         exr.extra_strings
             .push((piece::attr::FRAME.into(), f.to_string()));
@@ -343,9 +352,12 @@ fn render_image_frame_here(
             (piece::attr::COLORSPACE.into(), exr.colorspace.name().into()),
             (piece::attr::Z_EMPTY.into(), exr.z_empty.to_string()),
             (piece::attr::CROP.into(), exr.crop_data_window.to_string()),
+            (piece::attr::OVERSCAN.into(), exr.plate.overscan_text()),
         ]);
     }
-    let camera = &scene.camera;
+    // The header describes the image's camera (the plate's): its NDC cube is the
+    // display window, the overscan beyond it.
+    let camera = &scene.plate_camera;
     exr.world_to_camera = Some(camera.world_to_camera().as_mat4().to_cols_array_2d());
     let (near, far) = scene.depth_range();
     exr.world_to_ndc = Some(camera.world_to_ndc(near, far).as_mat4().to_cols_array_2d());
@@ -404,6 +416,7 @@ fn deep_options(exr: &crate::output::ExrOptions, tolerance: f64) -> DeepExrOptio
         colorspace: exr.colorspace,
         half: !exr.float,
         tolerance,
+        plate: exr.plate,
     }
 }
 
@@ -471,6 +484,7 @@ fn render_frame<I: Integrator>(
         antialias: plan.sampling.antialias,
         deep: extent.deep,
         holdout: extent.holdout,
+        overscan: plan.camera.overscan,
     };
     progress.start("rendering", job.tiles() as u64, "tiles");
     // On the plan's threads: the caller runs inside `on_plan_threads`.

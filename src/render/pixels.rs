@@ -5,7 +5,7 @@ use crate::integrate::WorldRay;
 use crate::integrate::deep::{DeepPoint, DeepSample, pixel_samples};
 use crate::integrate::integrator::{CameraSample, Integrator, SampleRng, unit_random};
 use crate::integrate::pass::{PassKind, PassLayout};
-use crate::scene::camera::Camera;
+use crate::scene::camera::{Camera, CameraFrame};
 use crate::scene::progress::Progress;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -52,9 +52,45 @@ pub struct PixelJob<'a, I: Integrator> {
     pub deep: Option<f64>,
     /// `--holdout-depth`: per pixel, the camera-space depth at which its rays stop.
     pub holdout: Option<&'a [f32]>,
+    /// The frame's overscan (x, y): random streams are keyed by the pixel's place in
+    /// the image, so that an overscanned frame holds the image's pixels unchanged.
+    pub overscan: (usize, usize),
 }
 
 impl<I: Integrator> PixelJob<'_, I> {
+    /// The pixel `(x, y)` of the frame as its random streams know it: its place in the
+    /// image, whatever the overscan (wrapping left of and above the image).
+    pub(super) fn stream_pixel(&self, x: usize, y: usize) -> (usize, usize) {
+        (
+            x.wrapping_sub(self.overscan.0),
+            y.wrapping_sub(self.overscan.1),
+        )
+    }
+
+    /// The camera ray through `(x + jx, y + jy)`, cut to the camera's clipping planes
+    /// and to the pixel's holdout depth.
+    pub(super) fn camera_sample(
+        &self,
+        frame: &CameraFrame,
+        x: usize,
+        y: usize,
+        jx: f64,
+        jy: f64,
+    ) -> CameraSample {
+        let (o, d) = self.camera.ray(frame, x as f64 + jx, y as f64 + jy);
+        let mut ray = WorldRay::new(o, d);
+        (ray.t_min, ray.t_max) = self.camera.clip(frame, ray.dir);
+        let depth_rate = d.dot(frame.forward);
+        if let Some(depth) = self.holdout.and_then(|h| h.get(y * self.camera.width + x)) {
+            // Depth is t × depth_rate along the ray.
+            let t = *depth as f64 / depth_rate;
+            if t < ray.t_max {
+                ray.t_max = t.max(0.0);
+            }
+        }
+        CameraSample { ray, depth_rate }
+    }
+
     /// Whether edges are antialiased: one sample a pixel, `antialias` > 1, and an alpha
     /// pass to find them by.
     pub(super) fn edges(&self) -> bool {
@@ -131,39 +167,27 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         let mut curves: Vec<Vec<DeepPoint>> = Vec::new();
         let mut n_samples = 0;
         let count = if grid == 0 { job.spp } else { grid * grid };
+        let (sx, sy) = job.stream_pixel(x, y);
         for s in 0..count {
             let (jx, jy, stream) = if grid > 0 {
                 // Streams 1.. (the centre's is 0).
                 let s1 = s + 1;
                 (
-                    ((s % grid) as f64 + unit_random(job.seed, x, y, s1, 1)) / grid as f64,
-                    ((s / grid) as f64 + unit_random(job.seed, x, y, s1, 2)) / grid as f64,
+                    ((s % grid) as f64 + unit_random(job.seed, sx, sy, s1, 1)) / grid as f64,
+                    ((s / grid) as f64 + unit_random(job.seed, sx, sy, s1, 2)) / grid as f64,
                     s1,
                 )
             } else if job.spp == 1 {
                 (0.5, 0.5, 0)
             } else {
                 (
-                    unit_random(job.seed, x, y, s, 1),
-                    unit_random(job.seed, x, y, s, 2),
+                    unit_random(job.seed, sx, sy, s, 1),
+                    unit_random(job.seed, sx, sy, s, 2),
                     s,
                 )
             };
-            let (o, d) = job.camera.ray(&frame, x as f64 + jx, y as f64 + jy);
-            let mut ray = WorldRay::new(o, d);
-            (ray.t_min, ray.t_max) = job.camera.clip(&frame, ray.dir);
-            let mut sample = CameraSample {
-                ray,
-                depth_rate: d.dot(frame.forward),
-            };
-            if let Some(depth) = job.holdout.and_then(|h| h.get(y * w + x)) {
-                // Depth is t × depth_rate along the ray.
-                let t = *depth as f64 / sample.depth_rate;
-                if t < sample.ray.t_max {
-                    sample.ray.t_max = t.max(0.0);
-                }
-            }
-            let mut rng = SampleRng::new(job.seed, x, y, stream);
+            let sample = job.camera_sample(&frame, x, y, jx, jy);
+            let mut rng = SampleRng::new(job.seed, sx, sy, stream);
             n_samples += job.integrator.sample(&sample, &mut rng, scratch, acc);
             if job.deep.is_some()
                 && let Some(trace) = job.integrator.deep_trace(scratch)
@@ -310,6 +334,31 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
     }
 }
 
+/// A pixel's values from the sums of its `count` samples: their means (non-finite ones 0),
+/// and Z, which follows the pixel's opacity: finite only where the mean alpha reaches 0.5
+/// (then at least one sample crossed it), the mean of the crossings.
+pub(crate) fn finish_pixel(
+    px: &mut [f32],
+    acc: &[f64],
+    count: usize,
+    alpha_at: Option<usize>,
+    depth_at: Option<usize>,
+) {
+    let inv = 1.0 / count.max(1) as f64;
+    for (dst, a) in px.iter_mut().zip(acc.iter()) {
+        let v = (a * inv) as f32;
+        *dst = if v.is_finite() { v } else { 0.0 };
+    }
+    if let Some(d) = depth_at {
+        let opaque = alpha_at.is_none_or(|a| acc[a] * inv >= 0.5);
+        px[d] = if acc[d + 1] > 0.0 && opaque {
+            (acc[d] / acc[d + 1]) as f32
+        } else {
+            f32::INFINITY
+        };
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -380,6 +429,7 @@ mod tests {
             antialias,
             deep: None,
             holdout: None,
+            overscan: (0, 0),
         };
         render_pixels(&job, &Silent)
     }
@@ -432,30 +482,5 @@ mod tests {
                 }
             }
         }
-    }
-}
-
-/// A pixel's values from the sums of its `count` samples: their means (non-finite ones 0),
-/// and Z, which follows the pixel's opacity: finite only where the mean alpha reaches 0.5
-/// (then at least one sample crossed it), the mean of the crossings.
-pub(crate) fn finish_pixel(
-    px: &mut [f32],
-    acc: &[f64],
-    count: usize,
-    alpha_at: Option<usize>,
-    depth_at: Option<usize>,
-) {
-    let inv = 1.0 / count.max(1) as f64;
-    for (dst, a) in px.iter_mut().zip(acc.iter()) {
-        let v = (a * inv) as f32;
-        *dst = if v.is_finite() { v } else { 0.0 };
-    }
-    if let Some(d) = depth_at {
-        let opaque = alpha_at.is_none_or(|a| acc[a] * inv >= 0.5);
-        px[d] = if acc[d + 1] > 0.0 && opaque {
-            (acc[d] / acc[d + 1]) as f32
-        } else {
-            f32::INFINITY
-        };
     }
 }

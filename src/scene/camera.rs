@@ -113,6 +113,79 @@ impl Camera {
         }
     }
 
+    /// The same camera seeing `ox` more pixels left and right and `oy` more above and
+    /// below (overscan): its pixel `(x + ox, y + oy)` is this camera's pixel `(x, y)`, and
+    /// its image `2·ox` wider and `2·oy` taller. A perspective or orthographic camera
+    /// becomes the film window it is (without clipping planes).
+    pub fn overscanned(&self, ox: usize, oy: usize) -> Camera {
+        if (ox, oy) == (0, 0) {
+            return *self;
+        }
+        let (w, h) = (self.width as f64, self.height as f64);
+        let window = match self.projection {
+            Projection::Perspective { fov_deg } => {
+                let t = (fov_deg.to_radians() * 0.5).tan();
+                Window {
+                    orthographic: false,
+                    left: -t,
+                    right: t,
+                    bottom: -t * self.aspect(),
+                    top: t * self.aspect(),
+                    near: 0.0,
+                    far: f64::INFINITY,
+                }
+            }
+            Projection::Orthographic { width } => {
+                let half = width * 0.5;
+                Window {
+                    orthographic: true,
+                    left: -half,
+                    right: half,
+                    bottom: -half * self.aspect(),
+                    top: half * self.aspect(),
+                    near: 0.0,
+                    far: f64::INFINITY,
+                }
+            }
+            Projection::Film(window) => window,
+        };
+        let (dx, dy) = (
+            ox as f64 * (window.right - window.left) / w,
+            oy as f64 * (window.top - window.bottom) / h,
+        );
+        Camera {
+            projection: Projection::Film(Window {
+                left: window.left - dx,
+                right: window.right + dx,
+                bottom: window.bottom - dy,
+                top: window.top + dy,
+                ..window
+            }),
+            width: self.width + 2 * ox,
+            height: self.height + 2 * oy,
+            ..*self
+        }
+    }
+
+    /// A pixel's width over its height on the screen (1 but for a film back's pixel
+    /// aspect ratio), rounded to single precision.
+    pub fn pixel_aspect(&self) -> f32 {
+        match self.projection {
+            Projection::Film(w) => {
+                let pixel_w = (w.right - w.left) / self.width as f64;
+                let pixel_h = (w.top - w.bottom) / self.height as f64;
+                let ratio = (pixel_w / pixel_h) as f32;
+                // Square pixels through rounding stay square.
+                if (ratio - 1.0).abs() < 1e-6 {
+                    1.0
+                } else {
+                    ratio
+                }
+            }
+            _ => 1.0,
+        }
+    }
+
     /// The stretch `[t_min, t_max]` of the ray along unit `dir` between the clipping
     /// planes: a film back's, else the whole ray.
     pub fn clip(&self, frame: &CameraFrame, dir: DVec3) -> (f64, f64) {
@@ -284,5 +357,47 @@ mod tests {
             let q = ndc.project_point3(p);
             assert!(q.x.abs() <= 1.0 && q.y.abs() <= 1.0, "corner {p} at {q}");
         }
+    }
+
+    #[test]
+    fn an_overscanned_camera_sees_the_same_pixels_and_more_around_them() {
+        let eye = DVec3::new(0.3, 1.0, 6.0);
+        let base = |projection| Camera {
+            projection,
+            eye,
+            look_at: DVec3::ZERO,
+            up: DVec3::Y,
+            width: 40,
+            height: 30,
+        };
+        let film = crate::scene::film::FilmBack {
+            pixel_aspect: 2.0,
+            horizontal_offset: 1.5,
+            ..Default::default()
+        };
+        for cam in [
+            base(Projection::Perspective { fov_deg: 50.0 }),
+            base(Projection::Orthographic { width: 3.0 }),
+            base(Projection::Film(film.window(40, 30))),
+        ] {
+            let wide = cam.overscanned(6, 4);
+            assert_eq!((wide.width, wide.height), (52, 38));
+            let (f, g) = (cam.frame(), wide.frame());
+            for (x, y) in [(0.0, 0.0), (0.5, 0.5), (39.5, 29.5), (17.25, 3.75)] {
+                let (o, d) = cam.ray(&f, x, y);
+                let (o2, d2) = wide.ray(&g, x + 6.0, y + 4.0);
+                assert!((o - o2).length() < 1e-12 && (d - d2).length() < 1e-12);
+            }
+            assert_eq!(wide.pixel_aspect(), cam.pixel_aspect());
+            assert_eq!(cam.overscanned(0, 0), cam);
+        }
+        assert_eq!(
+            base(Projection::Film(film.window(40, 30))).pixel_aspect(),
+            2.0
+        );
+        assert_eq!(
+            base(Projection::Perspective { fov_deg: 50.0 }).pixel_aspect(),
+            1.0
+        );
     }
 }

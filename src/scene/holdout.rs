@@ -75,11 +75,18 @@ pub struct Holdout {
     pub depths: Vec<f32>,
 }
 
-/// Reads the holdout's depths for a `width`×`height` render. Errors say what is wrong
-/// with the file in one line (the caller names it).
-pub fn load(spec: &HoldoutSpec, width: usize, height: usize) -> Result<Holdout, String> {
+/// Reads the holdout's depths for a `width`×`height` frame, `overscan` (x, y) of it
+/// beyond the image on each side: the holdout's displayWindow is the image, and its
+/// data window may cover the overscan too. Errors say what is wrong with the file in
+/// one line (the caller names it).
+pub fn load(
+    spec: &HoldoutSpec,
+    width: usize,
+    height: usize,
+    overscan: (usize, usize),
+) -> Result<Holdout, String> {
     if spec.deep {
-        return super::holdout_deep::load(&spec.path, width, height)
+        return super::holdout_deep::load(&spec.path, width, height, overscan)
             .map(|depths| Holdout { depths });
     }
     let meta = exr::meta::MetaData::read_from_file(&spec.path, false)
@@ -88,13 +95,20 @@ pub fn load(spec: &HoldoutSpec, width: usize, height: usize) -> Result<Holdout, 
         return Err("an EXR without a header".into());
     };
     if header.deep {
-        return Err("a deep image; --holdout-depth takes a flat depth image".into());
+        return Err(
+            "a deep image; --holdout-depth takes a flat depth image (--holdout-deep a deep one)"
+                .into(),
+        );
     }
     let display = header.shared_attributes.display_window.size;
-    if (display.0, display.1) != (width, height) {
+    let image = (
+        width.saturating_sub(2 * overscan.0),
+        height.saturating_sub(2 * overscan.1),
+    );
+    if (display.0, display.1) != image {
         return Err(format!(
-            "its image is {}x{}, the render {width}x{height}: a holdout comes from the same camera at the same size",
-            display.0, display.1
+            "its image is {}x{}, the render {}x{}: a holdout comes from the same camera at the same size",
+            display.0, display.1, image.0, image.1
         ));
     }
     let image = read_all_flat_layers_from_file(&spec.path).map_err(|e| e.to_string())?;
@@ -139,11 +153,14 @@ pub fn load(spec: &HoldoutSpec, width: usize, height: usize) -> Result<Holdout, 
     for ly in 0..size.1 {
         for lx in 0..size.0 {
             let v = values[ly * size.0 + lx];
-            let (x, y) = (pos.0 - origin.0 + lx as i32, pos.1 - origin.1 + ly as i32);
+            let (x, y) = (
+                pos.0 as i64 - origin.0 as i64 + lx as i64 + overscan.0 as i64,
+                pos.1 as i64 - origin.1 as i64 + ly as i64 + overscan.1 as i64,
+            );
             if v.is_nan() {
                 nan.get_or_insert((x, y));
             }
-            if (0..width as i32).contains(&x) && (0..height as i32).contains(&y) {
+            if (0..width as i64).contains(&x) && (0..height as i64).contains(&y) {
                 depths[y as usize * width + x as usize] = v;
             }
         }

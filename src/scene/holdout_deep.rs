@@ -219,15 +219,27 @@ fn value(bytes: &[u8], kind: i32) -> f64 {
     }
 }
 
-/// Reads the holdout depth of every pixel of a `width`×`height` render (`+inf`: none).
-pub fn load(path: &Path, width: usize, height: usize) -> Result<Vec<f32>, String> {
+/// Reads the holdout depth of every pixel of a `width`×`height` frame, `overscan`
+/// (x, y) of it beyond the image on each side (`+inf`: none): the holdout's
+/// displayWindow is the image, its data window may cover the overscan too.
+pub fn load(
+    path: &Path,
+    width: usize,
+    height: usize,
+    overscan: (usize, usize),
+) -> Result<Vec<f32>, String> {
     let b = std::fs::read(path).map_err(|e| e.to_string())?;
     let h = header(&b)?;
     let [dx0, dy0, dx1, dy1] = h.display;
     let (dw, dh) = (dx1 as i64 - dx0 as i64 + 1, dy1 as i64 - dy0 as i64 + 1);
-    if (dw, dh) != (width as i64, height as i64) {
+    let image = (
+        width.saturating_sub(2 * overscan.0) as i64,
+        height.saturating_sub(2 * overscan.1) as i64,
+    );
+    if (dw, dh) != image {
         return Err(format!(
-            "its image is {dw}x{dh}, the render {width}x{height}: a holdout comes from the same camera at the same size"
+            "its image is {dw}x{dh}, the render {}x{}: a holdout comes from the same camera at the same size",
+            image.0, image.1
         ));
     }
     let find = |n: &str| h.channels.iter().position(|c| c.name == n);
@@ -326,8 +338,8 @@ pub fn load(path: &Path, width: usize, height: usize) -> Result<Vec<f32>, String
                 1.0 - t >= OPAQUE
             });
             let (x, yy) = (
-                x0 as i64 + (i % w) as i64 - dx0 as i64,
-                y as i64 + (i / w) as i64 - dy0 as i64,
+                x0 as i64 + (i % w) as i64 - dx0 as i64 + overscan.0 as i64,
+                y as i64 + (i / w) as i64 - dy0 as i64 + overscan.1 as i64,
             );
             if let Some((z, _)) = cut
                 && (0..width as i64).contains(&x)

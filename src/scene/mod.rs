@@ -114,7 +114,11 @@ type Result<T, E = SceneError> = std::result::Result<T, E>;
 
 /// A scene ready to render.
 pub struct Scene {
+    /// The camera rays are shot through: the frame, overscan included.
     pub camera: Camera,
+    /// The camera of the image without its overscan (`res`): the one the EXR header
+    /// describes.
+    pub plate_camera: Camera,
     pub fields: SceneFields,
     pub medium: Medium,
     pub phase: Arc<dyn PhaseFunction>,
@@ -195,11 +199,9 @@ impl Scene {
         report
             .stages
             .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
+        let (plate_w, plate_h) = plan.camera.plate();
         let shot = match &plan.camera.request.shot {
-            Some(s) => Some(
-                s.camera(plan.camera.width, plan.camera.height)
-                    .map_err(PlanError::Invalid)?,
-            ),
+            Some(s) => Some(s.camera(plate_w, plate_h).map_err(PlanError::Invalid)?),
             None => None,
         };
         let (mut up_axis, mut up_why) = conventions::resolve_up_axis(
@@ -225,13 +227,15 @@ impl Scene {
         }
         report.up_axis = up_why;
         let plan = &*turned_for_up(plan, up_axis);
-        let camera = match shot {
+        let plate_camera = match shot {
             Some(s) => {
                 report.notes.extend(s.notes);
                 s.camera
             }
             None => resolve_camera(plan, fields.density.as_ref(), up_axis, reuse.frame_box)?,
         };
+        let (ox, oy) = plan.camera.overscan;
+        let camera = plate_camera.overscanned(ox, oy);
         let mut emission_plan = plan.emission;
         if let Some(m) = &fields.temperature_mapping {
             emission_plan.temperature_scale = m.scale;
@@ -250,6 +254,7 @@ impl Scene {
             .insert("phase".into(), Stage::ran(t.elapsed().as_secs_f64()));
         let mut scene = Scene {
             camera,
+            plate_camera,
             medium,
             phase,
             emission,
@@ -524,13 +529,8 @@ fn resolve_camera(
     // Framed in murk's Y-up frame, then turned into the world's: the box's corners
     // map to a box (the turn permutes axes).
     let (a, b) = (up.to_y_up(lo), up.to_y_up(hi));
-    let mut framed = Camera::framing(
-        a.min(b),
-        a.max(b),
-        plan.camera.width,
-        plan.camera.height,
-        req.projection,
-    );
+    let (width, height) = plan.camera.plate();
+    let mut framed = Camera::framing(a.min(b), a.max(b), width, height, req.projection);
     framed.eye = up.from_y_up(framed.eye);
     framed.look_at = up.from_y_up(framed.look_at);
     framed.up = up.from_y_up(framed.up);

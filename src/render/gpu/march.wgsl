@@ -34,7 +34,7 @@ struct Params {
 struct Sample {
     world_origin: vec4<f32>, // xyz, w: jitter
     world_dir: vec4<f32>,
-    index_origin: vec4<f32>,
+    index_origin: vec4<f32>, // xyz, w: t_min (the near clipping plane)
     index_dir: vec4<f32>,
 };
 
@@ -423,7 +423,7 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     if (speed > 0.0 && speed < BIG) {
         let h = max(P.step_voxels, 1e-6) / speed;
         let st_max = max(max(P.sigma_t.x, P.sigma_t.y), P.sigma_t.z);
-        let clip = clip_to_bounds(r, 0.0, t_max);
+        let clip = clip_to_bounds(r, smp.index_origin.w, t_max);
         var t = clip.x;
         let t_end = clip.y;
         let scale = max(max(abs(r.o.x), abs(r.o.y)), max(abs(r.o.z), 1.0));

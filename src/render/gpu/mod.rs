@@ -31,7 +31,11 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
         ));
     }
     let Some(grid) = scene.fields.density.as_voxel_grid() else {
-        return Some("a density that is not a voxel grid (a mesh or a procedural field)".into());
+        return Some(if plan.volumes.is_some() {
+            "several volumes ([[volume]] tables)".into()
+        } else {
+            "a density that is not a voxel grid (a mesh or a procedural field)".into()
+        });
     };
     if let Err(e) = grid.nodes_check() {
         return Some(match e {

@@ -7,10 +7,10 @@
 use super::context::{Gpu, Resident};
 use super::upload::{RESULT_BASE, SAMPLE_FLOATS};
 use crate::field::IndexRay;
+use crate::integrate::RayResult;
 use crate::integrate::integrator::{Integrator, SampleRng, unit_random};
 use crate::integrate::pass::PassKind;
 use crate::integrate::single::SingleScattering;
-use crate::integrate::{RayResult, WorldRay};
 use crate::render::pixels::{EDGE_ALPHA, PixelJob, PixelPasses, finish_pixel};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -31,21 +31,22 @@ fn sample_points(job: &PixelJob<SingleScattering>, p: Pick) -> Vec<(f64, f64, u3
     } else {
         p.grid * p.grid
     };
+    let (sx, sy) = job.stream_pixel(p.x, p.y);
     (0..count)
         .map(|s| {
             if p.grid > 0 {
                 let (g, s1) = (p.grid, s + 1);
                 (
-                    ((s % g) as f64 + unit_random(job.seed, p.x, p.y, s1, 1)) / g as f64,
-                    ((s / g) as f64 + unit_random(job.seed, p.x, p.y, s1, 2)) / g as f64,
+                    ((s % g) as f64 + unit_random(job.seed, sx, sy, s1, 1)) / g as f64,
+                    ((s / g) as f64 + unit_random(job.seed, sx, sy, s1, 2)) / g as f64,
                     s1,
                 )
             } else if job.spp == 1 {
                 (0.5, 0.5, 0)
             } else {
                 (
-                    unit_random(job.seed, p.x, p.y, s, 1),
-                    unit_random(job.seed, p.x, p.y, s, 2),
+                    unit_random(job.seed, sx, sy, s, 1),
+                    unit_random(job.seed, sx, sy, s, 2),
                     s,
                 )
             }
@@ -88,18 +89,20 @@ fn render_picks(
         .for_each(|(i, (out, rate))| {
             let k = starts.partition_point(|&s| s <= i) - 1;
             let (p, (jx, jy, stream)) = (picks[k], points[k][i - starts[k]]);
-            let (o, d) = job.camera.ray(&frame, p.x as f64 + jx, p.y as f64 + jy);
-            let ray = WorldRay::new(o, d);
-            let u = SampleRng::new(job.seed, p.x, p.y, stream).uniform();
+            let sample = job.camera_sample(&frame, p.x, p.y, jx, jy);
+            let ray = sample.ray;
+            let (sx, sy) = job.stream_pixel(p.x, p.y);
+            let u = SampleRng::new(job.seed, sx, sy, stream).uniform();
             let index = IndexRay::new(density, ray.origin, ray.dir);
             let put = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
             out[..3].copy_from_slice(&put(ray.origin));
             out[3] = u as f32;
             out[4..7].copy_from_slice(&put(ray.dir));
-            out[7] = f32::MAX;
+            out[7] = ray.t_max.min(f32::MAX as f64) as f32;
             out[8..11].copy_from_slice(&put(index.origin));
+            out[11] = ray.t_min.min(f32::MAX as f64) as f32;
             out[12..15].copy_from_slice(&put(index.dir));
-            *rate = d.dot(frame.forward);
+            *rate = sample.depth_rate;
         });
     let results = gpu.march(scene, &input)?;
     let rs = scene.stride as usize;

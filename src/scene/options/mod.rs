@@ -131,6 +131,14 @@ render_options! {
     fov: Option<f64> = (Camera, "DEG", Value("40"), Render);
     /// Width of the orthographic view in world units.
     ortho_width: Option<f64> = (Camera, "W", Described("framing the bounds"), Render);
+    /// Pixels rendered beyond each edge of the image, for lens distortion: the EXR's
+    /// data window grows by X left and right and Y above and below, its display window
+    /// stays the image of --res through the same camera.
+    overscan: Option<String> = (Camera, "X[,Y]", Value("0"), Render);
+    /// The volumes' world unit in metres: a USD camera from a stage of another
+    /// metersPerUnit is scaled into it (1 for Houdini's metres; by default the stage's
+    /// units are taken to be the volumes').
+    scene_meters_per_unit: Option<f64> = (Camera, "M", Described("the camera stage's units"), Render);
 
     /// Grid that holds density.
     density_grid: Option<String> = (Grids, "NAME", Described("detected: density"), RenderAndBake);

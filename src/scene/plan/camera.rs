@@ -1,9 +1,9 @@
 //! The image and the camera, as far as they can be known before the input's bounds are:
-//! `res`, `camera`, `fov`, `ortho_width`, `eye`, `look_at`, `up`.
+//! `res`, `overscan`, `camera`, `fov`, `ortho_width`, `eye`, `look_at`, `up`.
 
 use super::defaults;
 use super::shot::ShotPlan;
-use super::values::{positive, resolution};
+use super::values::{overscan, positive, resolution};
 use crate::scene::camera::Projection;
 use crate::scene::light::parse_triple;
 use crate::scene::options::{CameraSetting, RenderOptions};
@@ -23,14 +23,26 @@ pub struct CameraRequest {
 /// The image and the camera.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CameraPlan {
+    /// The frame rendered: the image of `res` and its overscan on each side.
     pub width: usize,
     pub height: usize,
+    /// Pixels rendered beyond each edge of the image (x, y): `--overscan`.
+    pub overscan: (usize, usize),
     pub request: CameraRequest,
 }
 
 impl CameraPlan {
+    /// The image of `res`: the frame less its overscan.
+    pub fn plate(&self) -> (usize, usize) {
+        (
+            self.width - 2 * self.overscan.0,
+            self.height - 2 * self.overscan.1,
+        )
+    }
+
     pub(super) fn from_options(o: &RenderOptions) -> Result<CameraPlan, String> {
         let (width, height) = resolution(&o.res)?;
+        let overscan = overscan(&o.overscan, (width, height))?;
         let perspective = || Projection::Perspective {
             fov_deg: o.fov.unwrap_or(defaults::FOV_DEG),
         };
@@ -60,8 +72,9 @@ impl CameraPlan {
         let vec =
             |v: &Option<String>, what: &str| v.as_ref().map(|s| parse_triple(s, what)).transpose();
         Ok(CameraPlan {
-            width,
-            height,
+            width: width + 2 * overscan.0,
+            height: height + 2 * overscan.1,
+            overscan,
             request: CameraRequest {
                 projection: Some(projection),
                 eye: vec(&o.eye, "{eye}")?,

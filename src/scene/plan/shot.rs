@@ -19,6 +19,9 @@ pub struct ShotPlan {
     pub table: Option<CameraTable>,
     /// The frame the camera is taken at: the sequence's frame, else its first sample.
     pub time: Option<f64>,
+    /// `scene_meters_per_unit`: the volumes' unit in metres, into which a USD stage's
+    /// camera is scaled from its `metersPerUnit`.
+    pub scene_meters_per_unit: Option<f64>,
 }
 
 /// The camera at the plan's frame, with what the file says of the world.
@@ -39,7 +42,12 @@ impl ShotPlan {
             _ => None,
         };
         if o.camera_file.is_none() && table.is_none() {
-            for key in ["camera_prim", "camera_rotation_order", "film_fit"] {
+            for key in [
+                "camera_prim",
+                "camera_rotation_order",
+                "film_fit",
+                "scene_meters_per_unit",
+            ] {
                 if o.is_given(key) {
                     return Err(format!(
                         "{{{key}}} needs a camera: {{camera_file}} or a [camera] table"
@@ -86,6 +94,25 @@ impl ShotPlan {
             .map(FilmFit::parse)
             .transpose()
             .map_err(|e| format!("{{film_fit}} {e}"))?;
+        if let Some(m) = o.scene_meters_per_unit {
+            if !(m > 0.0 && m.is_finite()) {
+                return Err(format!(
+                    "{{scene_meters_per_unit}} {m} must be a positive number of metres"
+                ));
+            }
+            let usd = o
+                .camera_file
+                .as_ref()
+                .and_then(|f| f.extension())
+                .is_some_and(|e| {
+                    ["usd", "usda", "usdc", "usdz"]
+                        .iter()
+                        .any(|u| e.eq_ignore_ascii_case(u))
+                });
+            if !usd {
+                return Err("{scene_meters_per_unit} scales a USD stage's camera by its metersPerUnit; a .chan or a [camera] table has no units (it is in the volumes')".into());
+            }
+        }
         Ok(Some(ShotPlan {
             file: o.camera_file.clone(),
             prim: o.camera_prim.clone(),
@@ -93,6 +120,7 @@ impl ShotPlan {
             fit,
             table,
             time: None,
+            scene_meters_per_unit: o.scene_meters_per_unit,
         }))
     }
 
@@ -153,8 +181,16 @@ impl ShotPlan {
             }
             shot.film.fit = self.fit.unwrap_or(FilmFit::Horizontal);
             up_z = Some(u.up_z);
+            let scaled = match self.scene_meters_per_unit {
+                Some(m) => {
+                    let k = u.meters_per_unit / m;
+                    shot = shot.scaled(k);
+                    format!(", scaled by {k} into the volumes' {m} m units")
+                }
+                None => String::new(),
+            };
             notes.push(format!(
-                "camera {} of {} (upAxis {}, metersPerUnit {})",
+                "camera {} of {} (upAxis {}, metersPerUnit {}{scaled})",
                 u.prim,
                 self.file
                     .as_deref()

@@ -92,6 +92,28 @@ pub(super) fn resolution(v: &Option<String>) -> Result<(usize, usize), String> {
     Ok((w, h))
 }
 
+/// `--overscan X[,Y]` in pixels (one number: the same on every side), each at most the
+/// image's own size along it.
+pub(super) fn overscan(
+    v: &Option<String>,
+    (w, h): (usize, usize),
+) -> Result<(usize, usize), String> {
+    let Some(s) = v else { return Ok((0, 0)) };
+    let bad = || format!("{{overscan}} \"{s}\" is not X or X,Y: whole numbers of pixels");
+    let (x, y) = match s.split_once(',') {
+        Some((x, y)) => (x, y),
+        None => (s.as_str(), s.as_str()),
+    };
+    let x: usize = x.trim().parse().map_err(|_| bad())?;
+    let y: usize = y.trim().parse().map_err(|_| bad())?;
+    if x > w || y > h {
+        return Err(format!(
+            "{{overscan}} {x},{y} is more than the {w}x{h} image itself on a side"
+        ));
+    }
+    Ok((x, y))
+}
+
 /// `--drop-radius` in µm (default [`defaults::DROP_RADIUS_UM`]), within [`RADIUS_RANGE_UM`].
 pub(super) fn drop_radius(r: Option<f64>) -> Result<f64, String> {
     let r = r.unwrap_or(defaults::DROP_RADIUS_UM);

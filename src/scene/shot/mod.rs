@@ -161,6 +161,27 @@ fn single_f(v: f64) -> f64 {
 }
 
 impl ShotCamera {
+    /// The camera in units `k` times smaller (a stage in centimetres seen from a world
+    /// in metres: `k` = 0.01): its position and clipping range scaled by `k`, and an
+    /// orthographic film gate too (a perspective gate is in millimetres, whatever the
+    /// scene's units).
+    pub fn scaled(&self, k: f64) -> ShotCamera {
+        let mut film = self.film;
+        film.near *= k;
+        film.far *= k;
+        if film.orthographic {
+            film.horizontal_aperture *= k;
+            film.vertical_aperture *= k;
+            film.horizontal_offset *= k;
+            film.vertical_offset *= k;
+        }
+        ShotCamera {
+            camera_to_world: DMat4::from_scale(DVec3::splat(k)) * self.camera_to_world,
+            film,
+            held: self.held,
+        }
+    }
+
     /// The render camera of an image `width` × `height`: the eye at the matrix's origin,
     /// looking down its −z with its y up (a scale or shear in the matrix is dropped).
     /// Refuses a singular or non-finite matrix and a film back that cannot image.
@@ -234,5 +255,31 @@ mod tests {
         let (o, d) = cam.ray(&f, 2.0, 2.0);
         assert!((o - DVec3::new(0.0, 0.0, 5.0)).length() < 1e-12);
         assert!((d - DVec3::NEG_Z).length() < 1e-12);
+    }
+
+    #[test]
+    fn a_camera_in_centimetres_scales_into_metres() {
+        let shot = ShotCamera {
+            camera_to_world: DMat4::from_translation(DVec3::new(100.0, 0.0, 500.0))
+                * DMat4::from_rotation_y(0.3),
+            film: FilmBack {
+                near: 10.0,
+                far: 1e5,
+                ..FilmBack::default()
+            },
+            held: false,
+        };
+        let m = shot.scaled(0.01);
+        let eye = m.camera_to_world.transform_point3(DVec3::ZERO);
+        assert!((eye - DVec3::new(1.0, 0.0, 5.0)).length() < 1e-12);
+        assert!((m.film.near - 0.1).abs() < 1e-15 && (m.film.far - 1e3).abs() < 1e-9);
+        assert_eq!(m.film.horizontal_aperture, shot.film.horizontal_aperture);
+        // The view turns the same way: the rays are the same, from the scaled eye.
+        let (a, b) = (shot.camera(8, 8).unwrap(), m.camera(8, 8).unwrap());
+        let (ra, rb) = (a.ray(&a.frame(), 1.5, 6.5).1, b.ray(&b.frame(), 1.5, 6.5).1);
+        assert!((ra - rb).length() < 1e-6);
+        let mut ortho = shot;
+        ortho.film.orthographic = true;
+        assert!((ortho.scaled(0.01).film.horizontal_aperture - 0.20955).abs() < 1e-12);
     }
 }
