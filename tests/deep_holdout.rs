@@ -159,8 +159,8 @@ fn a_deep_holdout_is_the_depth_holdout_of_its_opaque_depths() {
         flat_channels(&dir.join(out))
     };
     let (by_deep, by_depth) = (
-        run("deep.exr", "--holdout-deep", &deep),
-        run("depth.exr", "--holdout-depth", &depth),
+        run("by_deep.exr", "--holdout-deep", &deep),
+        run("by_depth.exr", "--holdout-depth", &depth),
     );
     for c in ["R", "G", "B", "A", "Z"] {
         assert_eq!(by_deep[c], by_depth[c], "channel {c}");
@@ -170,7 +170,7 @@ fn a_deep_holdout_is_the_depth_holdout_of_its_opaque_depths() {
     let cut = (0..w * h)
         .filter(|&i| whole["A"][i] - by_deep["A"][i] > 0.05)
         .count();
-    assert!(cut > 200, "{cut} pixels cut");
+    assert!(cut > 100, "{cut} pixels cut");
 }
 
 #[test]
