@@ -123,7 +123,7 @@ fn a_deep_holdout_is_the_depth_holdout_of_its_opaque_depths() {
     let (w, h) = (48, 27);
     let px = |x: usize, y: usize| {
         let z = 9.0 + 0.05 * x as f32 + 0.05 * y as f32;
-        (if (x + y) % 5 == 0 { 0.3 } else { 1.0 }, z)
+        (if (x + y).is_multiple_of(5) { 0.3 } else { 1.0 }, z)
     };
     let flat = dir.join("card.exr");
     card(&flat, w, h, px);

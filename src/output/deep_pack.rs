@@ -151,8 +151,8 @@ mod tests {
     fn flatten(s: &[DeepSample]) -> [f64; 4] {
         let (mut c, mut t) = ([0.0f64; 3], 1.0f64);
         for x in s {
-            for k in 0..3 {
-                c[k] += t * x.rgba[k] as f64;
+            for (ck, v) in c.iter_mut().zip(&x.rgba) {
+                *ck += t * *v as f64;
             }
             t *= 1.0 - x.rgba[3] as f64;
         }
@@ -197,8 +197,8 @@ mod tests {
     fn rounded_depths_move_opacity_by_a_share_of_the_tolerance() {
         // A dense front sample, then fainter ones, joined, and one behind a gap.
         let mut s = vec![
-            sample(17.123456, 17.3456789, 0.5, 0.9),
-            sample(17.3456789, 18.987654, 0.05, 0.5),
+            sample(17.123456, 17.345_678, 0.5, 0.9),
+            sample(17.345_678, 18.987654, 0.05, 0.5),
             sample(18.987654, 19.5, 0.01, 0.3),
             sample(19.500001, 21.0, 0.01, 0.3),
         ];
