@@ -23,13 +23,7 @@ use rayon::prelude::*;
 use std::io::Write;
 use std::path::Path;
 
-/// One deep sample: camera-space depths and premultiplied colour and opacity.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct DeepSample {
-    pub z: f32,
-    pub z_back: f32,
-    pub rgba: [f32; 4],
-}
+pub use super::deep_pack::DeepSample;
 
 /// A deep image: each pixel's samples, front to back, rows top to bottom.
 #[derive(Clone, Debug, Default)]

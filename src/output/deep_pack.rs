@@ -14,8 +14,15 @@
 //!   Zeroed low bits are what makes 32-bit depths compress; a point shared by two
 //!   samples (`ZBack` of one, `Z` of the next) is rounded once, so they stay joined.
 
-use super::deep::DeepSample;
 use exr::prelude::f16;
+
+/// One deep sample: camera-space depths and premultiplied colour and opacity.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DeepSample {
+    pub z: f32,
+    pub z_back: f32,
+    pub rgba: [f32; 4],
+}
 
 /// The share of the deep tolerance a depth's rounding may move a split's opacity by.
 pub const DEPTH_SHARE: f64 = 0.75;
