@@ -12,6 +12,7 @@
 mod common;
 
 use common::march::{Sun, rel};
+use common::volumes::{channel, murk, scratch, slab};
 use glam::DVec3;
 use murk::field::albedo_mix::AlbedoMix;
 use murk::field::shapes::ConstantBox;
@@ -22,47 +23,7 @@ use murk::integrate::{ColorTint, MarchSettings, Volume};
 use murk::render::{RenderOptions, RenderPlan};
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use std::sync::Arc;
-
-use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
-
-const MURK: &str = env!("CARGO_BIN_EXE_murk");
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("volumes-{name}"));
-    let _ = fs::remove_dir_all(&dir);
-    fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn slab() -> String {
-    format!("{}/fixtures/slab.vdb", env!("CARGO_MANIFEST_DIR"))
-}
-
-fn murk(args: &[&str]) -> Output {
-    Command::new(MURK)
-        .args(args)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {MURK}: {e}"))
-}
-
-/// Every value of channel `name` of a one-part EXR.
-fn channel(path: &Path, name: &str) -> Vec<f32> {
-    let image = read_all_flat_layers_from_file(path).unwrap();
-    let layer = &image.layer_data[0];
-    let c = layer
-        .channel_data
-        .list
-        .iter()
-        .find(|c| c.name.to_string() == name)
-        .unwrap_or_else(|| panic!("{}: no channel {name}", path.display()));
-    match &c.sample_data {
-        FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
-        FlatSamples::F32(v) => v.clone(),
-        FlatSamples::U32(_) => panic!("u32 channel"),
-    }
-}
 
 /// The plan of a scene file's text (its volumes named relative to nothing).
 fn plan_of(text: &str) -> RenderPlan {

@@ -259,6 +259,27 @@ impl VoxelGrid {
         }
     }
 
+    /// Channel `c` at local index point `points[c]` for c = 0, 1, 2 (a vector's
+    /// components, each where it is stored), each leaf looked up once for all three.
+    pub fn sample_components(&self, points: [DVec3; 3]) -> [f32; 3] {
+        let mut cache = LeafCache::new();
+        let mut out = [0.0; 3];
+        for (c, (p, o)) in points.iter().zip(out.iter_mut()).enumerate() {
+            *o = if c >= self.channels {
+                0.0
+            } else if !(p.abs().max_element() < LOOKUP_LIMIT) {
+                self.tile_values[c]
+            } else {
+                let i = IVec3::new(floor_i32(p.x), floor_i32(p.y), floor_i32(p.z));
+                match self.stencil_in(i, *p - i.as_dvec3(), c, &mut cache) {
+                    Stencil::Constant(v) => v,
+                    Stencil::Corners(v, t) => trilinear(&v, t.as_vec3()),
+                }
+            };
+        }
+        out
+    }
+
     /// [`VoxelGrid::sample_channel`] with the blend done in f64 (the stored values are
     /// f32): what the reference render's exact integrals use.
     #[inline]

@@ -10,6 +10,7 @@
 //!   [`IndexToWorld::origin`] so that the numbers stay small (a grid stored near index 1e6
 //!   samples as precisely as one at 0). Voxel values sit at integer local-index points.
 
+pub mod advect;
 pub mod albedo_mix;
 pub mod color3;
 pub mod floor;

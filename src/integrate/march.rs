@@ -35,6 +35,7 @@
 
 use super::deep::DeepTrace;
 use super::medium::{ColorTint, Emission, Medium};
+use super::motion::{Motion, MovedFields};
 use super::optics::{one_minus_exp, phi};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
 use crate::accel::{IndexRay, Spans};
@@ -155,6 +156,11 @@ pub struct Volume<'a> {
     /// Fields whose non-zero cells must be visited even where density is zero (emission
     /// and temperature grids on the density's lattice).
     pub traversal: &'a dyn Field,
+    /// Several volumes summed in `density`: each one's alpha is a layer of its own.
+    pub mattes: Option<super::Mattes<'a>>,
+    /// How the volume moves during the shutter: a ray with a time marches the fields as
+    /// they are then (`None`: still).
+    pub motion: Option<Motion<'a>>,
 }
 
 impl<'a> Volume<'a> {
@@ -168,6 +174,8 @@ impl<'a> Volume<'a> {
             emission: None,
             color: None,
             traversal: density,
+            mattes: None,
+            motion: None,
         }
     }
 }
@@ -192,6 +200,8 @@ pub struct Scratch {
     temperatures: Vec<f32>,
     /// With deep output on: the current ray's record (`integrate::deep`).
     pub deep: Option<DeepTrace>,
+    /// The per-volume alphas' buffers ([`super::Mattes`]).
+    pub mattes: super::mattes::MatteScratch,
 }
 
 impl Scratch {
@@ -206,6 +216,7 @@ impl Scratch {
             mids: Vec::with_capacity(SEGMENT_BATCH),
             temperatures: vec![0.0; SEGMENT_BATCH],
             deep: None,
+            mattes: Default::default(),
         }
     }
 }
@@ -265,6 +276,8 @@ pub struct WorldRay {
     pub dir: DVec3,
     pub t_min: f64,
     pub t_max: f64,
+    /// When the ray is taken, in frames from the frame's time (0 without a shutter).
+    pub time: f64,
 }
 
 impl WorldRay {
@@ -275,6 +288,7 @@ impl WorldRay {
             dir: dir.normalize_or_zero(),
             t_min: 0.0,
             t_max: f64::INFINITY,
+            time: 0.0,
         }
     }
 }
@@ -331,8 +345,44 @@ fn record_deep(
 
 /// Integrates one ray.
 /// `jitter` in [0, 1) shortens the first segment of every cell; 0.5 gives midpoints of a
-/// regular grid of segments.
+/// regular grid of segments. A moving volume is marched as it is at the ray's time.
 pub fn march(
+    vol: &Volume,
+    lights: Option<&dyn Illumination>,
+    ray_w: &WorldRay,
+    settings: &MarchSettings,
+    jitter: f64,
+    scratch: &mut Scratch,
+) -> RayResult {
+    match &vol.motion {
+        Some(m) if m.max_displacement(ray_w.time) > 0.0 => {
+            let fields = MovedFields::new(
+                vol.density,
+                vol.traversal,
+                vol.emission.as_ref(),
+                vol.color.as_ref(),
+                m.velocity,
+                m.shift(ray_w.time),
+            );
+            let moved = Volume {
+                density: &fields.density,
+                medium: vol.medium,
+                phase: vol.phase.clone(),
+                emission: vol.emission.as_ref().map(|e| fields.emission(e)),
+                color: fields.color(),
+                traversal: fields.traversal(),
+                // The volumes' alpha layers are taken outside the march.
+                mattes: None,
+                motion: None,
+            };
+            march_still(&moved, lights, ray_w, settings, jitter, scratch)
+        }
+        _ => march_still(vol, lights, ray_w, settings, jitter, scratch),
+    }
+}
+
+/// [`march`] through the volume as it is at the frame's time.
+fn march_still(
     vol: &Volume,
     lights: Option<&dyn Illumination>,
     ray_w: &WorldRay,
@@ -443,7 +493,7 @@ pub fn march(
                             Some(c) => Some(c.value(p, xw)),
                             None => None,
                         };
-                        e.from_samples(grid_mean, temperature)
+                        e.from_samples(grid_mean, temperature) + e.others(&ray, a, b, p, xw)
                     } else {
                         e.mean(&ray, a, b, p, xw)
                     };

@@ -111,6 +111,11 @@ pub struct ColorTint<'a> {
 }
 
 impl<'a> ColorTint<'a> {
+    /// The colour field.
+    pub fn grid(&self) -> &'a dyn ColorField {
+        self.grid
+    }
+
     pub fn new(grid: &'a dyn ColorField, density: &dyn Field) -> Self {
         ColorTint {
             grid,
@@ -147,6 +152,9 @@ pub struct Emission<'a> {
     pub temperature_offset: f64,
     pub blackbody_intensity: f64,
     pub table: BlackbodyTable,
+    /// Further emitters whose coefficients add to this one's (the volumes of a scene of
+    /// several, each with its own grids and settings): empty for one volume.
+    pub more: Vec<Emission<'a>>,
 }
 
 impl<'a> Emission<'a> {
@@ -161,12 +169,14 @@ impl<'a> Emission<'a> {
             temperature_offset: 0.0,
             blackbody_intensity: 0.0,
             table: BlackbodyTable::new(1000.0, 2000.0, 2),
+            more: Vec::new(),
         }
     }
 
     pub fn is_active(&self) -> bool {
         (self.grid.is_some() && self.intensity > 0.0 && self.color.max_element() > 0.0)
             || (self.temperature.is_some() && self.blackbody_intensity > 0.0)
+            || self.more.iter().any(Emission::is_active)
     }
 
     /// Mean emission coefficient (RGB per world unit) over the segment `[a, b]` of a ray
@@ -178,12 +188,23 @@ impl<'a> Emission<'a> {
     pub fn mean(&self, ray: &IndexRay, a: f64, b: f64, p: DVec3, w: DVec3) -> DVec3 {
         let grid_mean = self.grid.as_ref().map(|c| c.mean(ray, a, b, w));
         let temperature = self.temperature.as_ref().map(|c| c.value(p, w));
-        self.from_samples(grid_mean, temperature)
+        self.from_samples(grid_mean, temperature) + self.others(ray, a, b, p, w)
+    }
+
+    /// The further emitters' ([`Emission::more`]) summed [`Emission::mean`] over the
+    /// segment: what [`Emission::from_samples`], which holds this emitter's own grids
+    /// only, leaves out.
+    #[inline]
+    pub fn others(&self, ray: &IndexRay, a: f64, b: f64, p: DVec3, w: DVec3) -> DVec3 {
+        self.more
+            .iter()
+            .fold(DVec3::ZERO, |e, m| e + m.mean(ray, a, b, p, w))
     }
 
     /// The emission coefficient from the emission grid's mean over a segment
     /// (`grid_mean`) and the temperature grid's value at its midpoint (`temperature`,
-    /// grid units), each `None` where there is no such grid.
+    /// grid units), each `None` where there is no such grid; this emitter's own, without
+    /// [`Emission::more`].
     #[inline]
     pub fn from_samples(&self, grid_mean: Option<f64>, temperature: Option<f32>) -> DVec3 {
         let mut e = DVec3::ZERO;

@@ -8,7 +8,9 @@ pub mod fast;
 pub mod ground;
 pub mod integrator;
 pub mod march;
+pub mod mattes;
 pub mod medium;
+pub mod motion;
 pub mod ms_diffusion;
 pub mod ms_lattice;
 mod ms_orders;
@@ -23,5 +25,6 @@ pub mod single;
 
 pub use integrator::{CameraSample, Integrator, SampleRng};
 pub use march::{Illumination, MarchSettings, RayResult, Scratch, Volume, WorldRay, march};
+pub use mattes::Mattes;
 pub use medium::{ColorTint, Companion, Emission, Medium};
 pub use scattering::ScatteringMode;

@@ -15,6 +15,9 @@ pub enum PassKind {
     /// the crossings and their count). Written as `Z`: the mean crossing where the
     /// pixel's mean alpha reaches 0.5, else "empty".
     Depth,
+    /// A part of the opacity (1 slot), averaged: one volume's share of it. Written as
+    /// `<name>.A`.
+    Matte,
 }
 
 impl PassKind {
@@ -23,7 +26,7 @@ impl PassKind {
         match self {
             PassKind::Rgb => 3,
             PassKind::Depth => 2,
-            PassKind::Alpha => 1,
+            PassKind::Alpha | PassKind::Matte => 1,
         }
     }
 }
@@ -68,6 +71,16 @@ impl Pass {
             kind: PassKind::Alpha,
             in_beauty: false,
             layer: false,
+            float: false,
+        }
+    }
+    /// A layer of one opacity channel, written as `<name>.A`.
+    pub fn matte(name: &str) -> Pass {
+        Pass {
+            name: name.into(),
+            kind: PassKind::Matte,
+            in_beauty: false,
+            layer: true,
             float: false,
         }
     }

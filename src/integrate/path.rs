@@ -172,6 +172,7 @@ impl<'a> PathTracer<'a> {
             indirect: true,
             shadow: false,
             ground_visible: false,
+            volumes: volume.mattes.map(|m| m.names.to_vec()).unwrap_or_default(),
         });
         let sigma_t = volume.medium.sigma_t();
         PathTracer {
@@ -462,6 +463,19 @@ impl Integrator for PathTracer<'_> {
                 self.camera_ray(ray.origin, ray.dir, ray.t_min, ray.t_max, scratch);
             let alpha = (DVec3::ONE - (-self.sigma_t * depth).exp()).element_sum() / 3.0;
             p.add_alpha(acc, alpha.clamp(0.0, 1.0) * w);
+            if let Some(m) = self.volume.mattes.filter(|_| p.has_mattes()) {
+                // No termination: the camera ray's alpha above is exact to the end.
+                let alphas = m.alphas(
+                    self.sigma_t,
+                    ray.origin,
+                    ray.dir,
+                    ray.t_min,
+                    ray.t_max,
+                    0.0,
+                    &mut scratch.mattes,
+                );
+                p.add_mattes(acc, alphas, w);
+            }
             if let Some(t) = half_t {
                 p.add_depth(acc, t * camera.depth_rate);
             }

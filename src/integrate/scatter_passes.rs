@@ -2,7 +2,9 @@
 //! one place so their EXRs have the same layers in the same order: `A`, `Z`, `emission`,
 //! `scatter` (all scattered light), `indirect` (the part scattered two or more times; not
 //! for single scattering), one `scatter_<light>` per light when there are several (each
-//! holding that light's direct and indirect light), `shadow` and a visible `ground`.
+//! holding that light's direct and indirect light), `shadow`, a visible `ground`, and in a
+//! scene of several volumes one alpha layer `volume_<name>` per volume
+//! ([`super::mattes`]).
 
 use super::pass::{Pass, PassLayout};
 use glam::DVec3;
@@ -21,6 +23,10 @@ pub mod pass_names {
     pub fn scatter_of(light: &str) -> String {
         format!("scatter_{light}")
     }
+    /// The alpha layer of one volume of several.
+    pub fn volume_of(volume: &str) -> String {
+        format!("volume_{volume}")
+    }
 }
 
 /// Which of the passes an integrator writes.
@@ -37,6 +43,9 @@ pub struct ScatterPassSpec {
     pub shadow: bool,
     /// A visible ground plane is summed into the beauty.
     pub ground_visible: bool,
+    /// The names of the volumes of a scene of several (empty for one): an alpha layer
+    /// each.
+    pub volumes: Vec<String>,
 }
 
 /// The pass layout of a scattering integrator and where each pass sits in a pixel's
@@ -58,6 +67,8 @@ struct Offsets {
     per_light: Option<usize>,
     shadow: Option<usize>,
     ground: Option<usize>,
+    /// First volume's alpha; the others follow, 1 slot each.
+    mattes: Option<usize>,
 }
 
 #[inline]
@@ -94,6 +105,9 @@ impl ScatterPasses {
                 ..Pass::beauty(pass_names::GROUND)
             });
         }
+        for v in &spec.volumes {
+            passes.push(Pass::matte(&pass_names::volume_of(v)));
+        }
         let layout = PassLayout::new(passes);
         let off = |name: &str| layout.find(name).map(|i| layout.offset(i));
         let at = Offsets {
@@ -108,6 +122,10 @@ impl ScatterPasses {
                 .and_then(|n| off(&pass_names::scatter_of(n))),
             shadow: off(pass_names::SHADOW),
             ground: off(pass_names::GROUND),
+            mattes: spec
+                .volumes
+                .first()
+                .and_then(|v| off(&pass_names::volume_of(v))),
         };
         ScatterPasses { layout, at }
     }
@@ -181,6 +199,20 @@ impl ScatterPasses {
     /// A visible ground plane's radiance reaching the camera.
     pub fn add_ground(&self, acc: &mut [f64], v: DVec3) {
         add(acc, self.at.ground, v);
+    }
+
+    /// Whether the volumes' alphas are written (a scene of several volumes).
+    pub fn has_mattes(&self) -> bool {
+        self.at.mattes.is_some()
+    }
+
+    /// Each volume's alpha times `weight`, in the volumes' order.
+    pub fn add_mattes(&self, acc: &mut [f64], alphas: &[f64], weight: f64) {
+        if let Some(at) = self.at.mattes {
+            for (slot, a) in acc[at..].iter_mut().zip(alphas) {
+                *slot += a * weight;
+            }
+        }
     }
 
     pub fn has_shadow(&self) -> bool {

@@ -41,6 +41,7 @@ impl<'a> SingleScattering<'a> {
             indirect: lights.as_ref().is_some_and(|(l, _)| l.scatters_multiply()),
             shadow: ground.is_some(),
             ground_visible: ground.is_some_and(|(g, _)| g.visible),
+            volumes: volume.mattes.map(|m| m.names.to_vec()).unwrap_or_default(),
         });
         SingleScattering {
             volume,
@@ -103,6 +104,18 @@ impl Integrator for SingleScattering<'_> {
             ray.t_max = t;
         }
         let r = march(self.volume, self.lights, &ray, &self.settings, u, scratch);
+        if let Some(m) = self.volume.mattes.filter(|_| self.passes.has_mattes()) {
+            let alphas = m.alphas(
+                sigma_t,
+                ray.origin,
+                ray.dir,
+                ray.t_min,
+                ray.t_max,
+                self.settings.termination,
+                &mut scratch.mattes,
+            );
+            self.passes.add_mattes(acc, alphas, 1.0);
+        }
         if let (Some((_, t, light)), Some(tr)) = (visible, scratch.deep.as_mut()) {
             // The opaque floor: a sample of no depth that ends the ray.
             let radiance = light.irradiance * (ALBEDO / std::f64::consts::PI);

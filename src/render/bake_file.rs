@@ -37,6 +37,13 @@ fn bake_shadow_file_here(plan: &RenderPlan, progress: &dyn Progress) -> Result<R
     density_only.grids.temperature = GridChoice::Off;
     density_only.grids.color = GridChoice::Off;
     density_only.shadows.cache = None;
+    if let Some(v) = &mut density_only.volumes {
+        for v in &mut v.list {
+            v.grids.emission = GridChoice::Off;
+            v.grids.temperature = GridChoice::Off;
+            v.grids.color = GridChoice::Off;
+        }
+    }
     let mut st = RenderStats {
         murk_version: env!("CARGO_PKG_VERSION").into(),
         input: plan.input.display().to_string(),
@@ -45,9 +52,9 @@ fn bake_shadow_file_here(plan: &RenderPlan, progress: &dyn Progress) -> Result<R
     };
     let report = &mut st.scene;
     let t = Instant::now();
-    let fields = match &plan.volumes {
+    let fields = match &density_only.volumes {
         // A scene of several volumes: their summed density, as the render sees it.
-        Some(v) => crate::scene::volumes::load_volumes(&density_only, v, report)
+        Some(v) => crate::scene::volumes::load_volumes(&density_only, v, false, report)
             .map_err(RenderError::Scene)?,
         None => {
             let source = crate::scene::source::open(&plan.input)?;

@@ -1,6 +1,7 @@
 //! The frame's channels, assembled from an integrator's passes: the beauty `R,G,B` (the
 //! sum of the passes marked for it), `A` and `Z`, then every pass written as a layer
-//! (`layer.R/G/B`), in the order the integrator declared them.
+//! (`layer.R/G/B`, or `layer.A` for an opacity's part), in the order the integrator
+//! declared them.
 
 use super::pixels::PixelPasses;
 use crate::integrate::pass::PassKind;
@@ -40,6 +41,13 @@ pub fn assemble(passes: &PixelPasses) -> Result<Frame, OutputError> {
                 if pass.float {
                     frame.store_as_float(&name);
                 }
+            }
+        }
+        if pass.kind == PassKind::Matte && pass.layer {
+            let name = format!("{}.{}", pass.name, names::A);
+            frame.add_channel(&name, passes.planes[i][0].clone())?;
+            if pass.float {
+                frame.store_as_float(&name);
             }
         }
     }

@@ -61,6 +61,8 @@ pub(super) fn render_frame_gpu(
         antialias: plan.sampling.antialias,
         deep: None,
         holdout,
+        shutter: None,
+        camera_motion: None,
         overscan: plan.camera.overscan,
     };
     let (passes, times) = match gpu::render_pixels(gpu, scene, &job) {

@@ -484,6 +484,8 @@ fn render_frame<I: Integrator>(
         antialias: plan.sampling.antialias,
         deep: extent.deep,
         holdout: extent.holdout,
+        shutter: plan.motion.shutter,
+        camera_motion: scene.camera_motion.as_ref(),
         overscan: plan.camera.overscan,
     };
     progress.start("rendering", job.tiles() as u64, "tiles");

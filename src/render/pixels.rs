@@ -3,9 +3,12 @@
 
 use crate::integrate::WorldRay;
 use crate::integrate::deep::{DeepPoint, DeepSample, pixel_samples};
-use crate::integrate::integrator::{CameraSample, Integrator, SampleRng, unit_random};
+use crate::integrate::integrator::{
+    CameraSample, Integrator, SampleRng, shutter_time, unit_random,
+};
 use crate::integrate::pass::{PassKind, PassLayout};
 use crate::scene::camera::{Camera, CameraFrame};
+use crate::scene::camera_motion::CameraMotion;
 use crate::scene::progress::Progress;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -52,6 +55,11 @@ pub struct PixelJob<'a, I: Integrator> {
     pub deep: Option<f64>,
     /// `--holdout-depth`: per pixel, the camera-space depth at which its rays stop.
     pub holdout: Option<&'a [f32]>,
+    /// `--shutter`: open and close in frames from the frame; each sample is taken at a
+    /// time in it ([`shutter_time`]). `None`: every sample at the frame's time.
+    pub shutter: Option<(f64, f64)>,
+    /// With the shutter: the camera's motion while it is open (`None`: still).
+    pub camera_motion: Option<&'a CameraMotion>,
     /// The frame's overscan (x, y): random streams are keyed by the pixel's place in
     /// the image, so that an overscanned frame holds the image's pixels unchanged.
     pub overscan: (usize, usize),
@@ -68,7 +76,8 @@ impl<I: Integrator> PixelJob<'_, I> {
     }
 
     /// The camera ray through `(x + jx, y + jy)`, cut to the camera's clipping planes
-    /// and to the pixel's holdout depth.
+    /// and to the pixel's holdout depth, taken at `time` in the shutter (frames from the
+    /// frame; a moving camera is where it is then).
     pub(super) fn camera_sample(
         &self,
         frame: &CameraFrame,
@@ -76,10 +85,23 @@ impl<I: Integrator> PixelJob<'_, I> {
         y: usize,
         jx: f64,
         jy: f64,
+        time: Option<f64>,
     ) -> CameraSample {
-        let (o, d) = self.camera.ray(frame, x as f64 + jx, y as f64 + jy);
+        let moved = match (self.camera_motion, time) {
+            (Some(m), Some(t)) => {
+                let c = m.at(t);
+                Some((c, c.frame()))
+            }
+            _ => None,
+        };
+        let (camera, frame) = match &moved {
+            Some((c, f)) => (c, f),
+            None => (self.camera, frame),
+        };
+        let (o, d) = camera.ray(frame, x as f64 + jx, y as f64 + jy);
         let mut ray = WorldRay::new(o, d);
-        (ray.t_min, ray.t_max) = self.camera.clip(frame, ray.dir);
+        (ray.t_min, ray.t_max) = camera.clip(frame, ray.dir);
+        ray.time = time.unwrap_or(0.0);
         let depth_rate = d.dot(frame.forward);
         if let Some(depth) = self.holdout.and_then(|h| h.get(y * self.camera.width + x)) {
             // Depth is t × depth_rate along the ray.
@@ -186,7 +208,10 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                     s,
                 )
             };
-            let sample = job.camera_sample(&frame, x, y, jx, jy);
+            let time = job
+                .shutter
+                .map(|shutter| shutter_time(job.seed, sx, sy, s, count, shutter));
+            let sample = job.camera_sample(&frame, x, y, jx, jy, time);
             let mut rng = SampleRng::new(job.seed, sx, sy, stream);
             n_samples += job.integrator.sample(&sample, &mut rng, scratch, acc);
             if job.deep.is_some()
@@ -306,7 +331,7 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         .iter()
         .map(|p| match p.kind {
             PassKind::Rgb => vec![vec![0f32; n]; 3],
-            PassKind::Alpha => vec![vec![0f32; n]],
+            PassKind::Alpha | PassKind::Matte => vec![vec![0f32; n]],
             PassKind::Depth => vec![vec![f32::INFINITY; n]],
         })
         .collect();
@@ -429,6 +454,8 @@ mod tests {
             antialias,
             deep: None,
             holdout: None,
+            shutter: None,
+            camera_motion: None,
             overscan: (0, 0),
         };
         render_pixels(&job, &Silent)

@@ -5,6 +5,7 @@
 //! shadow maps — and reports each stage (ran, or skipped and why).
 
 pub mod camera;
+pub mod camera_motion;
 pub mod conventions;
 mod error;
 pub mod film;
@@ -13,6 +14,7 @@ pub mod holdout;
 pub mod holdout_deep;
 pub mod light;
 pub mod lights;
+mod marched;
 pub mod options;
 pub mod plan;
 pub mod progress;
@@ -23,6 +25,7 @@ mod scene_file;
 pub mod shot;
 pub mod source;
 pub mod transport;
+pub mod velocity;
 pub mod volumes;
 
 pub use options::RenderOptions;
@@ -92,12 +95,11 @@ impl std::fmt::Display for PlanError {
 
 impl std::error::Error for PlanError {}
 
-use crate::field::union::FieldUnion;
-use crate::field::{ColorField, Field};
+use crate::field::Field;
 use crate::integrate::blackbody::BlackbodyTable;
 use crate::integrate::ground::Ground;
 use crate::integrate::phase::PhaseFunction;
-use crate::integrate::{ColorTint, Companion, Emission, Medium, Volume};
+use crate::integrate::{Companion, Medium};
 use crate::shadow::ShadowMap;
 use camera::{Camera, Projection};
 pub use error::SceneError;
@@ -136,6 +138,10 @@ pub struct Scene {
     pub scatters: bool,
     /// Something emits (an emission or temperature field with a non-zero intensity).
     pub emits: bool,
+    /// The velocity that blurs the volume within the shutter.
+    pub motion: Option<velocity::SceneMotion>,
+    /// The camera's motion while the shutter is open (a shot camera that moves).
+    pub camera_motion: Option<camera_motion::CameraMotion>,
     pub report: SceneReport,
 }
 
@@ -191,11 +197,17 @@ impl Scene {
         let scatters = lit && medium.scatters();
         // Build: decode only the fields in a role.
         let t = Instant::now();
-        let fields = match (&plan.volumes, source) {
-            (Some(v), _) => volumes::load_volumes(plan, v, &mut report)?,
+        let fields = match (&plan.volumes, &source) {
+            (Some(v), _) => volumes::load_volumes(plan, v, scatters, &mut report)?,
             (None, Some(source)) => load_fields(source.as_ref(), plan, scatters, &mut report)?,
             (None, None) => return Err(SceneError::input(&plan.input, "nothing to render")),
         };
+        let motion = velocity::load_for(
+            plan,
+            source.as_deref(),
+            fields.density.as_ref(),
+            &mut report,
+        )?;
         report
             .stages
             .insert("build".into(), Stage::ran(t.elapsed().as_secs_f64()));
@@ -234,6 +246,7 @@ impl Scene {
             }
             None => resolve_camera(plan, fields.density.as_ref(), up_axis, reuse.frame_box)?,
         };
+        let camera_motion = camera_motion::CameraMotion::of_plan(plan)?;
         let (ox, oy) = plan.camera.overscan;
         let camera = plate_camera.overscanned(ox, oy);
         let mut emission_plan = plan.emission;
@@ -241,8 +254,10 @@ impl Scene {
             emission_plan.temperature_scale = m.scale;
             emission_plan.temperature_offset = m.offset;
         }
-        let emission = (fields.emission.is_some() || fields.temperature.is_some())
-            .then(|| (emission_plan, BlackbodyTable::new(200.0, 40000.0, 2048)));
+        let emission = (fields.emission.is_some()
+            || fields.temperature.is_some()
+            || !fields.emitters.is_empty())
+        .then(|| (emission_plan, BlackbodyTable::new(200.0, 40000.0, 2048)));
         let lights = plan.lights.clone();
         // The phase function: water-drop tables are built (or read from the disk
         // cache) here, once per process and radius.
@@ -271,13 +286,26 @@ impl Scene {
             ground: plan.ground,
             scatters,
             emits: false,
+            motion,
+            camera_motion,
             report,
             fields,
         };
+        let glows = |e: &plan::EmissionPlan, emission: bool, temperature: bool| {
+            (emission && e.intensity > 0.0 && e.color.max_element() > 0.0)
+                || (temperature && e.blackbody_intensity > 0.0)
+        };
         scene.emits = scene.emission.as_ref().is_some_and(|(e, _)| {
-            (scene.fields.emission.is_some() && e.intensity > 0.0 && e.color.max_element() > 0.0)
-                || (scene.fields.temperature.is_some() && e.blackbody_intensity > 0.0)
-        });
+            glows(
+                e,
+                scene.fields.emission.is_some(),
+                scene.fields.temperature.is_some(),
+            )
+        }) || scene
+            .fields
+            .emitters
+            .iter()
+            .any(|e| glows(&e.plan, e.emission.is_some(), e.temperature.is_some()));
         scene.report_emission_and_scatter(plan);
         scene.prepare_shadows(plan, progress, reuse)?;
         Ok(scene)
@@ -285,13 +313,12 @@ impl Scene {
 
     fn report_emission_and_scatter(&mut self, plan: &RenderPlan) {
         let density = self.fields.density.as_ref();
-        for f in [&self.fields.emission, &self.fields.temperature]
-            .into_iter()
-            .flatten()
-        {
-            if Companion::new(f.as_ref(), density).offset().is_none() {
-                self.report.notes.push("an emission grid is not on the density's lattice: it is sampled only where density is non-zero".into());
-            }
+        let off_lattice = self
+            .emission_fields()
+            .filter(|f| Companion::new(*f, density).offset().is_none())
+            .count();
+        for _ in 0..off_lattice {
+            self.report.notes.push("an emission grid is not on the density's lattice: it is sampled only where density is non-zero".into());
         }
         let turned_off =
             plan.grids.emission == GridChoice::Off && plan.grids.temperature == GridChoice::Off;
@@ -424,52 +451,6 @@ impl Scene {
         self.report.lights = self.light_names();
         self.shadows = light_shadows(plan.shadows.mode, maps, plan.lights.len());
         Ok(())
-    }
-
-    /// The fields whose non-zero cells a camera ray visits: the density, and the emission
-    /// and temperature fields on its lattice (elsewhere they are sampled only where the
-    /// density is non-zero, which the report notes).
-    pub fn traversal(&self) -> FieldUnion<'_> {
-        let density = self.fields.density.as_ref();
-        let mut traversal = FieldUnion::new(density);
-        for f in [&self.fields.emission, &self.fields.temperature]
-            .into_iter()
-            .flatten()
-        {
-            if let Some(o) = Companion::new(f.as_ref(), density).offset() {
-                traversal = traversal.with(f.as_ref(), o.as_ivec3());
-            }
-        }
-        traversal
-    }
-
-    /// The volume the integrators march, traversed over `traversal`
-    /// ([`Scene::traversal`]).
-    pub fn volume<'a>(&'a self, traversal: &'a FieldUnion<'a>) -> Volume<'a> {
-        let density = self.fields.density.as_ref();
-        let companion =
-            |f: &'a Option<Box<dyn Field>>| f.as_ref().map(|g| Companion::new(g.as_ref(), density));
-        Volume {
-            density,
-            medium: self.medium,
-            phase: self.phase.clone(),
-            emission: self.emission.as_ref().map(|(e, table)| Emission {
-                grid: companion(&self.fields.emission),
-                color: e.color,
-                intensity: e.intensity,
-                temperature: companion(&self.fields.temperature),
-                temperature_scale: e.temperature_scale,
-                temperature_offset: e.temperature_offset,
-                blackbody_intensity: e.blackbody_intensity,
-                table: table.clone(),
-            }),
-            color: self
-                .fields
-                .color
-                .as_ref()
-                .map(|c| ColorTint::new(c.as_ref() as &dyn ColorField, density)),
-            traversal,
-        }
     }
 
     /// The names of the lights, the environment's last: the per-light layers' order.

@@ -6,11 +6,12 @@ use super::SceneError;
 use super::conventions::{
     TemperatureMapping, Tool, UpAxis, UpAxisChoice, detect_tool, temperature_mapping, up_from_data,
 };
-use super::plan::{GridChoice, RenderPlan};
+use super::plan::{EmissionPlan, GridChoice, RenderPlan};
 use super::report::SceneReport;
 use super::report::TemperatureConvention;
 use super::source::{FieldKind, FieldSource, Loaded};
 use crate::field::color3::ChannelColor;
+use crate::field::sum::FieldSum;
 use crate::field::{ColorField, Field};
 use crate::integrate::blackbody::BlackbodyTable;
 
@@ -264,6 +265,27 @@ pub struct SceneFields {
     pub emission_found: bool,
     /// With no tool recognised and `--up-axis auto`: what the data says of the up axis.
     pub up_from_data: Option<Result<(UpAxis, String), String>>,
+    /// Several volumes: each glowing one's placed fields and settings (`emission` and
+    /// `temperature` above are then `None`); empty for one input.
+    pub emitters: Vec<Emitter>,
+    /// Several volumes: the summed density's members and their names, for the
+    /// per-volume alpha layers; `None` for one input or one volume.
+    pub parts: Option<VolumeParts>,
+}
+
+/// One glowing volume of several: its emission and temperature fields as placed, and
+/// its emission settings with the Kelvin mapping resolved.
+pub struct Emitter {
+    pub emission: Option<Box<dyn Field>>,
+    pub temperature: Option<Box<dyn Field>>,
+    pub plan: EmissionPlan,
+}
+
+/// The volumes of a scene of several: the summed density (member `i` is volume `i`)
+/// and each volume's name.
+pub struct VolumeParts {
+    pub sum: FieldSum,
+    pub names: Vec<String>,
 }
 
 /// Notes a decoded field in the report under its role, and hands the field on.
@@ -455,6 +477,8 @@ pub fn load_fields(
         color,
         emission_found,
         up_from_data,
+        emitters: Vec::new(),
+        parts: None,
     })
 }
 

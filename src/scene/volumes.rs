@@ -1,63 +1,169 @@
 //! Several volumes in one scene (a scene file's `[[volume]]` tables): each file is
-//! opened and its density decoded once, however often it is placed; the placed copies
-//! share it, and the scene's density is their weighted sum ([`FieldSum`]), the medium
-//! the plan's (see `plan::volumes`).
+//! opened and its grids decoded once, however often it is placed with the same grids and
+//! emission; the placed copies share them. The scene's density is their weighted sum
+//! ([`FieldSum`]) in the plan's medium (see `plan::volumes`), their scattering tinted per
+//! point by their albedos and colour grids ([`AlbedoMix`]), and each glowing volume an
+//! [`Emitter`] whose emission adds to the others'.
 
 use super::SceneError;
-use super::plan::{GridChoice, GridRoles, RenderPlan, VolumesPlan};
+use super::conventions::{TemperatureMapping, Tool, UpAxis};
+use super::plan::{GridChoice, GridRoles, RenderPlan, VolumePlan, VolumesPlan};
 use super::report::SceneReport;
-use super::roles::{SceneFields, load_fields};
-use crate::field::Field;
-use crate::field::albedo_mix::AlbedoMix;
+use super::roles::{Emitter, SceneFields, VolumeParts, load_fields};
+use crate::field::albedo_mix::{AlbedoMix, PlacedColor};
 use crate::field::sum::FieldSum;
+use crate::field::{ColorField, Field};
+use glam::{DMat4, DVec3};
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// The fields of a scene of several volumes: the summed density, and the albedo tint
-/// where the volumes' albedos differ. Other roles (emission, temperature, colour) are
-/// not read from the volumes' files; the report says so when one is found.
+/// What one file gives in its roles, decoded once.
+struct Decoded {
+    density: Arc<dyn Field>,
+    emission: Option<Arc<dyn Field>>,
+    temperature: Option<Arc<dyn Field>>,
+    color: Option<Arc<dyn ColorField>>,
+    mapping: Option<TemperatureMapping>,
+}
+
+/// What decides what a file gives: the file, its grids and how it glows.
+fn key_of(v: &VolumePlan, scatters: bool) -> (PathBuf, GridRoles, String) {
+    let mut grids = v.grids.clone();
+    if !scatters {
+        // The colour grid is read only when something scatters.
+        grids.color = GridChoice::Off;
+    }
+    let glow = format!("{:?} {}", v.emission, v.temperature_explicit);
+    (v.file.clone(), grids, glow)
+}
+
+/// A field placed in the world as a sum of one member of weight 1 in the local index
+/// space `frame` (the summed density's, so that the march finds it on the density's
+/// lattice and takes its exact integrals).
+fn placed(
+    field: &Option<Arc<dyn Field>>,
+    placement: DMat4,
+    frame: crate::field::IndexToWorld,
+) -> Result<Option<Box<dyn Field>>, String> {
+    field
+        .as_ref()
+        .map(|f| {
+            FieldSum::in_frame(vec![(f.clone(), placement, 1.0)], frame)
+                .map(|f| Box::new(f) as Box<dyn Field>)
+                .map_err(|e| e.to_string())
+        })
+        .transpose()
+}
+
+/// An error about a volume's file, saying which volume (a grid asked for that it lacks,
+/// say): `FILE: [[volume]] "NAME": problem`.
+fn in_volume(e: SceneError, v: &VolumePlan) -> SceneError {
+    let text = e.to_string();
+    match text.strip_prefix(&format!("{}: ", v.file.display())) {
+        Some(problem) => {
+            SceneError::input(&v.file, format!("[[volume]] \"{}\": {problem}", v.name))
+        }
+        None => e,
+    }
+}
+
+/// A glowing volume's fields and settings, before the summed density is made.
+struct Glowing<'a> {
+    volume: &'a VolumePlan,
+    emission: Option<Arc<dyn Field>>,
+    temperature: Option<Arc<dyn Field>>,
+    plan: super::plan::EmissionPlan,
+}
+
+/// The fields of a scene of several volumes: the summed density, the scattering tint
+/// where the volumes' albedos differ or they have colour grids (read only when
+/// `scatters`), and each glowing volume's emission.
 pub fn load_volumes(
     plan: &RenderPlan,
     volumes: &VolumesPlan,
+    scatters: bool,
     report: &mut SceneReport,
 ) -> Result<SceneFields, SceneError> {
-    let mut loaded: Vec<((PathBuf, GridChoice), Arc<dyn Field>)> = Vec::new();
+    let mut loaded: Vec<((PathBuf, GridRoles, String), Decoded)> = Vec::new();
     type Found = (
-        Option<(super::conventions::Tool, String)>,
-        Option<Result<(super::conventions::UpAxis, String), String>>,
+        Option<(Tool, String)>,
+        Option<Result<(UpAxis, String), String>>,
     );
     let mut first: Option<Found> = None;
+    let mut emission_found = false;
     let mut members = Vec::with_capacity(volumes.list.len());
+    let mut colors: Vec<Option<Arc<dyn ColorField>>> = Vec::with_capacity(volumes.list.len());
+    let mut glowing = Vec::new();
     for v in &volumes.list {
-        let key = (v.file.clone(), v.density.clone());
-        let field = match loaded.iter().find(|(k, _)| *k == key) {
-            Some((_, f)) => f.clone(),
+        let at = |e: String| SceneError::input(&v.file, format!("[[volume]] \"{}\": {e}", v.name));
+        let key = key_of(v, scatters);
+        let i = match loaded.iter().position(|(k, _)| *k == key) {
+            Some(i) => i,
             None => {
                 let source = super::source::open(&v.file)?;
                 let mut one = plan.clone();
                 one.input = v.file.clone();
                 one.volumes = None;
-                one.grids = GridRoles {
-                    density: v.density.clone(),
-                    emission: GridChoice::Off,
-                    temperature: GridChoice::Off,
-                    color: GridChoice::Off,
-                };
-                let fields = load_fields(source.as_ref(), &one, false, report)?;
-                let density: Arc<dyn Field> = Arc::from(fields.density);
+                one.grids = key.1.clone();
+                one.emission = v.emission;
+                one.production.temperature_explicit = v.temperature_explicit;
+                let fields = load_fields(source.as_ref(), &one, scatters, report)
+                    .map_err(|e| in_volume(e, v))?;
+                emission_found |= fields.emission_found;
                 if first.is_none() {
                     first = Some((fields.tool, fields.up_from_data));
                 }
-                loaded.push((key, density.clone()));
-                density
+                loaded.push((
+                    key,
+                    Decoded {
+                        density: Arc::from(fields.density),
+                        emission: fields.emission.map(Arc::from),
+                        temperature: fields.temperature.map(Arc::from),
+                        color: fields.color.map(Arc::from),
+                        mapping: fields.temperature_mapping,
+                    },
+                ));
+                loaded.len() - 1
             }
         };
-        members.push((field, v.placement, v.weight));
+        let d = &loaded[i].1;
+        members.push((d.density.clone(), v.placement, v.weight));
+        colors.push(match &d.color {
+            Some(c) => Some(Arc::new(
+                PlacedColor::new(c.clone(), v.placement)
+                    .ok_or_else(|| at("the placement is singular or not finite".into()))?,
+            ) as Arc<dyn ColorField>),
+            None => None,
+        });
+        if d.emission.is_some() || d.temperature.is_some() {
+            let mut plan = v.emission;
+            if let Some(m) = &d.mapping {
+                plan.temperature_scale = m.scale;
+                plan.temperature_offset = m.offset;
+            }
+            glowing.push(Glowing {
+                volume: v,
+                emission: d.emission.clone(),
+                temperature: d.temperature.clone(),
+                plan,
+            });
+        }
     }
     let sum = FieldSum::new(members).map_err(|e| {
         let v = &volumes.list[0];
         SceneError::input(&v.file, format!("[[volume]] \"{}\": {e}", v.name))
     })?;
+    let frame = *sum.transform();
+    let mut emitters = Vec::with_capacity(glowing.len());
+    for g in glowing {
+        let v = g.volume;
+        let at = |e: String| SceneError::input(&v.file, format!("[[volume]] \"{}\": {e}", v.name));
+        emitters.push(Emitter {
+            emission: placed(&g.emission, v.placement, frame).map_err(at)?,
+            temperature: placed(&g.temperature, v.placement, frame).map_err(at)?,
+            plan: g.plan,
+        });
+    }
     report.density_memory_bytes = sum.memory_bytes();
     report.notes.push(format!(
         "{} volumes placed from {} decoded density grid{}",
@@ -65,15 +171,13 @@ pub fn load_volumes(
         loaded.len(),
         if loaded.len() == 1 { "" } else { "s" }
     ));
-    let color = if volumes.tinted {
-        let albedo = volumes.list.iter().map(|v| v.albedo).collect();
-        AlbedoMix::new(sum.clone(), albedo)
-            .map(|m| Box::new(m) as Box<dyn crate::field::ColorField>)
-    } else {
-        None
-    };
+    let color = tint(&sum, volumes, colors);
     let (tool, up_from_data) =
         first.ok_or_else(|| SceneError::input(&plan.input, "no [[volume]] to render"))?;
+    let parts = (volumes.list.len() > 1).then(|| VolumeParts {
+        sum: sum.clone(),
+        names: volumes.list.iter().map(|v| v.name.clone()).collect(),
+    });
     Ok(SceneFields {
         tool,
         temperature_mapping: None,
@@ -81,7 +185,47 @@ pub fn load_volumes(
         emission: None,
         temperature: None,
         color,
-        emission_found: false,
+        emission_found,
         up_from_data,
+        emitters,
+        parts,
     })
+}
+
+/// The scattering tint: the albedos' mix where they differ (the plan's medium then
+/// scatters its whole extinction), each volume's colour grid on its own share; one
+/// untinted volume's colour grid as it is.
+fn tint(
+    sum: &FieldSum,
+    volumes: &VolumesPlan,
+    mut colors: Vec<Option<Arc<dyn ColorField>>>,
+) -> Option<Box<dyn ColorField>> {
+    let coloured = colors.iter().any(Option::is_some);
+    if !volumes.tinted && !coloured {
+        return None;
+    }
+    if !volumes.tinted && colors.len() == 1 {
+        return colors
+            .pop()
+            .flatten()
+            .map(|c| Box::new(Shared(c)) as Box<dyn ColorField>);
+    }
+    let albedo = volumes
+        .list
+        .iter()
+        .map(|v| if volumes.tinted { v.albedo } else { DVec3::ONE })
+        .collect();
+    AlbedoMix::with_colors(sum.clone(), albedo, colors).map(|m| Box::new(m) as Box<dyn ColorField>)
+}
+
+/// A shared colour field as a boxed one.
+struct Shared(Arc<dyn ColorField>);
+
+impl ColorField for Shared {
+    fn transform(&self) -> &crate::field::IndexToWorld {
+        self.0.transform()
+    }
+    fn color_at_index(&self, p: DVec3) -> glam::Vec3 {
+        self.0.color_at_index(p)
+    }
 }

@@ -8,6 +8,7 @@ pub mod deep;
 pub mod frames;
 pub mod march;
 pub mod tools;
+pub mod volumes;
 
 use std::path::Path;
 

@@ -77,9 +77,12 @@ impl PathTracer<'_> {
     }
 }
 
-/// Per-thread buffers: the pieces of the cell where the camera ray's opacity crosses ½.
+/// Per-thread buffers: the pieces of the cell where the camera ray's opacity crosses ½,
+/// and the per-volume alphas'.
 #[derive(Clone, Debug, Default)]
 pub struct PathScratch {
     ends: Vec<f64>,
     integrals: Vec<f64>,
+    /// The per-volume alphas' buffers.
+    pub(super) mattes: crate::integrate::mattes::MatteScratch,
 }

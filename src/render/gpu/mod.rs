@@ -55,6 +55,12 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
     if scene.ground.is_some() {
         return Some("the ground plane (--ground)".into());
     }
+    if scene.motion.is_some() {
+        return Some("motion blur from a velocity grid (--shutter)".into());
+    }
+    if scene.camera_motion.is_some() {
+        return Some("a camera moving while the shutter is open (--shutter)".into());
+    }
     if scene.lights.len() > upload::MAX_LIGHTS {
         return Some(format!("more than {} lights", upload::MAX_LIGHTS));
     }

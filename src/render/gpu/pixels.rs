@@ -89,7 +89,7 @@ fn render_picks(
         .for_each(|(i, (out, rate))| {
             let k = starts.partition_point(|&s| s <= i) - 1;
             let (p, (jx, jy, stream)) = (picks[k], points[k][i - starts[k]]);
-            let sample = job.camera_sample(&frame, p.x, p.y, jx, jy);
+            let sample = job.camera_sample(&frame, p.x, p.y, jx, jy, None);
             let ray = sample.ray;
             let (sx, sy) = job.stream_pixel(p.x, p.y);
             let u = SampleRng::new(job.seed, sx, sy, stream).uniform();
@@ -193,7 +193,7 @@ pub fn render_pixels(
         .iter()
         .map(|p| match p.kind {
             PassKind::Rgb => vec![vec![0f32; w * h]; 3],
-            PassKind::Alpha => vec![vec![0f32; w * h]],
+            PassKind::Alpha | PassKind::Matte => vec![vec![0f32; w * h]],
             PassKind::Depth => vec![vec![f32::INFINITY; w * h]],
         })
         .collect();

@@ -131,6 +131,12 @@ render_options! {
     fov: Option<f64> = (Camera, "DEG", Value("40"), Render);
     /// Width of the orthographic view in world units.
     ortho_width: Option<f64> = (Camera, "W", Described("framing the bounds"), Render);
+    /// Shutter interval OPEN,CLOSE in frames from the frame's time (-0.25,0.25: a
+    /// centred 180° shutter): each camera sample is taken at a time in it, and a volume
+    /// with a velocity grid blurs.
+    shutter: Option<String> = (Camera, "OPEN,CLOSE", Described("off"), Render);
+    /// Frames per second: how a velocity per second becomes a displacement per frame.
+    fps: Option<f64> = (Camera, "FPS", Value("24"), Render);
     /// Pixels rendered beyond each edge of the image, for lens distortion: the EXR's
     /// data window grows by X left and right and Y above and below, its display window
     /// stays the image of --res through the same camera.
@@ -148,6 +154,8 @@ render_options! {
     temperature_grid: Option<String> = (Grids, "NAME", Described("detected: temperature, heat"), Render);
     /// Vec3 grid tinting scattering ("none" to disable).
     color_grid: Option<String> = (Grids, "NAME", Described("detected: Cd, color, colour"), Render);
+    /// Vec3 velocity grid that blurs the volume within --shutter ("none" to disable).
+    velocity_grid: Option<String> = (Grids, "NAME", Described("detected: vel, v, velocity, or a vel.x/y/z or velocity_x/y/z triplet"), Render);
 
     /// Absorption per world unit at density 1, r,g,b.
     sigma_a: Option<String> = (Look, "r,g,b", Value("0.1,0.1,0.1"), RenderAndBake);
@@ -173,6 +181,11 @@ render_options! {
     /// Kelvin = temperature value × scale + offset (giving it or the scale turns the
     /// detection off).
     temperature_offset: Option<f64> = (Look, "K", Described("0, detected with the scale"), Render);
+    /// Multiplies the velocity grid's vectors.
+    velocity_scale: Option<f64> = (Look, "F", Value("1"), Render);
+    /// Time unit of the velocity grid: second (world units per second, as Houdini and
+    /// Blender write) or frame.
+    velocity_unit: Option<String> = (Look, "second|frame", Value("second"), Render);
     /// Blackbody brightness: emission = colour(K) × intensity × (K/1000)^4.
     blackbody_intensity: Option<f64> = (Look, "F", Value("0.05"), Render);
 

@@ -40,6 +40,30 @@ pub struct VolumeTable {
     /// As the scene's `density_scale`, for this volume.
     #[serde(default)]
     pub density_scale: Option<f64>,
+    /// As the scene's `emission_grid`, for this volume.
+    #[serde(default)]
+    pub emission_grid: Option<String>,
+    /// As the scene's `temperature_grid`, for this volume.
+    #[serde(default)]
+    pub temperature_grid: Option<String>,
+    /// As the scene's `color_grid`, for this volume.
+    #[serde(default)]
+    pub color_grid: Option<String>,
+    /// As the scene's `emission_color`, for this volume.
+    #[serde(default)]
+    pub emission_color: Option<String>,
+    /// As the scene's `emission_intensity`, for this volume.
+    #[serde(default)]
+    pub emission_intensity: Option<f64>,
+    /// As the scene's `temperature_scale`, for this volume.
+    #[serde(default)]
+    pub temperature_scale: Option<f64>,
+    /// As the scene's `temperature_offset`, for this volume.
+    #[serde(default)]
+    pub temperature_offset: Option<f64>,
+    /// As the scene's `blackbody_intensity`, for this volume.
+    #[serde(default)]
+    pub blackbody_intensity: Option<f64>,
 }
 
 /// A uniform or per-axis scale.
@@ -51,4 +75,4 @@ pub enum Scale {
 }
 
 /// The `[[volume]]` row of docs/scene-file.md.
-pub const VOLUME_ROW: &str = "| `[[volume]]` | `file`, `name`, `translate`, `rotate`, `scale`, `matrix`, `density_grid`, `sigma_a`, `sigma_s`, `density_scale` | a volume placed in the world (scene files only, instead of `input`): `file` relative to the scene file, read once however often it is listed; `translate = [x, y, z]`, `rotate = [x, y, z]` (degrees about the world axes, in that order), `scale = s` or `[x, y, z]` (applied scale, rotate, translate) or `matrix` (four rows, translation in the last column); the medium keys as the scene's, for this volume (unset: the scene's). Where volumes overlap their coefficients add. |\n";
+pub const VOLUME_ROW: &str = "| `[[volume]]` | `file`, `name`, `translate`, `rotate`, `scale`, `matrix`, `density_grid`, `sigma_a`, `sigma_s`, `density_scale`, `emission_grid`, `temperature_grid`, `color_grid`, `emission_color`, `emission_intensity`, `temperature_scale`, `temperature_offset`, `blackbody_intensity` | a volume placed in the world (scene files only, instead of `input`): `name` (letters, digits, `_`, `-`; default `volume1`, `volume2`, … in order) names its alpha layer `volume_<name>.A` (written with two or more volumes); `file` relative to the scene file, read once however often it is listed with the same grids and emission; `translate = [x, y, z]`, `rotate = [x, y, z]` (degrees about the world axes, in that order), `scale = s` or `[x, y, z]` (applied scale, rotate, translate) or `matrix` (four rows, translation in the last column); the grid, medium and emission keys as the scene's, for this volume (unset: the scene's). Where volumes overlap their coefficients and emission add. |\n";

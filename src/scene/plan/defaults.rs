@@ -33,6 +33,10 @@ pub const SPP: u32 = 1;
 /// many-sample path-traced render at pixel centres, ~2 % with 4×4).
 pub const ANTIALIAS: u32 = 4;
 pub const SEED: u64 = 0;
+/// Frames per second, and the velocity grid's scale and time unit.
+pub const FPS: f64 = 24.0;
+pub const VELOCITY_SCALE: f64 = 1.0;
+pub const VELOCITY_UNIT: &str = "second";
 pub const EXPOSURE: f32 = 0.0;
 /// `--deep-tolerance`: the opacity error merged deep samples may make.
 pub const DEEP_TOLERANCE: f64 = 0.01;

@@ -16,7 +16,7 @@ pub enum GridChoice {
 }
 
 impl GridChoice {
-    fn from(v: &Option<String>) -> GridChoice {
+    pub(super) fn from(v: &Option<String>) -> GridChoice {
         match v.as_deref() {
             None => GridChoice::Detect,
             Some("none") | Some("") => GridChoice::Off,

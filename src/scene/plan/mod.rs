@@ -9,6 +9,7 @@ pub mod defaults;
 pub mod device;
 mod lighting;
 mod look;
+mod motion;
 mod outputs;
 mod quality;
 mod shot;
@@ -20,6 +21,7 @@ pub use defaults::{MAX_FRAME_BYTES, MAX_LIGHTS, MAX_THREADS, MIN_STEP_VOXELS};
 pub use device::Device;
 pub use lighting::{ShadowMode, ShadowPlan, safe_layer_name};
 pub use look::{EmissionPlan, GridChoice, GridRoles};
+pub use motion::{MAX_SHUTTER_FRAMES, MotionPlan};
 pub use outputs::{DeepPlan, OutputPlan, ProductionPlan};
 pub use quality::{MarchPlan, SamplingPlan};
 pub use shot::{ShotCameraAt, ShotPlan};
@@ -61,6 +63,8 @@ pub struct RenderPlan {
     /// A scene file's `[[volume]]` tables (then `input` is the first one's file, and
     /// `medium` their sum's), `None` for one input.
     pub volumes: Option<VolumesPlan>,
+    /// The shutter and how the velocity grid moves the volume.
+    pub motion: MotionPlan,
 }
 
 impl RenderPlan {
@@ -101,6 +105,7 @@ impl RenderPlan {
             production: ProductionPlan::from_options(o)?,
             transport,
             volumes,
+            motion: MotionPlan::from_options(o)?,
         })
     }
 

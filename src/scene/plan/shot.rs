@@ -6,7 +6,7 @@ use crate::scene::camera::Camera;
 use crate::scene::film::{FilmBack, FilmFit};
 use crate::scene::options::{CameraSetting, RenderOptions};
 use crate::scene::shot::table::CameraTable;
-use crate::scene::shot::{CameraTrack, FileRequest, RotationOrder};
+use crate::scene::shot::{CameraTrack, FileRequest, RotationOrder, ShotCamera};
 use std::path::PathBuf;
 
 /// The shot's camera before it is read.
@@ -163,28 +163,63 @@ impl ShotPlan {
         }
     }
 
+    /// The track's camera at frame `time`, with the plan's film settings over a USD
+    /// camera's, scaled into the volumes' units.
+    fn shot_at(&self, track: &CameraTrack, time: f64) -> Result<ShotCamera, String> {
+        let mut shot = track.at(time).map_err(|e| self.named(e))?;
+        if let CameraTrack::Usd(u) = track {
+            if let Some(t) = &self.table {
+                shot.film = t.film_over(shot.film)?;
+            }
+            shot.film.fit = self.fit.unwrap_or(FilmFit::Horizontal);
+            if let Some(m) = self.scene_meters_per_unit {
+                shot = shot.scaled(u.meters_per_unit / m);
+            }
+        }
+        Ok(shot)
+    }
+
+    /// `e` naming the camera file (or the `[camera]` table).
+    fn named(&self, e: String) -> String {
+        match &self.file {
+            Some(f) => format!("{}: {e}", f.display()),
+            None => format!("[camera]: {e}"),
+        }
+    }
+
+    /// The cameras of an image `width` × `height` at the plan's frame plus each of
+    /// `offsets` (frames): where the camera is while the shutter is open.
+    pub fn cameras_at(
+        &self,
+        width: usize,
+        height: usize,
+        offsets: &[f64],
+    ) -> Result<Vec<Camera>, String> {
+        let track = self.track()?;
+        let time = self.time.or(track.span().map(|s| s.0)).unwrap_or(0.0);
+        offsets
+            .iter()
+            .map(|dt| {
+                self.shot_at(&track, time + dt)?
+                    .camera(width, height)
+                    .map_err(|e| self.named(e))
+            })
+            .collect()
+    }
+
     /// The camera of an image `width` × `height` at the plan's frame.
     pub fn camera(&self, width: usize, height: usize) -> Result<ShotCameraAt, String> {
         let track = self.track()?;
         let span = track.span();
         let time = self.time.or(span.map(|s| s.0)).unwrap_or(0.0);
-        let named = |e: String| match &self.file {
-            Some(f) => format!("{}: {e}", f.display()),
-            None => format!("[camera]: {e}"),
-        };
-        let mut shot = track.at(time).map_err(named)?;
+        let shot = self.shot_at(&track, time)?;
         let mut notes = Vec::new();
         let mut up_z = None;
         if let CameraTrack::Usd(u) = &track {
-            if let Some(t) = &self.table {
-                shot.film = t.film_over(shot.film)?;
-            }
-            shot.film.fit = self.fit.unwrap_or(FilmFit::Horizontal);
             up_z = Some(u.up_z);
             let scaled = match self.scene_meters_per_unit {
                 Some(m) => {
                     let k = u.meters_per_unit / m;
-                    shot = shot.scaled(k);
                     format!(", scaled by {k} into the volumes' {m} m units")
                 }
                 None => String::new(),
@@ -207,7 +242,7 @@ impl ShotPlan {
                 "camera: frame {time} is outside the camera's frames {lo} to {hi}; the nearest is held"
             ));
         }
-        let camera = shot.camera(width, height).map_err(named)?;
+        let camera = shot.camera(width, height).map_err(|e| self.named(e))?;
         Ok(ShotCameraAt {
             camera,
             notes,

@@ -8,7 +8,7 @@
 //! different albedos scatter `S` tinted per point by the density-weighted mean albedo
 //! (`field::sum::AlbedoMix`), which gives σs(x) = Σ σs,ᵢ·sᵢ·ρᵢ(x) exactly.
 
-use super::look::{GridChoice, medium};
+use super::look::{EmissionPlan, GridChoice, GridRoles, medium};
 use crate::integrate::Medium;
 use crate::scene::options::RenderOptions;
 use crate::scene::options::volume::{Scale, VolumeTable};
@@ -26,7 +26,13 @@ pub struct VolumePlan {
     pub file: PathBuf,
     /// World placement, applied after the file's own index→world map.
     pub placement: DMat4,
-    pub density: GridChoice,
+    /// The grids in their roles (the table's keys over the scene's).
+    pub grids: GridRoles,
+    /// How the volume glows (the table's keys over the scene's).
+    pub emission: EmissionPlan,
+    /// `temperature_scale` or `temperature_offset` given (table or scene): the Kelvin
+    /// mapping is not detected.
+    pub temperature_explicit: bool,
     /// Its density's weight in the summed density (σt·scale over the common extinction).
     pub weight: f64,
     /// σs/σt per channel (0 where σt is 0).
@@ -125,24 +131,39 @@ pub(super) fn volumes(
             sigma_s: v.sigma_s.clone().or_else(|| o.sigma_s.clone()),
             density_scale: v.density_scale.or(o.density_scale),
             g: Some(base.g),
+            density_grid: v.density_grid.clone().or_else(|| o.density_grid.clone()),
+            emission_grid: v.emission_grid.clone().or_else(|| o.emission_grid.clone()),
+            temperature_grid: v
+                .temperature_grid
+                .clone()
+                .or_else(|| o.temperature_grid.clone()),
+            color_grid: v.color_grid.clone().or_else(|| o.color_grid.clone()),
+            emission_color: v
+                .emission_color
+                .clone()
+                .or_else(|| o.emission_color.clone()),
+            emission_intensity: v.emission_intensity.or(o.emission_intensity),
+            temperature_scale: v.temperature_scale.or(o.temperature_scale),
+            temperature_offset: v.temperature_offset.or(o.temperature_offset),
+            blackbody_intensity: v.blackbody_intensity.or(o.blackbody_intensity),
             ..RenderOptions::default()
         };
-        let m = medium(&own).map_err(|e| format!("[[volume]] \"{name}\": {e}"))?;
+        let at = |e: String| format!("[[volume]] \"{name}\": {e}");
+        let m = medium(&own).map_err(at)?;
+        let emission = EmissionPlan::from_options(&own).map_err(at)?;
         let placement = placement(v, &name)?;
-        let density = match v.density_grid.as_ref().or(o.density_grid.as_ref()) {
-            None => GridChoice::Detect,
-            Some(n) if n.is_empty() || n == "none" => {
-                return Err(format!(
-                    "[[volume]] \"{name}\": a volume needs a density grid"
-                ));
-            }
-            Some(n) => GridChoice::Named(n.clone()),
-        };
+        let grids = GridRoles::from_options(&own);
+        if grids.density == GridChoice::Off {
+            return Err(at("a volume needs a density grid".into()));
+        }
         list.push(VolumePlan {
             name,
             file: v.file.clone(),
             placement,
-            density,
+            grids,
+            emission,
+            temperature_explicit: own.temperature_scale.is_some()
+                || own.temperature_offset.is_some(),
             weight: 0.0,
             albedo: DVec3::ZERO,
         });

@@ -1,5 +1,6 @@
 //! What every input offers the scene: its fields, by name, and loading one.
 
+use crate::field::advect::GridVelocity;
 use crate::field::{ColorField, Field};
 use crate::scene::report::Sanitised;
 use crate::vdb::VdbError;
@@ -80,6 +81,13 @@ pub struct SourceField {
     pub class: String,
 }
 
+/// The fields a velocity is read from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VelocityNames {
+    Vector(String),
+    Channels([String; 3]),
+}
+
 /// A loaded field with what loading it found.
 pub struct Loaded<T> {
     pub field: T,
@@ -114,6 +122,13 @@ pub trait FieldSource: Send + Sync {
     fn load_scalar(&self, name: &str) -> Result<Loaded<Box<dyn Field>>>;
     /// Decodes a colour field.
     fn load_color(&self, name: &str) -> Result<Loaded<Box<dyn ColorField>>>;
+
+    /// Decodes a velocity: a vector field, or three scalar fields x, y, z (signed
+    /// values kept). `None` where the source holds no velocities murk reads.
+    fn load_velocity(&self, names: &VelocityNames) -> Result<Option<Loaded<GridVelocity>>> {
+        let _ = names;
+        Ok(None)
+    }
 
     /// The file's metadata as `(name, value)` text (a VDB's `creator`, …); none by default.
     fn metadata(&self) -> Vec<(String, String)> {

@@ -6,7 +6,7 @@ mod field_source;
 pub mod mesh;
 pub mod vdb;
 
-pub use field_source::{FieldKind, FieldSource, Loaded, SourceError, SourceField};
+pub use field_source::{FieldKind, FieldSource, Loaded, SourceError, SourceField, VelocityNames};
 pub use mesh::MeshFieldSource;
 use std::path::Path;
 pub use vdb::VdbSource;

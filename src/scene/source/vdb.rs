@@ -1,6 +1,9 @@
 //! A `.vdb` file as a field source.
 
-use super::field_source::{FieldKind, FieldSource, Loaded, SourceError, SourceField};
+use super::field_source::{
+    FieldKind, FieldSource, Loaded, SourceError, SourceField, VelocityNames,
+};
+use crate::field::advect::GridVelocity;
 use crate::field::{ColorField, Field, VoxelGrid};
 use crate::scene::report::Sanitised;
 use crate::vdb::{ValueKind, VdbFile};
@@ -82,5 +85,42 @@ impl FieldSource for VdbSource {
     }
     fn load_color(&self, name: &str) -> Result<Loaded<Box<dyn ColorField>>> {
         Ok(self.load(name)?.map(|g| Box::new(g) as Box<dyn ColorField>))
+    }
+    fn load_velocity(&self, names: &VelocityNames) -> Result<Option<Loaded<GridVelocity>>> {
+        let staggered = |n: &str| self.field(n).is_ok_and(|f| f.class == "staggered");
+        match names {
+            VelocityNames::Vector(n) => {
+                let l = self.load(n)?;
+                let s = staggered(n);
+                Ok(GridVelocity::vector(l.field, s).map(|v| Loaded {
+                    field: v,
+                    name: l.name,
+                    sanitised: l.sanitised,
+                    memory_bytes: l.memory_bytes,
+                }))
+            }
+            VelocityNames::Channels(xyz) => {
+                let mut grids = Vec::with_capacity(3);
+                let mut sanitised = Sanitised::default();
+                let mut memory_bytes = 0;
+                for n in xyz {
+                    let g = VoxelGrid::load_signed(&self.file, n)?;
+                    sanitised.nan += g.stats().nan;
+                    sanitised.inf += g.stats().inf;
+                    memory_bytes += g.memory_bytes();
+                    grids.push(g);
+                }
+                let s = staggered(&xyz[0]);
+                let Ok(xyz_grids) = <[VoxelGrid; 3]>::try_from(grids) else {
+                    return Ok(None);
+                };
+                Ok(Some(Loaded {
+                    field: GridVelocity::channels(xyz_grids, s),
+                    name: xyz.join(","),
+                    sanitised,
+                    memory_bytes,
+                }))
+            }
+        }
     }
 }

@@ -1,0 +1,198 @@
+//! The velocity role: which grid moves the volume within the shutter, detected by the
+//! names Houdini, Blender and EmberGen give it, decoded only when a shutter is open.
+
+use super::plan::{GridChoice, RenderPlan};
+use super::report::SceneReport;
+use super::source::{FieldKind, FieldSource, VelocityNames};
+use super::{PlanError, SceneError};
+use crate::field::Field;
+use crate::field::advect::{GridVelocity, VelocityField};
+use crate::integrate::ScatteringMode;
+use crate::integrate::motion::Motion;
+
+/// Vector grids of velocity, by name, in order of preference: Houdini's `vel` (and
+/// `v`), Blender's `velocity`.
+pub const VELOCITY_NAMES: &[&str] = &["vel", "v", "velocity"];
+/// Velocity as three float grids, one a component.
+pub const VELOCITY_CHANNEL_NAMES: &[[&str; 3]] = &[
+    ["vel.x", "vel.y", "vel.z"],
+    ["velocity_x", "velocity_y", "velocity_z"],
+    ["vel_x", "vel_y", "vel_z"],
+    ["v.x", "v.y", "v.z"],
+];
+
+/// The scene's velocity and how much of it a frame is.
+pub struct SceneMotion {
+    pub velocity: GridVelocity,
+    /// The velocity's time units in a frame, times `--velocity-scale`.
+    pub per_frame: f64,
+    /// The grid (or grids) it was read from.
+    pub name: String,
+}
+
+impl SceneMotion {
+    /// As the integrators take it.
+    pub fn motion(&self) -> Motion<'_> {
+        Motion {
+            velocity: &self.velocity,
+            per_frame: self.per_frame,
+        }
+    }
+}
+
+/// Which fields the velocity is read from: those named (one vector grid, a list
+/// `x,y,z` of float grids, or the first of such a triplet), else the first of the usual
+/// names; `None` where there is none (or `none`).
+fn choose(
+    source: &dyn FieldSource,
+    choice: &GridChoice,
+) -> Result<Option<VelocityNames>, SceneError> {
+    let has = |n: &str, kind: FieldKind| {
+        source
+            .fields()
+            .iter()
+            .find(|f| (f.name == n || f.unique_name == n) && f.kind == kind)
+            .map(|f| f.unique_name.clone())
+    };
+    let triplet = |[x, y, z]: [&str; 3]| -> Option<VelocityNames> {
+        Some(VelocityNames::Channels([
+            has(x, FieldKind::Scalar)?,
+            has(y, FieldKind::Scalar)?,
+            has(z, FieldKind::Scalar)?,
+        ]))
+    };
+    let bad = |value: &str, problem: String| SceneError::Flag {
+        flag: "--velocity-grid",
+        value: value.to_string(),
+        problem,
+    };
+    match choice {
+        GridChoice::Off => Ok(None),
+        GridChoice::Named(list) if list.contains(',') => {
+            let names: Vec<&str> = list.split(',').map(str::trim).collect();
+            let [x, y, z] = names[..] else {
+                return Err(bad(list, "a list names three float grids, x,y,z".into()));
+            };
+            triplet([x, y, z]).map(Some).ok_or_else(|| {
+                bad(
+                    list,
+                    format!("not three float grids of {}", source.field_list()),
+                )
+            })
+        }
+        GridChoice::Named(n) => {
+            if let Some(v) = has(n, FieldKind::Vector) {
+                return Ok(Some(VelocityNames::Vector(v)));
+            }
+            // The first of a triplet: `vel.x` finds `vel.y` and `vel.z`.
+            let stem = n
+                .strip_suffix('x')
+                .filter(|s| s.ends_with('.') || s.ends_with('_'));
+            if let Some(stem) = stem
+                && let Some(t) = triplet([n, &format!("{stem}y"), &format!("{stem}z")])
+            {
+                return Ok(Some(t));
+            }
+            Err(bad(
+                n,
+                format!(
+                    "not a vec3 grid or the x grid of an x/y/z triplet in {} ({})",
+                    source.path().display(),
+                    source.field_list()
+                ),
+            ))
+        }
+        GridChoice::Detect => Ok(VELOCITY_NAMES
+            .iter()
+            .find_map(|n| has(n, FieldKind::Vector))
+            .map(VelocityNames::Vector)
+            .or_else(|| VELOCITY_CHANNEL_NAMES.iter().find_map(|t| triplet(*t)))),
+    }
+}
+
+/// [`load`] from the scene's one input (`None`: a scene of `[[volume]]` tables, which is
+/// not blurred yet: a note says so). The path tracer does not blur: a velocity with
+/// `--scattering path` is refused.
+pub fn load_for(
+    plan: &RenderPlan,
+    source: Option<&dyn FieldSource>,
+    density: &dyn Field,
+    report: &mut SceneReport,
+) -> Result<Option<SceneMotion>, SceneError> {
+    let Some(source) = source else {
+        if plan.motion.shutter.is_some() {
+            report.notes.push(
+                "--shutter: [[volume]] scenes are not blurred from velocity yet: they render sharp"
+                    .into(),
+            );
+        }
+        return Ok(None);
+    };
+    let motion = load(source, plan, density, report)?;
+    if motion.is_some() && plan.transport.mode == ScatteringMode::Path {
+        return Err(PlanError::Invalid(
+            "{scattering} path does not blur a volume from its velocity yet: use --scattering single or fast, or --velocity-grid none".into(),
+        )
+        .into());
+    }
+    Ok(motion)
+}
+
+/// The velocity that blurs the volume within the shutter, decoded and recorded in the
+/// report; `None` without a shutter (nothing decoded) or without a velocity (a note says
+/// the volume renders sharp). A velocity that would carry anything farther than the
+/// density's whole box within the shutter is clamped to that speed, with a note.
+pub fn load(
+    source: &dyn FieldSource,
+    plan: &RenderPlan,
+    density: &dyn Field,
+    report: &mut SceneReport,
+) -> Result<Option<SceneMotion>, SceneError> {
+    let Some((open, close)) = plan.motion.shutter else {
+        return Ok(None);
+    };
+    let Some(names) = choose(source, &plan.motion.velocity_grid)? else {
+        if plan.motion.velocity_grid == GridChoice::Detect {
+            report.notes.push(format!(
+                "--shutter {open},{close}: no velocity grid found (vel, v, velocity or a vel.x/y/z triplet): the volume renders sharp"
+            ));
+        }
+        return Ok(None);
+    };
+    let Some(loaded) = source.load_velocity(&names)? else {
+        return Ok(None);
+    };
+    report
+        .grid_roles
+        .insert("velocity".into(), loaded.name.clone());
+    report.grids_decoded.push(loaded.name.clone());
+    let decoded: Vec<String> = match &names {
+        VelocityNames::Vector(n) => vec![n.clone()],
+        VelocityNames::Channels(xyz) => xyz.to_vec(),
+    };
+    report.grids_not_decoded.retain(|n| !decoded.contains(n));
+    report.sanitised_total += loaded.sanitised.nan + loaded.sanitised.inf;
+    report
+        .sanitised
+        .insert(loaded.name.clone(), loaded.sanitised);
+    report.grid_memory_bytes += loaded.memory_bytes;
+    let per_frame = plan.motion.velocity_per_frame();
+    let mut velocity = loaded.field;
+    let frames = open.abs().max(close.abs());
+    let (lo, hi) = density.world_bounds();
+    let reach = (hi - lo).length();
+    let farthest = velocity.max_speed() * (per_frame * frames).abs();
+    if reach.is_finite() && reach > 0.0 && farthest > reach {
+        let limit = reach / (per_frame * frames).abs();
+        velocity = velocity.limited(limit);
+        report.notes.push(format!(
+            "velocity \"{}\" would move the volume up to {farthest:.3} world units within the shutter, farther than its whole box ({reach:.3}): speeds clamped to {limit:.4} (check --velocity-unit and --velocity-scale)",
+            loaded.name
+        ));
+    }
+    Ok(Some(SceneMotion {
+        velocity,
+        per_frame,
+        name: loaded.name,
+    }))
+}
