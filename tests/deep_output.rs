@@ -105,6 +105,65 @@ fn flattened_it_is_the_flat_render_on_every_fixture() {
 }
 
 #[test]
+fn the_default_file_is_half_and_flattens_within_half_precision() {
+    // Without --float colour and opacity are half floats (the flat file's are too), each
+    // sample's chosen against what the samples before it flatten to once rounded: the
+    // pixel flattened is off by one rounding of what its last sample adds (a relative
+    // 2⁻¹¹), where rounding each sample alone would add one per sample along the ray.
+    let cases: &[(&str, &[&str])] = &[
+        ("cloud.vdb", &[]),
+        ("pyro.vdb", &[]),
+        ("dense_plume.vdb", &[]),
+        ("blender_smoke.vdb", &["--colorspace", "acescg"]),
+    ];
+    for (k, (input, extra)) in cases.iter().enumerate() {
+        let dir = scratch(&format!("deep-half-{k}"));
+        let (flat, deep) = render(
+            &dir,
+            &fixture(input),
+            &[&["--res", "64x36"], *extra].concat(),
+        );
+        let half_deep = dir.join("half_deep.exr");
+        let o = Command::new(MURK)
+            .args(["render", &fixture(input), "-o"])
+            .arg(dir.join("half.exr"))
+            .arg("--deep")
+            .arg(&half_deep)
+            .args(["--quiet", "--res", "64x36"])
+            .args(*extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (d, f) = (read_deep(&half_deep), flat_channels(&flat));
+        // The channel list: name, then the pixel type (1 half, 2 float).
+        let list = &d.attributes["channels"].1;
+        for (name, kind) in [("R", 1), ("A", 1), ("Z", 2), ("ZBack", 2)] {
+            let at = list
+                .windows(name.len() + 1)
+                .position(|w| w == [name.as_bytes(), &[0]].concat())
+                .unwrap();
+            assert_eq!(list[at + name.len() + 1], kind, "{input}: channel {name}");
+        }
+        assert_tidy(&d);
+        let mut worst: f64 = 0.0;
+        for (c, name) in ["R", "G", "B", "A"].iter().enumerate() {
+            for (i, want) in f[*name].iter().enumerate() {
+                let (got, want) = (flatten(&d, i)[c], *want as f64);
+                worst = worst.max((got - want).abs() / (1e-5 + want.abs() / 2048.0));
+            }
+        }
+        assert!(worst <= 1.0, "{input}: {worst} of the half precision bound");
+        // And smaller than the float file.
+        let (hb, fb) = (file_len(&half_deep), file_len(&deep));
+        assert!(hb < fb * 3 / 4, "{input}: {hb} bytes against {fb}");
+    }
+}
+
+fn file_len(p: &Path) -> u64 {
+    std::fs::metadata(p).unwrap().len()
+}
+
+#[test]
 fn openexr_and_openimageio_read_it_and_flatten_it_to_the_flat_render() {
     need!(tools::EXRHEADER, tools::OIIOTOOL);
     let dir = scratch("deep-peers");

@@ -38,7 +38,14 @@ pub fn plan_inputs(plan: &RenderPlan, scene: Option<&Path>, frame: Option<i64>) 
         inputs.push(Role::new(c, of("shadow cache")));
     }
     if let Some(h) = &plan.production.holdout {
-        inputs.push(Role::new(&h.path, "the holdout (--holdout-depth)"));
+        inputs.push(Role::new(
+            &h.path,
+            if h.deep {
+                "the holdout (--holdout-deep)"
+            } else {
+                "the holdout (--holdout-depth)"
+            },
+        ));
     }
     inputs
 }

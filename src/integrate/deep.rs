@@ -96,8 +96,9 @@ pub const DEPTH_FRACTION: f64 = 0.5;
 /// last of each run, and as few others as keep every dropped point within `tolerance`
 /// of the merged sample split there by OpenEXR's rule (`1 − T(d) = 1 − T₀ (T₁/T₀)^f`,
 /// colour in proportion to opacity): opacity within `tolerance`, colour within
-/// `tolerance × color_scale`, and the depth at which the merged sample reaches the
-/// point's opacity within [`DEPTH_FRACTION`] of the point's distance from its front.
+/// `tolerance × color_scale`, and, for a point whose opacity is more than `tolerance`
+/// past the front's, the depth at which the merged sample reaches that opacity within
+/// [`DEPTH_FRACTION`] of the point's distance from its front.
 /// Greedy from the front, O(points): each dropped point narrows the range of slopes
 /// (of `ln T` against depth, and of colour against opacity) the merged sample may have.
 pub fn simplify(curve: &[DeepPoint], tolerance: f64, color_scale: f64) -> Vec<DeepPoint> {
@@ -156,9 +157,11 @@ impl Cone {
         let mut smin = (lo - self.ln_t) / dz;
         let mut smax = (hi - self.ln_t) / dz;
         // Depth: the merged sample reaches ln T_k at s + (ΔL / slope); within
-        // DEPTH_FRACTION × dz of k.
+        // DEPTH_FRACTION × dz of k, where k's opacity differs from the front's by more
+        // than the tolerance (where it does not, no depth sees the merged opacity off by
+        // more than the tolerance, wherever it is placed).
         let dl = ln_t(k.alpha) - self.ln_t;
-        if dl.is_finite() {
+        if dl.is_finite() && k.alpha - self.s.alpha > tol {
             let near = dz * (1.0 - DEPTH_FRACTION);
             let far = dz * (1.0 + DEPTH_FRACTION);
             smax = smax.min(dl / far);

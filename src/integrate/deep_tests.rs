@@ -183,3 +183,45 @@ fn rays_apart_in_depth_flatten_to_their_mean() {
         assert!((f[ch] - c[ch]).abs() < 1e-5, "{f:?} against {c}");
     }
 }
+
+#[test]
+fn structure_behind_near_full_opacity_is_one_sample() {
+    // A dense slab takes the ray past 1 − tol (T = e⁻⁶ = 0.0025), then lumpy density
+    // behind it: no depth there sees the opacity move by as much as the tolerance, so
+    // where it lies in depth is not kept either. Placing each lump in depth (as a
+    // depth criterion that ignores how little opacity is left would) takes dozens.
+    let mut tr = slab(1.0, 1.6, 10.0, 0.02, 1.0);
+    let lumps = lumpy(2).to_depth(1.0);
+    let (a0, c0) = tr.last();
+    let t0 = 1.0 - a0;
+    for w in lumps.windows(2) {
+        let (p, q) = (w[0], w[1]);
+        if q.starts_run || p.depth < 1.6 {
+            continue;
+        }
+        let (pa, pc) = (a0 + t0 * p.alpha, c0 + t0 * p.color);
+        let (qa, qc) = (a0 + t0 * q.alpha, c0 + t0 * q.color);
+        tr.segment(p.depth, q.depth, pa, pc, qa, qc);
+    }
+    let curve = tr.to_depth(1.0);
+    let mut out = Vec::new();
+    pixel_samples(std::slice::from_ref(&curve), 0.01, &mut out);
+    check_tidy(&out);
+    let behind = out.iter().filter(|s| s.z >= 1.6).count();
+    assert!(behind <= 2, "{behind} samples behind the slab: {out:?}");
+    let (a, c) = tr.last();
+    let f = flatten(&out);
+    assert!(
+        (f[3] - a).abs() < 1e-5 && (f[0] - c.x).abs() < 1e-5,
+        "{f:?}"
+    );
+    for p in &curve {
+        let got = alpha_before(&out, p.depth);
+        assert!(
+            (got - p.alpha).abs() <= 0.01,
+            "{}: {got} against {}",
+            p.depth,
+            p.alpha
+        );
+    }
+}

@@ -1,7 +1,8 @@
 //! The deep scanline OpenEXR writer: per pixel a list of samples with depth ranges
-//! (`Z`..`ZBack`) and premultiplied `R,G,B,A`, all 32-bit float, ZIPS-compressed, state
-//! TIDY (sorted, non-overlapping), as Nuke's deep nodes and OpenEXR's `DeepScanLine`
-//! readers take it.
+//! (`Z`..`ZBack`, 32-bit float) and premultiplied `R,G,B,A` (16-bit half floats, packed
+//! by [`super::deep_pack`]; 32-bit float and as given with `half` off), ZIPS-compressed,
+//! state TIDY (sorted, non-overlapping), as Nuke's deep nodes and OpenEXR's
+//! `DeepScanLine` readers take it.
 //!
 //! The `exr` crate that writes the flat file reads and writes no deep data, so this is
 //! written here on `flate2`, byte for byte as the OpenEXR file layout gives it: magic and
@@ -15,19 +16,14 @@
 
 use super::OutputError;
 use crate::files::{FileError, write_atomically};
+use exr::prelude::f16;
 use flate2::Compression;
 use flate2::write::ZlibEncoder;
 use rayon::prelude::*;
 use std::io::Write;
 use std::path::Path;
 
-/// One deep sample: camera-space depths and premultiplied colour and opacity.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct DeepSample {
-    pub z: f32,
-    pub z_back: f32,
-    pub rgba: [f32; 4],
-}
+pub use super::deep_pack::DeepSample;
 
 /// A deep image: each pixel's samples, front to back, rows top to bottom.
 #[derive(Clone, Debug, Default)]
@@ -54,6 +50,12 @@ pub struct DeepExrOptions {
     /// The colour space the samples' colour is written in (converted from linear
     /// Rec.709, as the flat file's), named by the `chromaticities` attribute.
     pub colorspace: super::ColorSpace,
+    /// Colour and opacity as half floats and depths rounded ([`super::deep_pack`]);
+    /// off: all 32-bit float, as given.
+    pub half: bool,
+    /// The deep tolerance the samples were merged with: the depths' rounding moves a
+    /// split by a share of it.
+    pub tolerance: f64,
     /// The displayWindow (the frame less its overscan) and `pixelAspectRatio`.
     pub plate: super::Plate,
 }
@@ -68,6 +70,7 @@ pub struct DeepWriteSummary {
 
 /// Channels in the order OpenEXR stores them (by name).
 const CHANNELS: [&str; 6] = ["A", "B", "G", "R", "Z", "ZBack"];
+const HALF: i32 = 1;
 const FLOAT: i32 = 2;
 const ZIPS: u8 = 2;
 /// `deepImageState` TIDY: sorted and non-overlapping.
@@ -126,8 +129,23 @@ fn zip(raw: &[u8]) -> std::io::Result<Option<Vec<u8>>> {
     Ok((packed.len() < raw.len()).then_some(packed))
 }
 
+/// One scan line's samples as written: packed ([`super::deep_pack`]) with `half` on.
+fn pack_row(row: &[Vec<DeepSample>], opts: &DeepExrOptions) -> Vec<Vec<DeepSample>> {
+    if !opts.half {
+        return row.to_vec();
+    }
+    row.iter()
+        .map(|px| {
+            let mut out = Vec::with_capacity(px.len());
+            super::deep_pack::round_colour(px, &mut out);
+            super::deep_pack::round_depths(&mut out, opts.tolerance);
+            out
+        })
+        .collect()
+}
+
 /// One scan line's chunk: `y`, the three sizes, the count table and the samples.
-fn chunk(y: usize, row: &[Vec<DeepSample>]) -> std::io::Result<Vec<u8>> {
+fn chunk(y: usize, row: &[Vec<DeepSample>], half: bool) -> std::io::Result<Vec<u8>> {
     let mut counts = Vec::with_capacity(row.len() * 4);
     let mut total: i32 = 0;
     for px in row {
@@ -145,7 +163,11 @@ fn chunk(y: usize, row: &[Vec<DeepSample>]) -> std::io::Result<Vec<u8>> {
                 4 => s.z,
                 _ => s.z_back,
             };
-            data.extend_from_slice(&v.to_le_bytes());
+            if half && c < 4 {
+                data.extend_from_slice(&f16::from_f32(v).to_le_bytes());
+            } else {
+                data.extend_from_slice(&v.to_le_bytes());
+            }
         }
     }
     let packed_counts = zip(&counts)?.unwrap_or(counts);
@@ -177,7 +199,6 @@ fn encode(image: &DeepImage, opts: &DeepExrOptions) -> Result<(Vec<u8>, DeepWrit
     if w > i32::MAX as usize || h > i32::MAX as usize {
         return Err(format!("a deep image of {w}x{h} pixels is too large"));
     }
-    let max = image.pixels.iter().map(Vec::len).max().unwrap_or(0);
     let converted;
     let image = match opts.colorspace.from_rec709() {
         Some(m) => {
@@ -192,12 +213,20 @@ fn encode(image: &DeepImage, opts: &DeepExrOptions) -> Result<(Vec<u8>, DeepWrit
         }
         None => image,
     };
+    // Scan lines pack and compress independently: on every thread.
+    let rows: Vec<Vec<Vec<DeepSample>>> = (0..h)
+        .into_par_iter()
+        .map(|y| pack_row(&image.pixels[y * w..(y + 1) * w], opts))
+        .collect();
+    let max = rows.iter().flatten().map(Vec::len).max().unwrap_or(0);
+    let samples: usize = rows.iter().flatten().map(Vec::len).sum();
     let mut hd = Header(Vec::new());
     let mut ch = Vec::new();
-    for name in CHANNELS {
+    for (c, name) in CHANNELS.iter().enumerate() {
         ch.extend_from_slice(name.as_bytes());
         ch.push(0);
-        ch.extend_from_slice(&FLOAT.to_le_bytes());
+        let kind = if opts.half && c < 4 { HALF } else { FLOAT };
+        ch.extend_from_slice(&kind.to_le_bytes());
         ch.extend_from_slice(&[0, 0, 0, 0]); // pLinear, reserved
         ch.extend_from_slice(&1i32.to_le_bytes());
         ch.extend_from_slice(&1i32.to_le_bytes());
@@ -258,10 +287,10 @@ fn encode(image: &DeepImage, opts: &DeepExrOptions) -> Result<(Vec<u8>, DeepWrit
     file.extend_from_slice(&hd.0);
     let table_at = file.len();
     file.resize(table_at + 8 * h, 0);
-    // Scan lines compress independently: on every thread.
-    let chunks: Vec<Vec<u8>> = (0..h)
-        .into_par_iter()
-        .map(|y| chunk(y, &image.pixels[y * w..(y + 1) * w]))
+    let chunks: Vec<Vec<u8>> = rows
+        .par_iter()
+        .enumerate()
+        .map(|(y, row)| chunk(y, row, opts.half))
         .collect::<std::io::Result<_>>()
         .map_err(|e| e.to_string())?;
     for (y, c) in chunks.iter().enumerate() {
@@ -271,7 +300,7 @@ fn encode(image: &DeepImage, opts: &DeepExrOptions) -> Result<(Vec<u8>, DeepWrit
     }
     let summary = DeepWriteSummary {
         bytes: file.len() as u64,
-        samples: image.sample_count() as u64,
+        samples: samples as u64,
         max_samples_per_pixel: max as u32,
     };
     Ok((file, summary))

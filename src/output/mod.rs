@@ -7,6 +7,7 @@
 pub mod attr;
 pub mod colorspace;
 pub mod deep;
+pub mod deep_pack;
 mod error;
 mod exr;
 mod frame;

@@ -115,7 +115,7 @@ fn run_frame_here(
         if let (Some(d), Some(image)) = (&plan.outputs.deep, &deep) {
             let summary = write_deep_exr(&d.path, image, &deep_options(&exr, d.tolerance))?;
             written.push(&d.path);
-            st.scene.notes.push(deep_note(image, summary.bytes));
+            st.scene.notes.push(deep_note(image, summary));
         }
         if let Some((path, opts)) = &plan.outputs.preview {
             write_preview(path, &frame, opts)?;
@@ -414,18 +414,20 @@ fn deep_options(exr: &crate::output::ExrOptions, tolerance: f64) -> DeepExrOptio
         world_to_ndc: exr.world_to_ndc,
         extra_strings,
         colorspace: exr.colorspace,
+        half: !exr.float,
+        tolerance,
         plate: exr.plate,
     }
 }
 
 /// The stats' note on the deep file: its samples and size.
-fn deep_note(image: &DeepImage, bytes: u64) -> String {
+fn deep_note(image: &DeepImage, written: crate::output::deep::DeepWriteSummary) -> String {
     let covered = image.pixels.iter().filter(|p| !p.is_empty()).count();
-    let samples = image.sample_count();
+    let (samples, bytes) = (written.samples, written.bytes);
     format!(
         "deep: {samples} samples, {:.1} per covered pixel ({covered} pixels), at most {}; {bytes} bytes",
         samples as f64 / covered.max(1) as f64,
-        image.pixels.iter().map(Vec::len).max().unwrap_or(0)
+        written.max_samples_per_pixel
     )
 }
 

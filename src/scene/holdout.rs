@@ -1,6 +1,7 @@
 //! Holdouts: a depth image from the render's own camera (`--holdout-depth
-//! FILE.exr[:CHANNEL]`, the CG render's `Z`), where the volume is cut. Read before
-//! anything is rendered, checked against the output's size and for NaN depths.
+//! FILE.exr[:CHANNEL]`, the CG render's `Z`) or a deep image (`--holdout-deep`, read by
+//! [`super::holdout_deep`]), where the volume is cut. Read before anything is rendered,
+//! checked against the output's size and for NaN depths.
 
 use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
 use std::path::{Path, PathBuf};
@@ -9,14 +10,37 @@ use std::path::{Path, PathBuf};
 /// renderers' `Z`, a `depth` layer's, and Cycles' `Depth.Z`.
 pub const DEPTH_CHANNELS: [&str; 3] = ["Z", "depth.Z", "Depth.Z"];
 
-/// `--holdout-depth`: the file and, if named, its channel.
+/// `--holdout-depth` (the file and, if named, its channel) or `--holdout-deep`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HoldoutSpec {
     pub path: PathBuf,
     pub channel: Option<String>,
+    /// A deep image (`--holdout-deep`).
+    pub deep: bool,
 }
 
 impl HoldoutSpec {
+    /// `--holdout-deep FILE.exr`.
+    pub fn deep(text: &str) -> Result<HoldoutSpec, String> {
+        if text.is_empty() {
+            return Err("{holdout_deep} needs a file: FILE.exr".into());
+        }
+        Ok(HoldoutSpec {
+            path: text.into(),
+            channel: None,
+            deep: true,
+        })
+    }
+
+    /// The flag that gave it.
+    pub fn flag(&self) -> &'static str {
+        if self.deep {
+            "--holdout-deep"
+        } else {
+            "--holdout-depth"
+        }
+    }
+
     /// `FILE.exr` or `FILE.exr:CHANNEL` (a file whose whole name exists is taken whole).
     pub fn parse(text: &str) -> Result<HoldoutSpec, String> {
         if text.is_empty() {
@@ -34,11 +58,13 @@ impl HoldoutSpec {
             return Ok(HoldoutSpec {
                 path: file.into(),
                 channel: Some(channel.into()),
+                deep: false,
             });
         }
         Ok(HoldoutSpec {
             path: text.into(),
             channel: None,
+            deep: false,
         })
     }
 }
@@ -59,13 +85,20 @@ pub fn load(
     height: usize,
     overscan: (usize, usize),
 ) -> Result<Holdout, String> {
+    if spec.deep {
+        return super::holdout_deep::load(&spec.path, width, height, overscan)
+            .map(|depths| Holdout { depths });
+    }
     let meta = exr::meta::MetaData::read_from_file(&spec.path, false)
         .map_err(|e| format!("not a readable EXR: {e}"))?;
     let Some(header) = meta.headers.first() else {
         return Err("an EXR without a header".into());
     };
     if header.deep {
-        return Err("a deep image; --holdout-depth takes a flat depth image".into());
+        return Err(
+            "a deep image; --holdout-depth takes a flat depth image (--holdout-deep a deep one)"
+                .into(),
+        );
     }
     let display = header.shared_attributes.display_window.size;
     let image = (

@@ -12,6 +12,7 @@ mod error;
 pub mod film;
 pub mod frames;
 pub mod holdout;
+pub mod holdout_deep;
 pub mod light;
 pub mod lights;
 mod marched;

@@ -1,6 +1,6 @@
 //! A minimal reader of single-part deep scanline EXRs (as the OpenEXR file layout gives
-//! them; NONE and ZIPS/ZIP compression, float channels), for the deep tests, and the
-//! flat channels of an EXR through the `exr` crate.
+//! them; NONE and ZIPS compression), for the deep tests, and the
+//! flat channels of an EXR through the `exr` crate. Half and float channels.
 
 use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
 use std::collections::BTreeMap;
@@ -82,13 +82,18 @@ pub fn read_deep(path: &Path) -> Deep {
     let (x0, y0, x1, y1) = (i32_at(dw, 0), i32_at(dw, 4), i32_at(dw, 8), i32_at(dw, 12));
     let (width, height) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
     let mut channels = Vec::new();
+    // Bytes per sample of each channel: 2 (half) or 4 (float).
+    let mut sizes = Vec::new();
     let ch = &attributes["channels"].1;
     let mut c = 0;
     while ch[c] != 0 {
         channels.push(cstr(ch, &mut c));
-        assert_eq!(i32_at(ch, c), 2, "float channels only");
+        let kind = i32_at(ch, c);
+        assert!(kind == 1 || kind == 2, "half and float channels only");
+        sizes.push(if kind == 1 { 2 } else { 4 });
         c += 16;
     }
+    let per_sample: usize = sizes.iter().sum();
     let mut pixels = vec![Vec::new(); width * height];
     for row in 0..height {
         let mut p = u64_at(&b, at + 8 * row) as usize;
@@ -103,15 +108,21 @@ pub fn read_deep(path: &Path) -> Deep {
             .map(|x| i32_at(&counts, 4 * x) as usize)
             .collect();
         let total = cum.last().copied().unwrap_or(0);
-        assert_eq!(data.len(), total * 4 * channels.len());
+        assert_eq!(data.len(), total * per_sample);
         for x in 0..width {
             let first = if x == 0 { 0 } else { cum[x - 1] };
             let samples = (first..cum[x])
                 .map(|s| {
                     (0..channels.len())
                         .map(|c| {
-                            let o = 4 * (c * total + s);
-                            f32::from_le_bytes(data[o..o + 4].try_into().unwrap())
+                            let start: usize = sizes[..c].iter().sum::<usize>() * total;
+                            let o = start + sizes[c] * s;
+                            if sizes[c] == 2 {
+                                let bits = u16::from_le_bytes(data[o..o + 2].try_into().unwrap());
+                                exr::prelude::f16::from_bits(bits).to_f32()
+                            } else {
+                                f32::from_le_bytes(data[o..o + 4].try_into().unwrap())
+                            }
                         })
                         .collect()
                 })

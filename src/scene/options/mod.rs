@@ -273,6 +273,10 @@ render_options! {
     /// FILE.exr[:CHANNEL], channel Z, depth.Z or Depth.Z when not named. Rays stop at its
     /// depth, so alpha, light and every layer are cut; the lights' shadows are not.
     holdout_depth: Option<String> = (Production, "FILE[:CHANNEL]", NoDefault, Render);
+    /// Cut the volume where a deep image from the same camera (the CG render's deep
+    /// output) turns opaque: each pixel at the front of the sample that takes its
+    /// accumulated alpha to 0.999, as --holdout-depth cuts.
+    holdout_deep: Option<String> = (Production, "FILE", NoDefault, Render);
     /// Colour space of the EXR's colour channels: lin_rec709 or acescg (converted, with
     /// chromaticities to match).
     colorspace: Option<String> = (Production, "lin_rec709|acescg", Value("lin_rec709"), Render);
@@ -379,10 +383,13 @@ impl RenderOptions {
         let mut o: RenderOptions =
             toml::from_str(&text).map_err(|e| bad(super::scene_file::describe(&e, &text)))?;
         let dir = path.parent().unwrap_or(std::path::Path::new("."));
-        if let Some(h) = &mut o.holdout_depth
-            && std::path::Path::new(h.as_str()).is_relative()
+        for h in [&mut o.holdout_depth, &mut o.holdout_deep]
+            .into_iter()
+            .flatten()
         {
-            *h = dir.join(h.as_str()).display().to_string();
+            if std::path::Path::new(h.as_str()).is_relative() {
+                *h = dir.join(h.as_str()).display().to_string();
+            }
         }
         for p in [
             &mut o.input,

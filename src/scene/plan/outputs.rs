@@ -124,7 +124,7 @@ pub struct ProductionPlan {
     pub temperature_explicit: bool,
     /// The scene names no light: the default sun, which follows the up axis.
     pub default_light: bool,
-    /// `--holdout-depth`: the depth image that cuts the volume.
+    /// `--holdout-depth` or `--holdout-deep`: the image that cuts the volume.
     pub holdout: Option<crate::scene::holdout::HoldoutSpec>,
 }
 
@@ -135,11 +135,14 @@ impl ProductionPlan {
             up_explicit: o.up.is_some(),
             temperature_explicit: o.temperature_scale.is_some() || o.temperature_offset.is_some(),
             default_light: !o.no_lights && o.lights.is_empty() && o.light.is_empty(),
-            holdout: o
-                .holdout_depth
-                .as_deref()
-                .map(crate::scene::holdout::HoldoutSpec::parse)
-                .transpose()?,
+            holdout: match (&o.holdout_depth, &o.holdout_deep) {
+                (Some(_), Some(_)) => {
+                    return Err("{holdout_depth} and {holdout_deep}: one holdout at a time".into());
+                }
+                (Some(d), None) => Some(crate::scene::holdout::HoldoutSpec::parse(d)?),
+                (None, Some(d)) => Some(crate::scene::holdout::HoldoutSpec::deep(d)?),
+                (None, None) => None,
+            },
         })
     }
 }
