@@ -16,6 +16,11 @@ pub const OPAQUE: f64 = 0.999;
 /// Most samples a holdout may hold in all (2³⁰: 16 GiB of float `A` and `Z` alone).
 const MOST_SAMPLES: u64 = 1 << 30;
 
+/// Most bytes of samples one chunk may unpack to (1 GiB: a 16-line chunk of an 8K deep
+/// render at 200 samples a pixel of 10 channels is a fifth of it). A chunk is unpacked
+/// whole, so this bounds what a small file that claims much can make murk allocate.
+const MOST_CHUNK_BYTES: u64 = 1 << 30;
+
 fn i32_at(b: &[u8], at: usize) -> Result<i32, String> {
     b.get(at..at + 4)
         .map(|s| i32::from_le_bytes([s[0], s[1], s[2], s[3]]))
@@ -303,6 +308,11 @@ pub fn load(
         total += n as u64;
         if total > MOST_SAMPLES {
             return Err(format!("more than {MOST_SAMPLES} samples"));
+        }
+        if ud > MOST_CHUNK_BYTES {
+            return Err(format!(
+                "a chunk of {ud} bytes of samples, more than murk unpacks ({MOST_CHUNK_BYTES})"
+            ));
         }
         if ud != (n * per_sample) as u64 {
             return Err(format!(
