@@ -75,6 +75,29 @@ impl<I: Integrator> PixelJob<'_, I> {
         )
     }
 
+    /// Sample `s` of the pixel whose streams are keyed by `(sx, sy)`: its jitter inside
+    /// the pixel and its stream. `grid` > 0: one sample in each cell of a `grid`²
+    /// stratified grid, on streams 1.. (the centre's is 0); else `spp` samples, the
+    /// pixel's centre alone at one sample a pixel.
+    pub(super) fn sample_point(&self, sx: usize, sy: usize, grid: u32, s: u32) -> (f64, f64, u32) {
+        if grid > 0 {
+            let s1 = s + 1;
+            (
+                ((s % grid) as f64 + unit_random(self.seed, sx, sy, s1, 1)) / grid as f64,
+                ((s / grid) as f64 + unit_random(self.seed, sx, sy, s1, 2)) / grid as f64,
+                s1,
+            )
+        } else if self.spp == 1 {
+            (0.5, 0.5, 0)
+        } else {
+            (
+                unit_random(self.seed, sx, sy, s, 1),
+                unit_random(self.seed, sx, sy, s, 2),
+                s,
+            )
+        }
+    }
+
     /// The camera ray through `(x + jx, y + jy)`, cut to the camera's clipping planes
     /// and to the pixel's holdout depth, taken at `time` in the shutter (frames from the
     /// frame; a moving camera is where it is then).
@@ -191,23 +214,7 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         let count = if grid == 0 { job.spp } else { grid * grid };
         let (sx, sy) = job.stream_pixel(x, y);
         for s in 0..count {
-            let (jx, jy, stream) = if grid > 0 {
-                // Streams 1.. (the centre's is 0).
-                let s1 = s + 1;
-                (
-                    ((s % grid) as f64 + unit_random(job.seed, sx, sy, s1, 1)) / grid as f64,
-                    ((s / grid) as f64 + unit_random(job.seed, sx, sy, s1, 2)) / grid as f64,
-                    s1,
-                )
-            } else if job.spp == 1 {
-                (0.5, 0.5, 0)
-            } else {
-                (
-                    unit_random(job.seed, sx, sy, s, 1),
-                    unit_random(job.seed, sx, sy, s, 2),
-                    s,
-                )
-            };
+            let (jx, jy, stream) = job.sample_point(sx, sy, grid, s);
             let time = job
                 .shutter
                 .map(|shutter| shutter_time(job.seed, sx, sy, s, count, shutter));

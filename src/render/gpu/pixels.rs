@@ -8,7 +8,7 @@ use super::context::{Gpu, Resident};
 use super::upload::{RESULT_BASE, SAMPLE_FLOATS};
 use crate::field::IndexRay;
 use crate::integrate::RayResult;
-use crate::integrate::integrator::{Integrator, SampleRng, unit_random};
+use crate::integrate::integrator::{Integrator, SampleRng};
 use crate::integrate::pass::PassKind;
 use crate::integrate::single::SingleScattering;
 use crate::render::pixels::{EDGE_ALPHA, PixelJob, PixelPasses, finish_pixel};
@@ -33,24 +33,7 @@ fn sample_points(job: &PixelJob<SingleScattering>, p: Pick) -> Vec<(f64, f64, u3
     };
     let (sx, sy) = job.stream_pixel(p.x, p.y);
     (0..count)
-        .map(|s| {
-            if p.grid > 0 {
-                let (g, s1) = (p.grid, s + 1);
-                (
-                    ((s % g) as f64 + unit_random(job.seed, sx, sy, s1, 1)) / g as f64,
-                    ((s / g) as f64 + unit_random(job.seed, sx, sy, s1, 2)) / g as f64,
-                    s1,
-                )
-            } else if job.spp == 1 {
-                (0.5, 0.5, 0)
-            } else {
-                (
-                    unit_random(job.seed, sx, sy, s, 1),
-                    unit_random(job.seed, sx, sy, s, 2),
-                    s,
-                )
-            }
-        })
+        .map(|s| job.sample_point(sx, sy, p.grid, s))
         .collect()
 }
 
