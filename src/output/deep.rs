@@ -220,7 +220,9 @@ fn pack_row(
             let mut out_aovs = Vec::new();
             let given = aovs.get(x).map_or(&[][..], Vec::as_slice);
             super::deep_pack::round_with_aovs(px, given, m, &mut out, &mut out_aovs);
-            if let Some(t) = targets.get(x) {
+            // Not with AOVs: moving opacity would move their flattened values, which
+            // are rounded against the samples as they are.
+            if let (Some(t), 0) = (targets.get(x), m) {
                 super::deep_pack::land_on(&mut out, *t, opts.tolerance);
             }
             super::deep_pack::round_depths(&mut out, opts.tolerance);
