@@ -2,15 +2,14 @@
 //! limits the adapter reports, the march's compute pipeline, and one call that marches
 //! a batch of camera samples.
 
-use super::upload::{Buffers, MAX_LIGHTS, RESULT_BASE, SAMPLE_FLOATS};
+use super::upload::{Buffers, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
 
 /// An opened GPU with the march compiled for it.
 pub struct Gpu {
     device: wgpu::Device,
     queue: wgpu::Queue,
-    /// The march compiled for 1 to [`MAX_LIGHTS`] lights, each on first use.
-    pipelines: std::sync::Mutex<Vec<Option<wgpu::ComputePipeline>>>,
+    pipeline: wgpu::ComputePipeline,
     /// The adapter as it names itself, its device type and backend.
     pub name: String,
     pub limits: wgpu::Limits,
@@ -69,33 +68,30 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| format!("{name}: cannot open the device ({e})"))?;
-        let pipeline = compile_march(&device, 1)
-            .map_err(|e| format!("{name}: the march does not compile ({e})"))?;
-        let mut pipelines = vec![None; MAX_LIGHTS];
-        pipelines[0] = Some(pipeline);
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let source = [include_str!("march.wgsl"), include_str!("dsm.wgsl")].join("\n");
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("march"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("march"),
+            layout: None,
+            module: &module,
+            entry_point: Some("march_samples"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(format!("{name}: the march does not compile ({e})"));
+        }
         Ok(Gpu {
             device,
             queue,
-            pipelines: std::sync::Mutex::new(pipelines),
+            pipeline,
             name,
             limits,
         })
-    }
-
-    /// The march for `lights` lights (at least one), compiled on first use.
-    fn pipeline(&self, lights: usize) -> Result<wgpu::ComputePipeline, String> {
-        let k = lights.clamp(1, MAX_LIGHTS) - 1;
-        let mut cache = self
-            .pipelines
-            .lock()
-            .map_err(|_| format!("{}: a march compile failed earlier", self.name))?;
-        if let Some(p) = &cache[k] {
-            return Ok(p.clone());
-        }
-        let p = compile_march(&self.device, k + 1)
-            .map_err(|e| format!("{}: the march does not compile ({e})", self.name))?;
-        cache[k] = Some(p.clone());
-        Ok(p)
     }
 
     /// The most bytes one storage buffer may bind.
@@ -138,7 +134,6 @@ impl Gpu {
         stride: usize,
     ) -> Result<Vec<f32>, String> {
         let d = &self.device;
-        let pipeline = self.pipeline((stride - RESULT_BASE) / 4)?;
         let mut params = scene.params.clone();
         params[super::upload::N_SAMPLES_AT] = count as u32;
         let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -166,7 +161,7 @@ impl Gpu {
         });
         let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("march"),
-            layout: &pipeline.get_bind_group_layout(0),
+            layout: &self.pipeline.get_bind_group_layout(0),
             entries: &[
                 entry(0, &params),
                 entry(1, &scene.tree),
@@ -180,7 +175,7 @@ impl Gpu {
         let mut encoder = d.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&pipeline);
+            pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &bind, &[]);
             let groups = (count as u32).div_ceil(WORKGROUP);
             pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
@@ -238,33 +233,6 @@ impl Gpu {
             params: b.params.clone(),
             stride: b.stride,
         })
-    }
-}
-
-/// The march (march.wgsl with dsm.wgsl) compiled for `lights` lights.
-fn compile_march(device: &wgpu::Device, lights: usize) -> Result<wgpu::ComputePipeline, String> {
-    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let source = [include_str!("march.wgsl"), include_str!("dsm.wgsl")]
-        .join("\n")
-        .replace(
-            "const MAX_LIGHTS: u32 = 8u;",
-            &format!("const MAX_LIGHTS: u32 = {lights}u;"),
-        );
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("march"),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("march"),
-        layout: None,
-        module: &module,
-        entry_point: Some("march_samples"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    match pollster::block_on(scope.pop()) {
-        Some(e) => Err(e.to_string()),
-        None => Ok(pipeline),
     }
 }
 

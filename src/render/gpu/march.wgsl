@@ -49,8 +49,6 @@ struct Sample {
 const CHILD: u32 = 0x80000000u;
 const BIG: f32 = 3.0e38;
 const GL2_HALF_OFFSET: f32 = 0.2886751345948129;
-// The scene's light count (at least 1): the march is compiled once per count, so its
-// per-light arrays take no more registers than the scene needs.
 const MAX_LIGHTS: u32 = 8u;
 const MAX_CELLS: u32 = 1048576u;
 
@@ -413,9 +411,9 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     var half_t = -1.0;
     var terminated = false;
     var n = 0u;
-    var per_light: array<vec3<f32>, MAX_LIGHTS>;
-    var light_tau: array<vec3<f32>, MAX_LIGHTS>;
-    var light_tau_ok: array<bool, MAX_LIGHTS>;
+    var per_light: array<vec3<f32>, 8>;
+    var light_tau: array<vec3<f32>, 8>;
+    var light_tau_ok: array<bool, 8>;
     for (var l = 0u; l < MAX_LIGHTS; l++) {
         per_light[l] = vec3<f32>(0.0);
         light_tau_ok[l] = false;
