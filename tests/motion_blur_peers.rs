@@ -262,7 +262,8 @@ fn a_camera_moving_over_a_still_blob_streaks_it_by_its_projected_motion() {
 /// ramp ends, the shutter's stratified times' noise, which 1024 samples take to 8e-4),
 /// and within 5e-4 on average over each ramp's columns (measured 3.3e-4). Frame 3,
 /// written without a
-/// velocity grid, renders sharp — the same image as without a shutter — with one note.
+/// velocity grid, renders sharp — the same image as without a shutter — with one note
+/// (a sequence says each note once, at the first frame that has it).
 #[test]
 fn a_sequence_blurs_each_frame_from_its_own_velocity() {
     need!(tools::PYOPENVDB, tools::IDIFF);
