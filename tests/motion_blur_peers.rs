@@ -53,8 +53,9 @@ def Camera \"shot\"\n{\n\
 /// the same camera, the velocity read by both as units a second (`velocity_unit`
 /// SECOND, scale 1): the blur — the blurred alpha minus the sharp one — correlates
 /// ≥ 0.8 between the two renderers and its energy (sum of squares) agrees within 20 %.
-/// Cycles at 64 samples: two seeds' blurs correlate 0.999 and their energies differ by
-/// 0.5 %, far below the tolerance.
+/// Measured: correlation 0.973, energy 0.961 (0.996 as sums of |difference|). Cycles at
+/// 64 samples: two seeds' blurs correlate 0.998 and their energies differ by 0.4 %, far
+/// below the tolerance.
 #[test]
 fn a_mantaflow_cache_blurs_as_cycles_blurs_it() {
     need!(tools::BLENDER);
