@@ -12,7 +12,8 @@ a camera translated by T and rotated by R (degrees, X first then Y then Z: USD's
 a horizontal fit. Blurred: the volume object's `velocity_grid` is `velocity`,
 `velocity_unit` SECOND and `velocity_scale` 1, the scene at FPS, and the shutter spans
 OPEN to CLOSE frames around the frame (Cycles' shutter is CLOSE - OPEN frames, centred
-when OPEN = -CLOSE).
+on the frame when OPEN = -CLOSE, starting on it when OPEN = 0, ending on it when
+CLOSE = 0).
 
 VOXEL is the VDB's voxel size: Blender 3.4 draws a VDB's voxels half a voxel toward +x,
 +y, +z of where OpenVDB's index space puts them (see scripts/cycles_camera.py), so the
@@ -51,7 +52,16 @@ scene.render.image_settings.file_format = "OPEN_EXR"
 scene.render.image_settings.color_mode = "RGBA"
 scene.render.image_settings.color_depth = "32"
 scene.render.motion_blur_shutter = close - open_
-scene.cycles.motion_blur_position = "CENTER"
+# Cycles places its shutter on the frame by where it opens: centred, opening on the
+# frame, or closing on it; another shutter has no Cycles equivalent.
+if open_ == -close:
+    scene.cycles.motion_blur_position = "CENTER"
+elif open_ == 0.0:
+    scene.cycles.motion_blur_position = "START"
+elif close == 0.0:
+    scene.cycles.motion_blur_position = "END"
+else:
+    sys.exit("shutter %s: Cycles opens it centred on, at or before the frame" % shutter)
 world = bpy.data.worlds.new("black")
 world.color = (0.0, 0.0, 0.0)
 scene.world = world

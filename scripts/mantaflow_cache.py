@@ -12,9 +12,10 @@ CACHEDIR/data/fluid_data_####.vdb: OpenVDB files as Blender writes them (`densit
 fixtures/caches/mantaflow_baked.vdb is frame 8 of RES 32 (the smoke drifting along +x
 and rising), for tests/motion_blur_peers.rs.
 
-Blender 3.4's Python raises a SystemError from the view layer update that follows
-adding the flow (Mantaflow's own script finds a grid not yet allocated); the update
-has happened and the bake runs, so it is caught.
+Headless, Blender 3.4's view layer update after the flow is added raises a SystemError
+(inside Mantaflow's Python: 'NoneType' object has no attribute 'getDataPointer'), and
+any operator called next raises it again; updating once and catching it lets the bake
+run, and its frames come out the same every time.
 """
 
 import os
