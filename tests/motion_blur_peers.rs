@@ -99,7 +99,12 @@ fn a_mantaflow_cache_blurs_as_cycles_blurs_it() {
         let mut blur = vec!["render", &cache, "-o", &murk_blur];
         blur.extend(look);
         blur.extend(["--shutter", shutter]);
-        ok(&dir, &blur);
+        let err = ok(&dir, &blur);
+        // The note that Mantaflow's unit is not per second, and the scale that is.
+        assert!(
+            err.contains("Mantaflow's") && err.contains("--velocity-scale 0.2344"),
+            "{err}"
+        );
         let out = tools::command(&tools::BLENDER)
             .args(["-b", "--factory-startup", "-noaudio", "--python"])
             .arg(&script)
