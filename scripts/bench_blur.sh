@@ -55,7 +55,7 @@ def median(args):
     r = [one(args) for _ in range(int(runs))]
     return statistics.median(x[0] for x in r), statistics.median(x[1] for x in r), r[0][2]
 
-print(f"| case | settings | sharp CPU s (render) | blurred CPU s (render) | ratio CPU (render) | samples sharp → blurred |")
+print(f"| case | settings | sharp CPU s (render stage, wall s) | blurred CPU s (render stage, wall s) | ratio CPU (render stage) | samples sharp → blurred |")
 print("|---|---|---|---|---|---|")
 for name, args in cases:
     for label, extra in (("equal spp", []), (f"--max-error {err}", ["--max-error", err])):
