@@ -104,7 +104,10 @@ fn gpu_matches_cpu(input: &str, o: &RenderOptions) -> f64 {
     // upload, rays, march and record of the render stage, each one timed.
     let stage = |name: &str| gpu.stats.scene.stages.get(name).map(|s| s.seconds);
     let parts = ["gpu_upload", "gpu_rays", "gpu_march", "gpu_record"].map(stage);
-    assert!(parts.iter().all(|s| s.is_some_and(|s| s > 0.0)), "{parts:?}");
+    assert!(
+        parts.iter().all(|s| s.is_some_and(|s| s > 0.0)),
+        "{parts:?}"
+    );
     let (layout, render) = (stage("gpu_layout"), stage("render"));
     assert!(layout.is_some_and(|l| l > 0.0 && l <= parts[0].unwrap_or(0.0)));
     let sum: f64 = parts.iter().flatten().sum();
