@@ -22,6 +22,7 @@ pub mod grid_nodes;
 mod grid_ranges;
 pub mod mesh;
 pub mod nonzero;
+pub mod padded_cells;
 pub mod procedural;
 pub mod random;
 pub mod shapes;
@@ -30,6 +31,7 @@ pub mod sum;
 mod test_support;
 pub mod transform;
 pub mod union;
+pub mod velocity;
 
 pub use grid::VoxelGrid;
 pub use transform::IndexToWorld;
