@@ -115,6 +115,9 @@ pub struct VoxelGrid {
     pub(super) tile_values: Vec<f32>,
     pub(super) bounds: IndexBox,
     pub(super) stats: GridStats,
+    /// A dense copy of the voxels for lookups along rays, kept for density levels
+    /// (`grid_dense`).
+    pub(super) dense: Option<Box<super::grid_dense::DenseVoxels>>,
 }
 
 /// Where a voxel lives.
@@ -207,6 +210,7 @@ impl VoxelGrid {
                 + self.leaf_range.len()
                 + self.leaf_stencil.len())
                 * size_of::<ValueRange>()
+            + self.dense.as_ref().map_or(0, |d| d.memory_bytes())
             + size_of::<Self>()
     }
 
