@@ -176,6 +176,9 @@ pub fn load(
         .sanitised
         .insert(loaded.name.clone(), loaded.sanitised);
     report.grid_memory_bytes += loaded.memory_bytes;
+    if let Some(note) = mantaflow_note(report, &names, plan, density) {
+        report.notes.push(note);
+    }
     let per_frame = plan.motion.velocity_per_frame();
     let mut velocity = loaded.field;
     let frames = open.abs().max(close.abs());
@@ -195,4 +198,30 @@ pub fn load(
         per_frame,
         name: loaded.name,
     }))
+}
+
+/// Mantaflow writes its `velocity` in voxels per its own time unit, of which a frame is
+/// 0.1 × 25/fps (Blender's step at a Time Scale of 1): murk reads it as units a second,
+/// as Cycles does, which blurs 1/(2.5 × voxel) times the fluid's motion. With the
+/// default unit and scale, a note gives the scale that moves the volume as the fluid
+/// moved (measured on a bake: docs/guide.md, Motion blur).
+fn mantaflow_note(
+    report: &SceneReport,
+    names: &VelocityNames,
+    plan: &RenderPlan,
+    density: &dyn Field,
+) -> Option<String> {
+    let blender = report
+        .source_tool
+        .as_deref()
+        .is_some_and(|t| t.starts_with("blender"));
+    let mantaflow = matches!(names, VelocityNames::Vector(n) if n == "velocity");
+    let defaults = plan.motion.per_second && plan.motion.velocity_scale == 1.0;
+    let voxel = density.transform().voxel_size().x;
+    (blender && mantaflow && defaults && voxel.is_finite() && voxel > 0.0).then(|| {
+        format!(
+            "velocity \"velocity\" is Mantaflow's, in voxels per its time unit (0.1 × 25/fps a frame): read as units a second, as Cycles reads it; --velocity-scale {:.4} (2.5 × the voxel size) moves the volume as the fluid moved",
+            2.5 * voxel
+        )
+    })
 }
