@@ -8,21 +8,11 @@
 //! number to the bit; it is made only where the grid's background and tiles are zero
 //! and its leaves' box holds at most [`DENSE_MAX_VOXELS`] voxels.
 
-use super::grid::{Stencil, VoxelGrid};
+use super::grid::{DenseVoxels, Stencil, VoxelGrid};
 use glam::{DVec3, IVec3};
 
 /// The largest dense copy made, in voxels (64 MiB of f32).
 pub const DENSE_MAX_VOXELS: usize = 1 << 24;
-
-/// Voxels of `[min − 1, max + 1)` along each axis in x-major order (`max` exclusive: one
-/// past the last leaf voxel), the ring around the leaves zero.
-#[derive(Clone, Debug)]
-pub(super) struct DenseVoxels {
-    /// The copy's first voxel (global index), one before the leaves' box.
-    base: IVec3,
-    dims: IVec3,
-    values: Vec<f32>,
-}
 
 impl DenseVoxels {
     /// The copy of `leaves` (global origin, 512 values each), or `None` past the limit.
