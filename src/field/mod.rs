@@ -16,6 +16,7 @@ pub mod color3;
 pub mod floor;
 pub mod grid;
 pub mod grid_build;
+mod grid_dense;
 mod grid_integrals;
 mod grid_levels;
 pub mod grid_nodes;
