@@ -100,6 +100,18 @@ fn gpu_matches_cpu(input: &str, o: &RenderOptions) -> f64 {
         gpu.stats.device
     );
     assert_eq!(cpu.frame.channel_names(), gpu.frame.channel_names());
+    // The GPU's stages are parts of its render: the layout of the upload, and the
+    // upload, rays, march and record of the render stage, each one timed.
+    let stage = |name: &str| gpu.stats.scene.stages.get(name).map(|s| s.seconds);
+    let parts = ["gpu_upload", "gpu_rays", "gpu_march", "gpu_record"].map(stage);
+    assert!(
+        parts.iter().all(|s| s.is_some_and(|s| s > 0.0)),
+        "{parts:?}"
+    );
+    let (layout, render) = (stage("gpu_layout"), stage("render"));
+    assert!(layout.is_some_and(|l| l > 0.0 && l <= parts[0].unwrap_or(0.0)));
+    let sum: f64 = parts.iter().flatten().sum();
+    assert!(render.is_some_and(|r| sum <= r), "{parts:?} in {render:?}");
     let beauty = rel_rmse(&gpu, &cpu, &["R", "G", "B"]);
     assert!(
         beauty <= RADIANCE_RMSE,

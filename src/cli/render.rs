@@ -166,6 +166,10 @@ pub fn run_sequence_or_frame(
     prepare_places(&paths, &frames)?;
     let bars = super::progress::Bars::new(quiet);
     let check = |p: &RenderPlan| super::guard::check_plan(p, scene.as_deref());
+    // Each note once, at the first frame that has it: a sequence's frames mostly share
+    // theirs (the tool, the up axis), and a note only some frames have (no velocity grid
+    // for --shutter) names the first of them.
+    let mut noted = std::collections::HashSet::new();
     let mut report = |frame: i64, p: &RenderPlan, outcome: &FrameOutcome<anyhow::Error>| {
         let mut lines = Vec::new();
         match outcome {
@@ -196,6 +200,14 @@ pub fn run_sequence_or_frame(
                             .first()
                             .map_or("none".into(), |m| m.source.clone())
                     ));
+                }
+                if !quiet {
+                    lines.extend(st.scene.notes.iter().filter_map(|n| {
+                        let text = super::guard::message_text(n);
+                        noted
+                            .insert(text.clone())
+                            .then(|| format!("murk: note: frame {frame}: {text}"))
+                    }));
                 }
             }
         }

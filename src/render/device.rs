@@ -75,6 +75,14 @@ pub(super) fn render_frame_gpu(
     st.scene
         .stages
         .insert("gpu_upload".into(), Stage::ran(times.upload));
+    for (name, seconds) in [
+        ("gpu_layout", times.layout),
+        ("gpu_rays", times.rays),
+        ("gpu_march", times.kernel),
+        ("gpu_record", times.record),
+    ] {
+        st.scene.stages.insert(name.into(), Stage::ran(seconds));
+    }
     st.rays = passes.rays;
     st.samples = passes.samples;
     st.samples_per_second = passes.samples as f64 / times.march.max(1e-9);

@@ -1,13 +1,13 @@
 //! The velocity role: which grid moves the volume within the shutter, detected by the
 //! names Houdini, Blender and EmberGen give it, decoded only when a shutter is open.
 
+use super::SceneError;
 use super::plan::{GridChoice, RenderPlan};
 use super::report::SceneReport;
 use super::source::{FieldKind, FieldSource, VelocityNames};
-use super::{PlanError, SceneError};
 use crate::field::Field;
 use crate::field::advect::{GridVelocity, VelocityField};
-use crate::integrate::ScatteringMode;
+use crate::field::padded_cells::CellCache;
 use crate::integrate::motion::Motion;
 
 /// Vector grids of velocity, by name, in order of preference: Houdini's `vel` (and
@@ -26,6 +26,10 @@ pub struct SceneMotion {
     pub velocity: GridVelocity,
     /// The velocity's time units in a frame, times `--velocity-scale`.
     pub per_frame: f64,
+    /// The largest |time| in the shutter, frames.
+    pub frames: f64,
+    /// The moving fields' grown cell ranges, built on first use.
+    pub cells: CellCache,
     /// The grid (or grids) it was read from.
     pub name: String,
 }
@@ -36,6 +40,8 @@ impl SceneMotion {
         Motion {
             velocity: &self.velocity,
             per_frame: self.per_frame,
+            frames: self.frames,
+            cells: Some(&self.cells),
         }
     }
 }
@@ -111,8 +117,7 @@ fn choose(
 }
 
 /// [`load`] from the scene's one input (`None`: a scene of `[[volume]]` tables, which is
-/// not blurred yet: a note says so). The path tracer does not blur: a velocity with
-/// `--scattering path` is refused.
+/// not blurred yet: a note says so).
 pub fn load_for(
     plan: &RenderPlan,
     source: Option<&dyn FieldSource>,
@@ -128,14 +133,7 @@ pub fn load_for(
         }
         return Ok(None);
     };
-    let motion = load(source, plan, density, report)?;
-    if motion.is_some() && plan.transport.mode == ScatteringMode::Path {
-        return Err(PlanError::Invalid(
-            "{scattering} path does not blur a volume from its velocity yet: use --scattering single or fast, or --velocity-grid none".into(),
-        )
-        .into());
-    }
-    Ok(motion)
+    load(source, plan, density, report)
 }
 
 /// The velocity that blurs the volume within the shutter, decoded and recorded in the
@@ -176,6 +174,9 @@ pub fn load(
         .sanitised
         .insert(loaded.name.clone(), loaded.sanitised);
     report.grid_memory_bytes += loaded.memory_bytes;
+    if let Some(note) = mantaflow_note(report, &names, plan, density) {
+        report.notes.push(note);
+    }
     let per_frame = plan.motion.velocity_per_frame();
     let mut velocity = loaded.field;
     let frames = open.abs().max(close.abs());
@@ -193,6 +194,34 @@ pub fn load(
     Ok(Some(SceneMotion {
         velocity,
         per_frame,
+        frames,
+        cells: CellCache::default(),
         name: loaded.name,
     }))
+}
+
+/// Mantaflow writes its `velocity` in voxels per its own time unit, of which a frame is
+/// 0.1 × 25/fps (Blender's step at a Time Scale of 1): murk reads it as units a second,
+/// as Cycles does, which blurs 1/(2.5 × voxel) times the fluid's motion. With the
+/// default unit and scale, a note gives the scale that moves the volume as the fluid
+/// moved (measured on a bake: docs/guide.md, Motion blur).
+fn mantaflow_note(
+    report: &SceneReport,
+    names: &VelocityNames,
+    plan: &RenderPlan,
+    density: &dyn Field,
+) -> Option<String> {
+    let blender = report
+        .source_tool
+        .as_deref()
+        .is_some_and(|t| t.starts_with("blender"));
+    let mantaflow = matches!(names, VelocityNames::Vector(n) if n == "velocity");
+    let defaults = plan.motion.per_second && plan.motion.velocity_scale == 1.0;
+    let voxel = density.transform().voxel_size().x;
+    (blender && mantaflow && defaults && voxel.is_finite() && voxel > 0.0).then(|| {
+        format!(
+            "velocity \"velocity\" is Mantaflow's, in voxels per its time unit (0.1 × 25/fps a frame): read as units a second, as Cycles reads it; --velocity-scale {:.4} (2.5 × the voxel size) moves the volume as the fluid moved",
+            2.5 * voxel
+        )
+    })
 }

@@ -2,7 +2,7 @@
 //! limits the adapter reports, the march's compute pipeline, and one call that marches
 //! a batch of camera samples.
 
-use super::upload::{Buffers, RESULT_BASE, SAMPLE_FLOATS};
+use super::upload::{Buffers, DSM_BUFFERS, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
 
 /// An opened GPU with the march compiled for it.
@@ -16,7 +16,7 @@ pub struct Gpu {
 }
 
 /// Storage buffers the march binds.
-const STORAGE_BUFFERS: u32 = 6;
+const STORAGE_BUFFERS: u32 = 8;
 /// Invocations per workgroup (`@workgroup_size` in march.wgsl).
 const WORKGROUP: u32 = 64;
 /// Workgroups per dispatch dimension (WebGPU's least limit; the shader spreads a
@@ -166,10 +166,12 @@ impl Gpu {
                 entry(0, &params),
                 entry(1, &scene.tree),
                 entry(2, &scene.vals),
-                entry(3, &scene.dsm),
+                entry(3, &scene.dsm[0]),
                 entry(4, &scene.meta),
                 entry(5, &input),
                 entry(6, &results),
+                entry(7, &scene.dsm[1]),
+                entry(8, &scene.dsm[2]),
             ],
         });
         let mut encoder = d.create_command_encoder(&Default::default());
@@ -209,9 +211,16 @@ impl Gpu {
         let max = self.max_binding();
         for (what, bytes) in b.sizes() {
             if bytes > max {
+                let total = match what {
+                    "the shadow maps" => format!(
+                        "{} MiB, in {DSM_BUFFERS} buffers of {} MiB",
+                        (b.dsm.len() * 4) >> 20,
+                        bytes >> 20
+                    ),
+                    _ => format!("{} MiB", bytes >> 20),
+                };
                 return Err(format!(
-                    "{what} ({} MiB) exceed the largest buffer {} binds ({} MiB)",
-                    bytes >> 20,
+                    "{what} ({total}) exceed the largest buffer {} binds ({} MiB)",
                     self.name,
                     max >> 20
                 ));
@@ -228,7 +237,7 @@ impl Gpu {
         Ok(Resident {
             tree: make("tree", bytemuck::cast_slice(&b.tree)),
             vals: make("vals", bytemuck::cast_slice(&b.vals)),
-            dsm: make("dsm", bytemuck::cast_slice(&b.dsm)),
+            dsm: std::array::from_fn(|k| make("dsm", bytemuck::cast_slice(&b.dsm_part(k)))),
             meta: make("meta", bytemuck::cast_slice(&b.meta)),
             params: b.params.clone(),
             stride: b.stride,
@@ -247,7 +256,8 @@ fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
 pub struct Resident {
     tree: wgpu::Buffer,
     vals: wgpu::Buffer,
-    dsm: wgpu::Buffer,
+    /// The shadow maps, in [`DSM_BUFFERS`] parts.
+    dsm: [wgpu::Buffer; DSM_BUFFERS],
     meta: wgpu::Buffer,
     params: Vec<u32>,
     /// Floats per sample in the results.

@@ -2,14 +2,28 @@
 // point, from the chart's bricks (Hermite, linear or constant), as ChartMap does it.
 // A chart is 32 words in `dsm` (see src/render/gpu/upload.rs), its arrays after it.
 
+// Word `at` of the maps, which lie in three buffers of P.dsm_chunk words each (so a
+// map may be three times the largest buffer the GPU binds).
+fn dw(at: u32) -> u32 {
+    let k = at / P.dsm_chunk;
+    let i = at - k * P.dsm_chunk;
+    if (k == 0u) {
+        return dsm0[i];
+    }
+    if (k == 1u) {
+        return dsm1[i];
+    }
+    return dsm2[i];
+}
+
 fn df(at: u32) -> f32 {
-    return bitcast<f32>(dsm[at]);
+    return bitcast<f32>(dw(at));
 }
 fn dv(at: u32) -> vec3<f32> {
     return vec3<f32>(df(at), df(at + 1u), df(at + 2u));
 }
 fn di(at: u32) -> vec3<i32> {
-    return vec3<i32>(bitcast<i32>(dsm[at]), bitcast<i32>(dsm[at + 1u]), bitcast<i32>(dsm[at + 2u]));
+    return vec3<i32>(bitcast<i32>(dw(at)), bitcast<i32>(dw(at + 1u)), bitcast<i32>(dw(at + 2u)));
 }
 
 const NO_BRICK: u32 = 0xffffffffu;
@@ -21,7 +35,7 @@ fn to_lattice(c: u32, p: vec3<f32>) -> vec4<f32> {
     let e1 = dv(c + 8u);
     let e2 = dv(c + 12u);
     let e3 = dv(c + 16u);
-    if (dsm[c] == 0u) {
+    if (dw(c) == 0u) {
         let d = (p - point) / unit;
         return vec4<f32>(dot(d, e1), dot(d, e2), dot(d, e3), 1.0);
     }
@@ -42,7 +56,7 @@ fn brick_with_key(c: u32, b: vec3<i32>) -> u32 {
     if (any(r < vec3<i32>(0)) || any(r >= dims)) {
         return NO_BRICK;
     }
-    return dsm[dsm[c + 28u] + u32(r.x + dims.x * (r.y + dims.y * r.z))];
+    return dw(dw(c + 28u) + u32(r.x + dims.x * (r.y + dims.y * r.z)));
 }
 
 fn brick_at(c: u32, q: vec3<f32>) -> u32 {
@@ -83,9 +97,9 @@ fn hermite(t: f32) -> vec4<f32> {
 fn hq(base: u32, scales: vec4<f32>, q: u32, k: u32) -> f32 {
     let at = base + 3u * k;
     if (q == 0u) {
-        return bitcast<f32>(dsm[at]);
+        return bitcast<f32>(dw(at));
     }
-    let w = dsm[at + 1u + (q - 1u) / 2u];
+    let w = dw(at + 1u + (q - 1u) / 2u);
     var v: i32;
     if (((q - 1u) & 1u) == 0u) {
         v = bitcast<i32>(w << 16u) >> 16u;
@@ -96,12 +110,12 @@ fn hq(base: u32, scales: vec4<f32>, q: u32, k: u32) -> f32 {
 }
 
 fn blend(c: u32, brick: u32, q: vec3<f32>) -> f32 {
-    let at = dsm[c + 29u] + 9u * brick;
+    let at = dw(c + 29u) + 9u * brick;
     let key = di(at);
-    let lf = dsm[at + 3u];
+    let lf = dw(at + 3u);
     let level = lf & 255u;
     let form = lf >> 8u;
-    let offset = dsm[at + 4u];
+    let offset = dw(at + 4u);
     let scales = vec4<f32>(df(at + 5u), df(at + 6u), df(at + 7u), df(at + 8u));
     if (form == 2u) {
         return scales.x;
@@ -116,30 +130,30 @@ fn blend(c: u32, brick: u32, q: vec3<f32>) -> f32 {
     let base = iu.x + m * (iu.y + m * iu.z);
     let dz = m * m;
     if (form == 1u) {
-        let lb = dsm[c + 31u] + offset;
+        let lb = dw(c + 31u) + offset;
         var plane: array<f32, 2>;
         for (var z = 0u; z < 2u; z++) {
             var row: array<f32, 2>;
             for (var y = 0u; y < 2u; y++) {
                 let d = base + z * dz + y * m;
-                let v0 = f32(dsm[lb + d]);
-                let v1 = f32(dsm[lb + d + 1u]);
+                let v0 = f32(dw(lb + d));
+                let v1 = f32(dw(lb + d + 1u));
                 row[y] = v0 + (v1 - v0) * f.x;
             }
             plane[z] = row[0] + (row[1] - row[0]) * f.y;
         }
         return scales.x + scales.y * (plane[0] + (plane[1] - plane[0]) * f.z);
     }
-    let hb = dsm[c + 30u] + 3u * offset;
+    let hb = dw(c + 30u) + 3u * offset;
     let unit = df(c + 11u);
     let zw = hermite(f.z);
     let step = h * unit;
     var wx = hermite(f.x);
-    if (dsm[c + 1u] != 0u) {
+    if (dw(c + 1u) != 0u) {
         wx = vec4<f32>(1.0 - f.x, 0.0, f.x, 0.0);
     }
     var wy = hermite(f.y);
-    if (dsm[c + 2u] != 0u) {
+    if (dw(c + 2u) != 0u) {
         wy = vec4<f32>(1.0 - f.y, 0.0, f.y, 0.0);
     }
     var sum = 0.0;

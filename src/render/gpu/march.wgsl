@@ -29,6 +29,10 @@ struct Params {
     lower_cells: u32,
     background: f32,
     scatters: u32,
+    dsm_chunk: u32,          // words of each of dsm0, dsm1, dsm2
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 };
 
 struct Sample {
@@ -41,10 +45,12 @@ struct Sample {
 @group(0) @binding(0) var<uniform> P: Params;
 @group(0) @binding(1) var<storage, read> tree: array<u32>;
 @group(0) @binding(2) var<storage, read> vals: array<f32>;
-@group(0) @binding(3) var<storage, read> dsm: array<u32>;
+@group(0) @binding(3) var<storage, read> dsm0: array<u32>;
 @group(0) @binding(4) var<storage, read> meta_: array<f32>;
 @group(0) @binding(5) var<storage, read> samples: array<Sample>;
 @group(0) @binding(6) var<storage, read_write> results: array<f32>;
+@group(0) @binding(7) var<storage, read> dsm1: array<u32>;
+@group(0) @binding(8) var<storage, read> dsm2: array<u32>;
 
 const CHILD: u32 = 0x80000000u;
 const BIG: f32 = 3.0e38;

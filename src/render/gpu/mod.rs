@@ -83,6 +83,14 @@ pub struct GpuTimes {
     pub upload: f64,
     /// Generating the rays, marching them and reading the results back.
     pub march: f64,
+    /// Of `upload`: laying the grid's nodes and the maps out as flat arrays.
+    pub layout: f64,
+    /// Of `march`: placing the samples and making their rays on the CPU.
+    pub rays: f64,
+    /// Of `march`: the GPU's part (the samples' upload, the march and the readback).
+    pub kernel: f64,
+    /// Of `march`: adding each sample's results into its pixel's passes on the CPU.
+    pub record: f64,
 }
 
 /// Renders the job's pixels on `gpu` (the scene passed [`unsupported`]).
@@ -111,16 +119,17 @@ pub fn render_pixels(
         settings: job.integrator.settings(),
         scatters: scene.scatters && scene.medium.scatters(),
     })?;
+    let layout = t.elapsed().as_secs_f64();
     let resident = gpu.upload(&buffers)?;
     drop(buffers);
     let upload = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let passes = pixels::render_pixels(gpu, &resident, job)?;
-    Ok((
-        passes,
-        GpuTimes {
-            upload,
-            march: t.elapsed().as_secs_f64(),
-        },
-    ))
+    let mut times = GpuTimes {
+        upload,
+        layout,
+        ..GpuTimes::default()
+    };
+    let passes = pixels::render_pixels(gpu, &resident, job, &mut times)?;
+    times.march = t.elapsed().as_secs_f64();
+    Ok((passes, times))
 }

@@ -4,6 +4,7 @@
 //! them in batches; each sample's result is written into the pixel's passes by
 //! [`SingleScattering::record`], as the CPU's are.
 
+use super::GpuTimes;
 use super::context::{Gpu, Resident};
 use super::upload::{RESULT_BASE, SAMPLE_FLOATS};
 use crate::field::IndexRay;
@@ -14,6 +15,7 @@ use crate::integrate::single::SingleScattering;
 use crate::render::pixels::{EDGE_ALPHA, PixelJob, PixelPasses, finish_pixel};
 use glam::DVec3;
 use rayon::prelude::*;
+use std::time::Instant;
 
 /// One camera sample to march: its pixel and where it goes in the pixel's mean.
 #[derive(Clone, Copy)]
@@ -45,7 +47,9 @@ fn render_picks(
     scene: &Resident,
     job: &PixelJob<SingleScattering>,
     picks: &[Pick],
+    times: &mut GpuTimes,
 ) -> Result<(Vec<f32>, u64), String> {
+    let clock = Instant::now();
     let integrator = job.integrator;
     let layout = integrator.passes();
     let stride = layout.slots();
@@ -87,7 +91,11 @@ fn render_picks(
             out[12..15].copy_from_slice(&put(index.dir));
             *rate = sample.depth_rate;
         });
+    times.rays += clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
     let results = gpu.march(scene, &input)?;
+    times.kernel += clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
     let rs = scene.stride as usize;
     let lights = (rs - RESULT_BASE) / 4;
     let mut values = vec![0f32; picks.len() * stride];
@@ -126,6 +134,7 @@ fn render_picks(
             n_samples
         })
         .sum();
+    times.record += clock.elapsed().as_secs_f64();
     Ok((values, samples))
 }
 
@@ -134,6 +143,7 @@ pub fn render_pixels(
     gpu: &Gpu,
     scene: &Resident,
     job: &PixelJob<SingleScattering>,
+    times: &mut GpuTimes,
 ) -> Result<PixelPasses, String> {
     let (w, h) = (job.camera.width, job.camera.height);
     let layout = job.integrator.passes().clone();
@@ -144,7 +154,7 @@ pub fn render_pixels(
     let centres: Vec<Pick> = (c0..c1)
         .flat_map(|y| (0..w).map(move |x| Pick { x, y, grid: 0 }))
         .collect();
-    let (mut values, mut samples) = render_picks(gpu, scene, job, &centres)?;
+    let (mut values, mut samples) = render_picks(gpu, scene, job, &centres, times)?;
     let mut resampled = 0u64;
     if let (true, Some(a)) = (job.edges() && r1 > r0, alpha_at) {
         let alpha = |x: usize, y: usize| values[((y - c0) * w + x) * stride + a];
@@ -164,7 +174,7 @@ pub fn render_pixels(
                 grid: job.antialias,
             })
             .collect();
-        let (again, more) = render_picks(gpu, scene, job, &edges)?;
+        let (again, more) = render_picks(gpu, scene, job, &edges, times)?;
         for (p, px) in edges.iter().zip(again.chunks(stride)) {
             values[((p.y - c0) * w + p.x) * stride..][..stride].copy_from_slice(px);
         }

@@ -22,7 +22,9 @@ pub const RESULT_BASE: usize = 12;
 /// Where the sample count sits in the parameters (see `Params` in march.wgsl).
 pub const N_SAMPLES_AT: usize = 32;
 /// Words of the parameters.
-const PARAM_WORDS: usize = 44;
+const PARAM_WORDS: usize = 48;
+/// The buffers the shadow maps are spread over (`dsm0`..`dsm2` in march.wgsl).
+pub const DSM_BUFFERS: usize = 3;
 /// Words of a chart's header in `dsm`.
 const CHART_WORDS: usize = 32;
 /// Entries of the phase table, over the scattering angle from 0 to π (0.011° apart:
@@ -36,20 +38,39 @@ pub struct Buffers {
     pub tree: Vec<u32>,
     pub vals: Vec<f32>,
     pub dsm: Vec<u32>,
+    /// Words of each of the [`DSM_BUFFERS`] buffers `dsm` is cut into.
+    pub dsm_chunk: usize,
     pub meta: Vec<f32>,
     pub params: Vec<u32>,
     pub stride: u32,
 }
 
 impl Buffers {
-    /// Each buffer with what it holds, in bytes.
+    /// Each buffer with what it holds, in bytes (the shadow maps: each of their
+    /// [`DSM_BUFFERS`] buffers).
     pub fn sizes(&self) -> [(&'static str, u64); 4] {
         [
             ("the density grid's node tables", self.tree.len() as u64 * 4),
             ("the density grid's values", self.vals.len() as u64 * 4),
-            ("the shadow maps", self.dsm.len() as u64 * 4),
+            ("the shadow maps", self.dsm_chunk as u64 * 4),
             ("the lights", self.meta.len() as u64 * 4),
         ]
+    }
+
+    /// Part `k` of the shadow maps (at least 4 words: a binding is never empty).
+    pub fn dsm_part(&self, k: usize) -> std::borrow::Cow<'_, [u32]> {
+        let end = self.dsm.len();
+        let (a, b) = (
+            (k * self.dsm_chunk).min(end),
+            ((k + 1) * self.dsm_chunk).min(end),
+        );
+        let part = &self.dsm[a..b];
+        if part.len() >= 4 {
+            return part.into();
+        }
+        let mut padded = part.to_vec();
+        padded.resize(4, 0);
+        padded.into()
     }
 }
 
@@ -150,6 +171,8 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
         }
     }
     pad(&mut dsm);
+    // Thirds of whole vec4s.
+    let dsm_chunk = dsm.len().div_ceil(DSM_BUFFERS).next_multiple_of(4);
     // meta: the lights, then the phase table.
     let mut meta = Vec::with_capacity(s.lights.len() * 16 + PHASE_ENTRIES * 4);
     for ((light, shadow), first) in s.lights.iter().zip(s.shadows).zip(&first_chart) {
@@ -210,14 +233,56 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
         lower_cells as u32,
         s.grid.background().to_bits(),
         u32::from(s.scatters),
+        dsm_chunk as u32,
+        0,
+        0,
+        0,
     ]);
     debug_assert_eq!(params.len(), PARAM_WORDS);
     Ok(Buffers {
         tree,
         vals,
         dsm,
+        dsm_chunk,
         meta,
         params,
         stride,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn maps_of(words: usize) -> Buffers {
+        let dsm: Vec<u32> = (0..words as u32).map(|w| w + 1).collect();
+        Buffers {
+            tree: vec![],
+            vals: vec![],
+            dsm_chunk: words.div_ceil(DSM_BUFFERS).next_multiple_of(4),
+            dsm,
+            meta: vec![],
+            params: vec![],
+            stride: 0,
+        }
+    }
+
+    #[test]
+    fn the_maps_parts_hold_every_word_once_in_order_and_none_is_empty() {
+        for words in 4..200 {
+            let b = maps_of(words);
+            let parts: Vec<Vec<u32>> = (0..DSM_BUFFERS).map(|k| b.dsm_part(k).to_vec()).collect();
+            // Word w lies in part w / chunk at w % chunk, as dw() in dsm.wgsl reads it.
+            for (w, &v) in b.dsm.iter().enumerate() {
+                assert_eq!(parts[w / b.dsm_chunk][w % b.dsm_chunk], v, "{words} words");
+            }
+            for p in &parts {
+                assert!(
+                    p.len() >= 4 && p.len() <= b.dsm_chunk.max(4),
+                    "{words} words"
+                );
+            }
+            assert!(b.dsm_chunk * DSM_BUFFERS >= words && b.dsm_chunk % 4 == 0);
+        }
+    }
 }
