@@ -12,9 +12,8 @@
 
 use glam::DVec3;
 
-use super::deep_aovs::AovWalk;
 pub use super::deep_aovs::{
-    AOV_EMISSION, AOV_INDIRECT, AOV_LIGHTS, DeepAov, PixelAovs, aov_width, select_aovs,
+    AOV_EMISSION, AOV_INDIRECT, AOV_LIGHTS, DeepAov, aov_width, select_aovs,
 };
 
 /// One point of a ray's or a pixel's cumulative curves.
@@ -306,13 +305,73 @@ impl DeepPixel {
     }
 }
 
+/// What a pixel's rays recorded for its AOVs: per ray its AOV values (`width` per
+/// point of its curve), and the AOVs wanted.
+pub struct PixelAovs<'a> {
+    pub rows: &'a [Vec<f64>],
+    pub width: usize,
+    pub wanted: &'a [DeepAov],
+}
+
+/// The AOVs of a pixel's samples: its rays' curves (in depth) with their AOV values, and
+/// the AOVs wanted. Each sample's value of an AOV is what the AOV's curve (the mean of the
+/// rays', each split by OpenEXR's rule like colour) gains over the sample, over the
+/// transmittance in front of it, so each AOV flattens to the mean of the rays' totals:
+/// the flat layer.
+struct AovWalk<'a> {
+    curves: &'a [Vec<DeepPoint>],
+    rows: &'a [Vec<f64>],
+    width: usize,
+    wanted: &'a [DeepAov],
+    cursors: Vec<usize>,
+    /// What the samples so far add up to, flattened.
+    done: Vec<f64>,
+    now: Vec<f64>,
+}
+
+impl AovWalk<'_> {
+    /// The AOVs' cumulative values at `depth` (growing over calls) into `now`.
+    fn at(&mut self, depth: f64) {
+        self.now.iter_mut().for_each(|v| *v = 0.0);
+        let n = self.curves.len().max(1) as f64;
+        for ((curve, rows), cur) in self.curves.iter().zip(self.rows).zip(&mut self.cursors) {
+            let (i, j, share) = match locate(curve, depth, cur) {
+                Where::Zero => continue,
+                Where::Hold(i) => (i, i, 0.0),
+                Where::Between(i, j, f) => (i, j, split(&curve[i], &curve[j], f).1),
+            };
+            let at = |k: usize| curve[k].row as usize * self.width;
+            let (Some(ri), Some(rj)) = (rows.get(at(i)..), rows.get(at(j)..)) else {
+                continue;
+            };
+            for (k, aov) in self.wanted.iter().enumerate() {
+                for &r in &aov.rows {
+                    for c in 0..3 {
+                        let (a, b) = (ri[r + c], rj[r + c]);
+                        self.now[3 * k + c] += (a + (b - a) * share) / n;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The sample that ends at `depth` with transmittance `t0` in front of it.
+    fn sample(&mut self, depth: f64, t0: f64, out: &mut Vec<f32>) {
+        self.at(depth);
+        for (d, v) in self.done.iter_mut().zip(&self.now) {
+            out.push(((v - *d) / t0) as f32);
+            *d = *v;
+        }
+    }
+}
+
 /// The deep samples of a kept curve: one per interval inside a run, front to back,
 /// leaving out those that add nothing. A sample behind full opacity adds nothing either.
 pub fn samples_of(curve: &[DeepPoint], out: &mut Vec<DeepSample>) {
     samples_with(curve, out, None);
 }
 
-pub(super) fn samples_with(
+fn samples_with(
     curve: &[DeepPoint],
     out: &mut Vec<DeepSample>,
     mut aovs: Option<(&mut AovWalk, &mut Vec<f32>)>,
@@ -346,13 +405,13 @@ pub(super) fn samples_with(
 /// Where `depth` falls on a curve: before it (zero), on or after point `i` with nothing
 /// changing until the next (its value), or inside the interval from point `i` to point
 /// `j` at fraction `f` of its depth. `cursor` walks forward over calls with growing depths.
-pub(super) enum Where {
+enum Where {
     Zero,
     Hold(usize),
     Between(usize, usize, f64),
 }
 
-pub(super) fn locate(curve: &[DeepPoint], depth: f64, cursor: &mut usize) -> Where {
+fn locate(curve: &[DeepPoint], depth: f64, cursor: &mut usize) -> Where {
     while *cursor < curve.len() && curve[*cursor].depth <= depth {
         *cursor += 1;
     }
@@ -374,7 +433,7 @@ pub(super) fn locate(curve: &[DeepPoint], depth: f64, cursor: &mut usize) -> Whe
 /// Inside the interval from `p` to `q` at fraction `f` of its depth, by OpenEXR's split
 /// rule (ln T linear in depth): the opacity, and the share of the interval's opacity (of
 /// its colour, which follows opacity; of its depth where it has no opacity) in front.
-pub(super) fn split(p: &DeepPoint, q: &DeepPoint, f: f64) -> (f64, f64) {
+fn split(p: &DeepPoint, q: &DeepPoint, f: f64) -> (f64, f64) {
     let (t0, t1) = (1.0 - p.alpha, 1.0 - q.alpha);
     let t = if t0 > 0.0 {
         t0 * (t1 / t0).powf(f)

@@ -2,7 +2,7 @@
 //! part, each light's) as extra channels of every deep sample, premultiplied as colour
 //! is, so that flattening one gives its flat layer.
 //!
-//! With AOVs on, a ray's [`DeepTrace`](super::deep::DeepTrace) keeps, beside each
+//! With AOVs on, a ray's `DeepTrace` (`integrate::deep`) keeps, beside each
 //! point's opacity and colour, the layers' cumulative values there ([`aov_width`] of
 //! them). The samples are the beauty's (merged by its opacity and colour): an AOV's value
 //! in a sample is what its curve, the mean of the pixel's rays' (each split inside an
@@ -10,7 +10,7 @@
 //! in front of it. Flattened, an AOV is then the mean of the rays' totals: the flat layer.
 //! Inside a merged sample an AOV is placed in depth as the sample's opacity is.
 
-use super::deep::{DeepPoint, Where, locate, split};
+use glam::DVec3;
 
 /// Where a trace's AOV values start: emission (R, G, B), ...
 pub const AOV_EMISSION: usize = 0;
@@ -32,63 +32,19 @@ pub struct DeepAov {
     pub rows: Vec<usize>,
 }
 
-/// What a pixel's rays recorded for its AOVs: per ray its AOV values (`width` per
-/// point of its curve), and the AOVs wanted.
-pub struct PixelAovs<'a> {
-    pub rows: &'a [Vec<f64>],
-    pub width: usize,
-    pub wanted: &'a [DeepAov],
-}
-
-/// The AOVs of a pixel's samples: its rays' curves (in depth) with their AOV values, and
-/// the AOVs wanted. Each sample's value of an AOV is what the AOV's curve (the mean of the
-/// rays', each split by OpenEXR's rule like colour) gains over the sample, over the
-/// transmittance in front of it, so each AOV flattens to the mean of the rays' totals:
-/// the flat layer.
-pub(super) struct AovWalk<'a> {
-    pub(super) curves: &'a [Vec<DeepPoint>],
-    pub(super) rows: &'a [Vec<f64>],
-    pub(super) width: usize,
-    pub(super) wanted: &'a [DeepAov],
-    pub(super) cursors: Vec<usize>,
-    /// What the samples so far add up to, flattened.
-    pub(super) done: Vec<f64>,
-    pub(super) now: Vec<f64>,
-}
-
-impl AovWalk<'_> {
-    /// The AOVs' cumulative values at `depth` (growing over calls) into `now`.
-    fn at(&mut self, depth: f64) {
-        self.now.iter_mut().for_each(|v| *v = 0.0);
-        let n = self.curves.len().max(1) as f64;
-        for ((curve, rows), cur) in self.curves.iter().zip(self.rows).zip(&mut self.cursors) {
-            let (i, j, share) = match locate(curve, depth, cur) {
-                Where::Zero => continue,
-                Where::Hold(i) => (i, i, 0.0),
-                Where::Between(i, j, f) => (i, j, split(&curve[i], &curve[j], f).1),
-            };
-            let at = |k: usize| curve[k].row as usize * self.width;
-            let (Some(ri), Some(rj)) = (rows.get(at(i)..), rows.get(at(j)..)) else {
-                continue;
-            };
-            for (k, aov) in self.wanted.iter().enumerate() {
-                for &r in &aov.rows {
-                    for c in 0..3 {
-                        let (a, b) = (ri[r + c], rj[r + c]);
-                        self.now[3 * k + c] += (a + (b - a) * share) / n;
-                    }
-                }
-            }
+/// Puts a march's layers (emission, indirect, each light's scattered light) into a
+/// point's AOV values `now` (laid out as [`AOV_EMISSION`], [`AOV_INDIRECT`],
+/// [`AOV_LIGHTS`] say); nothing where `now` is empty (no AOVs recorded).
+pub fn put(now: &mut [f64], emission: DVec3, indirect: DVec3, per_light: &[DVec3]) {
+    let mut at = |k: usize, v: DVec3| {
+        if let Some(s) = now.get_mut(k..k + 3) {
+            s.copy_from_slice(&v.to_array());
         }
-    }
-
-    /// The sample that ends at `depth` with transmittance `t0` in front of it.
-    pub(super) fn sample(&mut self, depth: f64, t0: f64, out: &mut Vec<f32>) {
-        self.at(depth);
-        for (d, v) in self.done.iter_mut().zip(&self.now) {
-            out.push(((v - *d) / t0) as f32);
-            *d = *v;
-        }
+    };
+    at(AOV_EMISSION, emission);
+    at(AOV_INDIRECT, indirect);
+    for (l, v) in per_light.iter().enumerate() {
+        at(AOV_LIGHTS + 3 * l, *v);
     }
 }
 

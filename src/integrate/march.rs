@@ -142,7 +142,15 @@ impl RayResult {
 
 /// Opacity of optical depth `tau`: the mean over the channels of `1 − e^{−τ}`.
 fn alpha_of(tau: DVec3) -> f64 {
-    ((one_minus_exp(tau.x) + one_minus_exp(tau.y) + one_minus_exp(tau.z)) / 3.0).clamp(0.0, 1.0)
+    // A grey medium's channels are equal: one exponential for the same sum.
+    let x = one_minus_exp(tau.x);
+    let grey = tau.x == tau.y && tau.y == tau.z;
+    let (y, z) = if grey {
+        (x, x)
+    } else {
+        (one_minus_exp(tau.y), one_minus_exp(tau.z))
+    };
+    ((x + y + z) / 3.0).clamp(0.0, 1.0)
 }
 
 /// The parts of a scene the integral needs.
@@ -366,30 +374,12 @@ fn record_deep(
     for v in &scratch.per_light[..n_lights] {
         color += *v;
     }
-    // A grey medium's channels are equal: one exponential, the same sum as alpha_of's.
-    let alpha = if tau.x == tau.y && tau.y == tau.z {
-        let e = one_minus_exp(tau.x);
-        ((e + e + e) / 3.0).clamp(0.0, 1.0)
-    } else {
-        alpha_of(tau)
-    };
+    let alpha = alpha_of(tau);
     if let Some(tr) = scratch.deep.as_mut() {
         let (a0, c0) = tr.last();
         let added = tr.segment(a, b, a0, c0, alpha, color);
         let now = tr.aovs_now(added);
-        if !now.is_empty() {
-            use super::deep::{AOV_EMISSION, AOV_INDIRECT, AOV_LIGHTS};
-            let mut put = |at: usize, v: DVec3| {
-                if let Some(s) = now.get_mut(at..at + 3) {
-                    s.copy_from_slice(&v.to_array());
-                }
-            };
-            put(AOV_EMISSION, out.emission);
-            put(AOV_INDIRECT, scratch.indirect);
-            for (l, v) in scratch.per_light.iter().enumerate() {
-                put(AOV_LIGHTS + 3 * l, *v);
-            }
-        }
+        super::deep_aovs::put(now, out.emission, scratch.indirect, &scratch.per_light);
     }
 }
 
