@@ -16,126 +16,10 @@
 //! cells are the stored field's over the cell grown by that distance: nothing that
 //! moves into empty space is skipped.
 
-use super::{Cell, ColorField, Field, IndexBox, IndexRay, IndexToWorld, ValueRange, VoxelGrid};
+use super::padded_cells::PaddedCells;
+pub use super::velocity::{ConstantVelocity, GridVelocity, RayFlow, VelocityField};
+use super::{Cell, ColorField, Field, IndexBox, IndexRay, IndexToWorld, ValueRange};
 use glam::{DVec3, IVec3, Vec3};
-
-/// A velocity at every world point, world units per unit of time.
-pub trait VelocityField: Send + Sync {
-    fn velocity_at_world(&self, p: DVec3) -> DVec3;
-    /// A bound on the speed anywhere.
-    fn max_speed(&self) -> f64;
-}
-
-/// The same velocity everywhere.
-#[derive(Clone, Copy, Debug)]
-pub struct ConstantVelocity(pub DVec3);
-
-impl VelocityField for ConstantVelocity {
-    fn velocity_at_world(&self, _: DVec3) -> DVec3 {
-        self.0
-    }
-    fn max_speed(&self) -> f64 {
-        self.0.length()
-    }
-}
-
-/// A velocity grid: a vec3 [`VoxelGrid`] (Houdini's `vel`, Blender's `velocity`), or
-/// three float grids one per component (`vel.x`, `vel.y`, `vel.z`); trilinear, zero
-/// outside the active voxels. A staggered grid (OpenVDB's `staggered` class, as
-/// Mantaflow writes its MAC velocity) holds each component on the voxel face below it
-/// along its axis, half a voxel from the centre, and is read there.
-pub struct GridVelocity {
-    /// One vec3 grid, or three float grids x, y, z.
-    grids: Vec<VoxelGrid>,
-    staggered: bool,
-    max_speed: f64,
-    /// Speeds above this are clamped to it.
-    limit: f64,
-}
-
-impl GridVelocity {
-    /// A vec3 grid (`None` where it has fewer than three channels).
-    pub fn vector(grid: VoxelGrid, staggered: bool) -> Option<Self> {
-        if grid.channels() < 3 {
-            return None;
-        }
-        let s = grid.stats();
-        let bound = |c: usize| {
-            let lo = s.min.get(c).copied().unwrap_or(0.0).abs();
-            let hi = s.max.get(c).copied().unwrap_or(0.0).abs();
-            lo.max(hi)
-        };
-        let max_speed = DVec3::new(bound(0), bound(1), bound(2)).length();
-        Some(GridVelocity {
-            grids: vec![grid],
-            staggered,
-            max_speed,
-            limit: f64::INFINITY,
-        })
-    }
-
-    /// Three float grids of signed values, x, y, z.
-    pub fn channels(xyz: [VoxelGrid; 3], staggered: bool) -> Self {
-        let bound = |g: &VoxelGrid| {
-            let s = g.stats();
-            let lo = s.min.first().copied().unwrap_or(0.0).abs();
-            let hi = s.max.first().copied().unwrap_or(0.0).abs();
-            lo.max(hi)
-        };
-        let max_speed = DVec3::new(bound(&xyz[0]), bound(&xyz[1]), bound(&xyz[2])).length();
-        GridVelocity {
-            grids: xyz.into(),
-            staggered,
-            max_speed,
-            limit: f64::INFINITY,
-        }
-    }
-
-    /// Speeds above `limit` clamped to it.
-    pub fn limited(mut self, limit: f64) -> Self {
-        self.limit = limit.max(0.0);
-        self
-    }
-
-    /// The speed bound before any limit: the largest the file's values allow.
-    pub fn file_max_speed(&self) -> f64 {
-        self.max_speed
-    }
-}
-
-impl VelocityField for GridVelocity {
-    fn velocity_at_world(&self, p: DVec3) -> DVec3 {
-        // Component c of a staggered grid sits half a voxel below the centre along c.
-        let half = if self.staggered { 0.5 } else { 0.0 };
-        let at = |c: usize, i: DVec3| {
-            let mut q = i;
-            q[c] += half;
-            q
-        };
-        let v = match &self.grids[..] {
-            [g] => {
-                let i = Field::transform(g).world_to_index(p);
-                let [x, y, z] = g.sample_components([at(0, i), at(1, i), at(2, i)]);
-                DVec3::new(x as f64, y as f64, z as f64)
-            }
-            [x, y, z] => {
-                let one = |c: usize, g: &VoxelGrid| {
-                    g.sample_channel(at(c, Field::transform(g).world_to_index(p)), 0) as f64
-                };
-                DVec3::new(one(0, x), one(1, y), one(2, z))
-            }
-            _ => DVec3::ZERO,
-        };
-        if self.limit.is_finite() {
-            v.clamp_length_max(self.limit)
-        } else {
-            v
-        }
-    }
-    fn max_speed(&self) -> f64 {
-        self.max_speed.min(self.limit)
-    }
-}
 
 /// How far (voxels) the displacement may stray from the line between a batch's ends
 /// for [`Advected::piece_integrals`] to interpolate it.
@@ -151,6 +35,12 @@ pub struct Advected<'a> {
     inner: &'a dyn Field,
     velocity: &'a dyn VelocityField,
     shift: f64,
+    /// The displacement along the one ray this field is marched on, shared with the
+    /// ray's other fields (`None`: every lookup advects on its own).
+    flow: Option<&'a RayFlow<'a>>,
+    /// The ranges of the stored field's cells grown by the shutter's farthest
+    /// displacement, computed once for every time (`None`: asked for cell by cell).
+    cells: Option<&'a PaddedCells>,
     /// How far (local index units, per axis) a lookup can move.
     pad: DVec3,
 }
@@ -163,15 +53,130 @@ impl<'a> Advected<'a> {
             inner,
             velocity,
             shift,
+            flow: None,
+            cells: None,
             pad,
         }
+    }
+
+    /// With its cells' ranges read from `table` where it is the stored field's, grown at
+    /// least as far as this time's displacement reaches.
+    pub fn with_cells(mut self, table: Option<&'a PaddedCells>) -> Self {
+        self.cells = table.filter(|t| t.serves(self.inner, self.pad));
+        self
+    }
+
+    /// With the displacement of points on `flow`'s ray read from it (the flow's
+    /// velocity and shift must be this field's).
+    pub fn along(mut self, flow: &'a RayFlow<'a>) -> Self {
+        self.flow = Some(flow);
+        self
     }
 
     /// How far (local index units) the flow carried what is at local index point `p`:
     /// the stored field is looked up at `p` minus this.
     #[inline]
     pub fn displacement(&self, p: DVec3) -> DVec3 {
-        displacement(self.inner.transform(), self.velocity, self.shift, p)
+        flow_displacement(
+            self.flow,
+            self.inner.transform(),
+            self.velocity,
+            self.shift,
+            p,
+        )
+    }
+
+    /// [`Field::piece_integrals`] along `flow`'s ray (`false`, untouched, where `ray` is
+    /// not it): between two of its knots the displacement is linear in `t`, `D(t) = A +
+    /// G·t`, so the stored field is integrated along the straight ray `origin − A` with
+    /// direction `dir − G` — exactly the advected field's integral, in one walk of the
+    /// stored field for every piece between the two knots (pieces across a knot split
+    /// there).
+    fn flow_walk(
+        &self,
+        flow: &RayFlow,
+        ray: &IndexRay,
+        t0: f64,
+        ends: &[f64],
+        out: &mut [f64],
+    ) -> bool {
+        /// Pieces (split at knots) walked at once.
+        const SUB: usize = 96;
+        let tr = self.inner.transform();
+        let t1 = ends.last().copied().unwrap_or(t0);
+        let on = |t: f64| {
+            flow.param_of(tr.index_to_world(ray.at(t)))
+                .is_some_and(|u| (u - t).abs() <= 1e-9 * (1.0 + t.abs()))
+        };
+        if ends.len() > out.len() || !(t1 >= t0) || !on(t0) || !on(t1) {
+            return false;
+        }
+        let index = |d: DVec3| tr.world_dir_to_index(d);
+        let s = flow.spacing();
+        if !(s.is_finite() && s > 0.0) {
+            // A uniform flow: one displacement for the whole batch.
+            let d = index(flow.knot_displacement(0));
+            if !d.is_finite() {
+                return false;
+            }
+            let moved = IndexRay {
+                origin: ray.origin - d,
+                dir: ray.dir,
+            };
+            self.inner.piece_integrals(&moved, t0, ends, out);
+            return true;
+        }
+        if !((t1 - t0) / s < 256.0) || !((t0 / s).abs() < 1e15) {
+            return false;
+        }
+        let (mut sub_ends, mut sub_out, mut owner) = ([0.0; SUB], [0.0; SUB], [0usize; SUB]);
+        out[..ends.len()].fill(0.0);
+        let mut k = (t0 / s).floor() as i64;
+        let (mut a, mut i) = (t0, 0);
+        while i < ends.len() {
+            let knot_end = (k + 1) as f64 * s;
+            let start = a;
+            let mut n = 0;
+            let mut crossed = false;
+            while i < ends.len() && n < SUB {
+                let b = ends[i];
+                owner[n] = i;
+                if b <= knot_end {
+                    sub_ends[n] = b;
+                    i += 1;
+                    a = b;
+                    n += 1;
+                } else {
+                    sub_ends[n] = knot_end;
+                    a = knot_end;
+                    n += 1;
+                    crossed = true;
+                    break;
+                }
+            }
+            let (d0, d1) = (
+                index(flow.knot_displacement(k)),
+                index(flow.knot_displacement(k + 1)),
+            );
+            let g = (d1 - d0) / s;
+            let base = d0 - g * (k as f64 * s);
+            if !(g.is_finite() && base.is_finite()) {
+                return false;
+            }
+            let sheared = IndexRay {
+                origin: ray.origin - base,
+                dir: ray.dir - g,
+            };
+            self.inner
+                .piece_integrals(&sheared, start, &sub_ends[..n], &mut sub_out[..n]);
+            for j in 0..n {
+                out[owner[j]] += sub_out[j];
+            }
+            if crossed {
+                k += 1;
+            }
+        }
+        true
     }
 
     fn grown(&self, b: &IndexBox) -> IndexBox {
@@ -194,11 +199,31 @@ fn displacement(tr: &IndexToWorld, velocity: &dyn VelocityField, shift: f64, p: 
     if d.is_finite() { d } else { DVec3::ZERO }
 }
 
+/// [`displacement`], read from `flow` where `p` lies on its ray.
+#[inline]
+fn flow_displacement(
+    flow: Option<&RayFlow>,
+    tr: &IndexToWorld,
+    velocity: &dyn VelocityField,
+    shift: f64,
+    p: DVec3,
+) -> DVec3 {
+    if let Some(d) = flow.and_then(|f| f.displacement_at(tr.index_to_world(p))) {
+        let d = tr.world_dir_to_index(d);
+        if d.is_finite() {
+            return d;
+        }
+    }
+    displacement(tr, velocity, shift, p)
+}
+
 /// A colour field seen at another time, as [`Advected`] sees a scalar one.
 pub struct AdvectedColor<'a> {
     pub inner: &'a dyn ColorField,
     pub velocity: &'a dyn VelocityField,
     pub shift: f64,
+    /// As [`Advected`]'s.
+    pub flow: Option<&'a RayFlow<'a>>,
 }
 
 impl ColorField for AdvectedColor<'_> {
@@ -206,7 +231,13 @@ impl ColorField for AdvectedColor<'_> {
         self.inner.transform()
     }
     fn color_at_index(&self, p: DVec3) -> Vec3 {
-        let d = displacement(self.inner.transform(), self.velocity, self.shift, p);
+        let d = flow_displacement(
+            self.flow,
+            self.inner.transform(),
+            self.velocity,
+            self.shift,
+            p,
+        );
         self.inner.color_at_index(p - d)
     }
 }
@@ -251,6 +282,11 @@ impl Field for Advected<'_> {
     /// from that line (a uniform flow: one walk of the stored field for all the pieces).
     /// Elsewhere each piece looks its own up, as [`Field::integral`].
     fn piece_integrals(&self, ray: &IndexRay, t0: f64, ends: &[f64], out: &mut [f64]) {
+        if let Some(flow) = self.flow
+            && self.flow_walk(flow, ray, t0, ends, out)
+        {
+            return;
+        }
         let t1 = ends.last().copied().unwrap_or(t0);
         let at = |u: f64| self.displacement(ray.at(t0 + (t1 - t0) * u));
         let (d0, d1) = (at(0.0), at(1.0));
@@ -300,6 +336,9 @@ impl Field for Advected<'_> {
         if self.pad == DVec3::ZERO {
             return self.inner.cell_at(ijk);
         }
+        if let Some(t) = self.cells {
+            return t.cell_at(ijk);
+        }
         let cell_box = |origin: IVec3, size: i32| {
             let min = origin.as_vec3();
             IndexBox::new(min, min + Vec3::splat(size as f32))
@@ -340,75 +379,5 @@ impl Field for Advected<'_> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::field::shapes::ConstantBox;
-
-    fn unit_box() -> ConstantBox {
-        ConstantBox::new(DVec3::ZERO, DVec3::ONE, 1.0, 0.05).unwrap()
-    }
-
-    #[test]
-    fn a_uniform_flow_moves_the_field_by_its_displacement() {
-        let b = unit_box();
-        let v = ConstantVelocity(DVec3::new(2.0, 0.0, 0.0));
-        let moved = Advected::new(&b, &v, 0.25); // 0.5 world units along +x
-        for x in [0.45, 0.55, 1.2, 1.45, 1.55] {
-            let p = DVec3::new(x, 0.5, 0.5);
-            let want = b.value_at_world(p - DVec3::new(0.5, 0.0, 0.0));
-            assert_eq!(moved.value_at_world(p), want, "x {x}");
-        }
-    }
-
-    #[test]
-    fn bounds_and_cells_cover_where_the_field_moves() {
-        let b = unit_box();
-        let v = ConstantVelocity(DVec3::new(0.0, -4.0, 0.0));
-        let moved = Advected::new(&b, &v, 0.5); // 2 world units along −y
-        let p = DVec3::new(0.5, -1.5, 0.5);
-        assert_eq!(moved.value_at_world(p), 1.0);
-        let i = moved.transform().world_to_index(p);
-        assert!(moved.active_bounds().contains(i.as_vec3()));
-        let cell = moved.cell_at(i.floor().as_ivec3());
-        assert!(cell.range.max >= 1.0, "{cell:?}");
-    }
-
-    /// A shear: v = (0, x, 0), so the displacement along a ray across x is linear.
-    struct Shear;
-    impl VelocityField for Shear {
-        fn velocity_at_world(&self, p: DVec3) -> DVec3 {
-            DVec3::new(0.0, p.x, 0.0)
-        }
-        fn max_speed(&self) -> f64 {
-            10.0
-        }
-    }
-
-    #[test]
-    fn a_batch_of_pieces_follows_a_linearly_varying_displacement() {
-        let b = unit_box();
-        let moved = Advected::new(&b, &Shear, 0.3);
-        let ray = IndexRay::new(&moved, DVec3::new(-0.5, 0.3, 0.5), DVec3::X);
-        let ends: Vec<f64> = (1..=12).map(|k| 0.2 * k as f64).collect();
-        let mut batch = vec![0.0; ends.len()];
-        moved.piece_integrals(&ray, 0.0, &ends, &mut batch);
-        let mut a = 0.0;
-        for (&e, got) in ends.iter().zip(&batch) {
-            let want = moved.integral(&ray, a, e);
-            assert!((got - want).abs() < 1e-12, "[{a}, {e}]: {got} vs {want}");
-            a = e;
-        }
-        // The ray meets the sheared box (y − 0.3·x in [0, 1] for x up to 1).
-        assert!(batch.iter().sum::<f64>() > 0.5);
-    }
-
-    #[test]
-    fn no_shift_is_the_field_itself() {
-        let b = unit_box();
-        let v = ConstantVelocity(DVec3::new(3.0, 1.0, 0.0));
-        let still = Advected::new(&b, &v, 0.0);
-        assert_eq!(still.active_bounds(), b.active_bounds());
-        let p = DVec3::new(0.99, 0.2, 0.7);
-        assert_eq!(still.value_at_world(p), b.value_at_world(p));
-    }
-}
+#[path = "advect_tests.rs"]
+mod tests;

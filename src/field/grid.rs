@@ -115,6 +115,20 @@ pub struct VoxelGrid {
     pub(super) tile_values: Vec<f32>,
     pub(super) bounds: IndexBox,
     pub(super) stats: GridStats,
+    /// A dense copy of the voxels for lookups along rays, kept for density levels
+    /// (`grid_dense`).
+    pub(super) dense: Option<Box<DenseVoxels>>,
+}
+
+/// Voxels of `[min − 1, max + 1)` along each axis in x-major order (`max` exclusive: one
+/// past the last leaf voxel), the ring around the leaves zero; made and read in
+/// `grid_dense`.
+#[derive(Clone, Debug)]
+pub(super) struct DenseVoxels {
+    /// The copy's first voxel (global index), one before the leaves' box.
+    pub(super) base: IVec3,
+    pub(super) dims: IVec3,
+    pub(super) values: Vec<f32>,
 }
 
 /// Where a voxel lives.
@@ -207,6 +221,7 @@ impl VoxelGrid {
                 + self.leaf_range.len()
                 + self.leaf_stencil.len())
                 * size_of::<ValueRange>()
+            + self.dense.as_ref().map_or(0, |d| d.memory_bytes())
             + size_of::<Self>()
     }
 

@@ -227,6 +227,7 @@ impl GridBuilder {
             tile_values,
             bounds,
             stats,
+            dense: None,
         };
         grid.leaf_stencil = leaf_origin
             .iter()

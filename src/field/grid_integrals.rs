@@ -166,7 +166,11 @@ impl VoxelGrid {
             let p = ray.at(t);
             *o = if p.abs().max_element() < LOOKUP_LIMIT {
                 let i = IVec3::new(floor_i32(p.x), floor_i32(p.y), floor_i32(p.z));
-                match self.stencil_in(i, p - i.as_dvec3(), 0, &mut cache) {
+                let stencil = match &self.dense {
+                    Some(d) => d.stencil(i + self.transform.origin, p - i.as_dvec3()),
+                    None => self.stencil_in(i, p - i.as_dvec3(), 0, &mut cache),
+                };
+                match stencil {
                     Stencil::Constant(v) => v,
                     Stencil::Corners(v, t) => trilinear(&v, t.as_vec3()),
                 }

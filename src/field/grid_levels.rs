@@ -66,12 +66,12 @@ impl VoxelGrid {
             [0.5, 0.5, 0.5, 1.0],
         ]);
         let m = self.transform.matrix() * half;
-        b.finish(&self.name, m).ok()
+        b.finish(&self.name, m).ok().map(VoxelGrid::with_dense_copy)
     }
 
     /// Every leaf with its global origin, or `None` where a slot holds a tile that is not
     /// the background.
-    fn leaves(&self) -> Option<Vec<LeafRef<'_>>> {
+    pub(super) fn leaves(&self) -> Option<Vec<LeafRef<'_>>> {
         let tile_ok = |e: u32| e & CHILD != 0 || self.tile_values[e as usize] == 0.0;
         let roots: Vec<(IVec3, u32)> = match &self.root {
             RootIndex::Dense { min, dims, entries } => entries

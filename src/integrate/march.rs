@@ -41,6 +41,7 @@ use super::phase::{HenyeyGreenstein, PhaseFunction};
 use super::sampled_means::sampled_integrals;
 use crate::accel::{IndexRay, Spans};
 use crate::field::Field;
+use crate::field::advect::RayFlow;
 use glam::DVec3;
 
 /// How a light reaches a point: unshadowed irradiance and propagation direction, and
@@ -182,6 +183,23 @@ impl<'a> Volume<'a> {
             traversal: density,
             sampled_means: false,
             mattes: None,
+            motion: None,
+        }
+    }
+}
+
+impl Volume<'_> {
+    /// This volume with its fields as `fields` moved them (and no motion left).
+    pub fn moved<'b>(&'b self, fields: &'b MovedFields<'b>) -> Volume<'b> {
+        Volume {
+            density: &fields.density,
+            medium: self.medium,
+            phase: self.phase.clone(),
+            emission: self.emission.as_ref().map(|e| fields.emission(e)),
+            color: fields.color(),
+            traversal: fields.traversal(),
+            sampled_means: self.sampled_means,
+            mattes: self.mattes,
             motion: None,
         }
     }
@@ -368,26 +386,21 @@ pub fn march(
 ) -> RayResult {
     match &vol.motion {
         Some(m) if m.max_displacement(ray_w.time) > 0.0 => {
+            // Every field of the ray is looked up on the ray: one displacement for all.
+            let shift = m.shift(ray_w.time);
+            let flow = RayFlow::new(m.velocity, shift, ray_w.origin, ray_w.dir);
             let fields = MovedFields::new(
                 vol.density,
                 vol.traversal,
                 vol.emission.as_ref(),
                 vol.color.as_ref(),
-                m.velocity,
-                m.shift(ray_w.time),
+                m,
+                shift,
+                Some(&flow),
             );
-            let moved = Volume {
-                density: &fields.density,
-                medium: vol.medium,
-                phase: vol.phase.clone(),
-                emission: vol.emission.as_ref().map(|e| fields.emission(e)),
-                color: fields.color(),
-                traversal: fields.traversal(),
-                sampled_means: vol.sampled_means,
-                // The volumes' alpha layers are taken outside the march.
-                mattes: None,
-                motion: None,
-            };
+            let mut moved = vol.moved(&fields);
+            // The volumes' alpha layers are taken outside the march.
+            moved.mattes = None;
             march_still(&moved, lights, ray_w, settings, jitter, scratch)
         }
         _ => march_still(vol, lights, ray_w, settings, jitter, scratch),

@@ -2,7 +2,8 @@
 //! shutter marches the volume's fields as they are then ([`crate::field::advect`]).
 
 use super::medium::{ColorTint, Companion, Emission};
-use crate::field::advect::{Advected, AdvectedColor, VelocityField};
+use crate::field::advect::{Advected, AdvectedColor, RayFlow, VelocityField, index_pad};
+use crate::field::padded_cells::CellCache;
 use crate::field::{ColorField, Field};
 
 /// How a volume moves: its velocity field and how many of the velocity's time units a
@@ -12,6 +13,12 @@ use crate::field::{ColorField, Field};
 pub struct Motion<'a> {
     pub velocity: &'a dyn VelocityField,
     pub per_frame: f64,
+    /// The farthest a sample's time is from the frame's (frames): the shutter's reach,
+    /// which what is built once for every time (the path tracer's majorants) is padded by.
+    pub frames: f64,
+    /// The fields' cell ranges grown for the whole shutter, built once
+    /// ([`crate::field::padded_cells`]; `None`: each ray asks cell by cell).
+    pub cells: Option<&'a CellCache>,
 }
 
 impl Motion<'_> {
@@ -38,20 +45,34 @@ pub struct MovedFields<'a> {
 
 impl<'a> MovedFields<'a> {
     /// `density`, `traversal`, the emission's grids and the colour tint `shift` time
-    /// units from the frame.
+    /// units from the frame; with `flow`, looked up along its ray with the displacement
+    /// it shares between them.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         density: &'a dyn Field,
         traversal: &'a dyn Field,
         emission: Option<&Emission<'a>>,
         color: Option<&ColorTint<'a>>,
-        velocity: &'a dyn VelocityField,
+        motion: &Motion<'a>,
         shift: f64,
+        flow: Option<&'a RayFlow<'a>>,
     ) -> Self {
+        let velocity = motion.velocity;
+        let reach = motion.max_displacement(motion.frames);
         let same = std::ptr::eq(
             traversal as *const _ as *const u8,
             density as *const _ as *const u8,
         );
-        let moved = |f: &'a dyn Field| Advected::new(f, velocity, shift);
+        let moved = |f: &'a dyn Field| {
+            let table = motion
+                .cells
+                .and_then(|c| c.table(f, index_pad(f.transform(), reach)));
+            let a = Advected::new(f, velocity, shift).with_cells(table);
+            match flow {
+                Some(flow) => a.along(flow),
+                None => a,
+            }
+        };
         MovedFields {
             density: moved(density),
             traversal: (!same).then(|| moved(traversal)),
@@ -65,6 +86,7 @@ impl<'a> MovedFields<'a> {
                 inner: c.grid(),
                 velocity,
                 shift,
+                flow,
             }),
         }
     }

@@ -52,6 +52,7 @@ use glam::DVec3;
 
 mod camera;
 mod dense;
+mod moving;
 
 /// How a scattering event finds the transmittance toward a sun or point light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -101,7 +102,8 @@ pub struct PathTracer<'a> {
     /// The environment's radiance (its layer follows the lights').
     environment: Option<DVec3>,
     settings: PathSettings,
-    passes: ScatterPasses,
+    /// Shared with the views a moving volume's samples take ([`PathTracer::sample`]).
+    passes: std::sync::Arc<ScatterPasses>,
     sigma_t: DVec3,
     sigma_s: DVec3,
     sigma_t_max: f64,
@@ -110,7 +112,9 @@ pub struct PathTracer<'a> {
     /// The density's majorants over blocks of a few voxels (free flights and ratio
     /// tracking step through these); `None` when the grid's budget would make its blocks
     /// larger (a grid of more than 2²¹ blocks of 4 voxels): the tree's cells serve then.
-    majorants: Option<MajorantGrid>,
+    /// A moving volume's are padded by the farthest displacement in the shutter, so they
+    /// bound its density at every time.
+    majorants: Option<std::sync::Arc<MajorantGrid>>,
     /// The camera ray's exact opacity and depth on the pixel's first `n` samples only,
     /// alpha weighted by `weight` (spp / n); `None`: on every sample.
     opacity_samples: Option<OpacitySamples>,
@@ -175,6 +179,7 @@ impl<'a> PathTracer<'a> {
             volumes: volume.mattes.map(|m| m.names.to_vec()).unwrap_or_default(),
         });
         let sigma_t = volume.medium.sigma_t();
+        let majorants = moving::majorants(volume, MAJORANT_BLOCK);
         PathTracer {
             volume,
             n_lights: lights.as_ref().map_or(0, |(l, _)| l.light_count()),
@@ -184,14 +189,15 @@ impl<'a> PathTracer<'a> {
                 bounces: settings.bounces.max(1),
                 ..settings
             },
-            passes,
+            passes: std::sync::Arc::new(passes),
             sigma_t,
             sigma_s: volume.medium.sigma_s_scaled(),
             sigma_t_max: sigma_t.max_element(),
             grey: sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z,
             opacity_samples: None,
-            majorants: Some(MajorantGrid::build(volume.density, MAJORANT_BLOCK))
-                .filter(|m| m.block() <= MAJORANT_BLOCK),
+            majorants: Some(majorants)
+                .filter(|m| m.block() <= MAJORANT_BLOCK)
+                .map(std::sync::Arc::new),
         }
     }
 
@@ -199,8 +205,10 @@ impl<'a> PathTracer<'a> {
     /// the camera ray costs more than the rest of a sample on a grid: a walk over every
     /// voxel it crosses), anti-aliased by those `n` jittered rays as `single` is at
     /// `--spp n`. The scattered light still uses every sample.
+    /// Not for a moving volume: a pixel's first samples hold the shutter's first times.
     pub fn with_opacity_samples(mut self, n: u32, spp: u32) -> Self {
-        self.opacity_samples = (n >= 1 && n < spp).then(|| OpacitySamples {
+        let moves = self.volume.motion.is_some();
+        self.opacity_samples = (n >= 1 && n < spp && !moves).then(|| OpacitySamples {
             n,
             weight: spp as f64 / n as f64,
         });
@@ -442,7 +450,22 @@ impl Integrator for PathTracer<'_> {
         PathScratch::default()
     }
 
+    /// A moving volume's sample is traced through it as it is at the sample's time
+    /// ([`moving`]).
     fn sample(
+        &self,
+        camera: &CameraSample,
+        rng: &mut SampleRng,
+        scratch: &mut PathScratch,
+        acc: &mut [f64],
+    ) -> u64 {
+        self.sample_at_its_time(camera, rng, scratch, acc)
+    }
+}
+
+impl PathTracer<'_> {
+    /// [`Integrator::sample`] through the volume as it is at the frame's time.
+    fn sample_still(
         &self,
         camera: &CameraSample,
         rng: &mut SampleRng,

@@ -1,13 +1,13 @@
 //! The velocity role: which grid moves the volume within the shutter, detected by the
 //! names Houdini, Blender and EmberGen give it, decoded only when a shutter is open.
 
+use super::SceneError;
 use super::plan::{GridChoice, RenderPlan};
 use super::report::SceneReport;
 use super::source::{FieldKind, FieldSource, VelocityNames};
-use super::{PlanError, SceneError};
 use crate::field::Field;
 use crate::field::advect::{GridVelocity, VelocityField};
-use crate::integrate::ScatteringMode;
+use crate::field::padded_cells::CellCache;
 use crate::integrate::motion::Motion;
 
 /// Vector grids of velocity, by name, in order of preference: Houdini's `vel` (and
@@ -26,6 +26,10 @@ pub struct SceneMotion {
     pub velocity: GridVelocity,
     /// The velocity's time units in a frame, times `--velocity-scale`.
     pub per_frame: f64,
+    /// The largest |time| in the shutter, frames.
+    pub frames: f64,
+    /// The moving fields' grown cell ranges, built on first use.
+    pub cells: CellCache,
     /// The grid (or grids) it was read from.
     pub name: String,
 }
@@ -36,6 +40,8 @@ impl SceneMotion {
         Motion {
             velocity: &self.velocity,
             per_frame: self.per_frame,
+            frames: self.frames,
+            cells: Some(&self.cells),
         }
     }
 }
@@ -111,8 +117,7 @@ fn choose(
 }
 
 /// [`load`] from the scene's one input (`None`: a scene of `[[volume]]` tables, which is
-/// not blurred yet: a note says so). The path tracer does not blur: a velocity with
-/// `--scattering path` is refused.
+/// not blurred yet: a note says so).
 pub fn load_for(
     plan: &RenderPlan,
     source: Option<&dyn FieldSource>,
@@ -128,14 +133,7 @@ pub fn load_for(
         }
         return Ok(None);
     };
-    let motion = load(source, plan, density, report)?;
-    if motion.is_some() && plan.transport.mode == ScatteringMode::Path {
-        return Err(PlanError::Invalid(
-            "{scattering} path does not blur a volume from its velocity yet: use --scattering single or fast, or --velocity-grid none".into(),
-        )
-        .into());
-    }
-    Ok(motion)
+    load(source, plan, density, report)
 }
 
 /// The velocity that blurs the volume within the shutter, decoded and recorded in the
@@ -196,6 +194,8 @@ pub fn load(
     Ok(Some(SceneMotion {
         velocity,
         per_frame,
+        frames,
+        cells: CellCache::default(),
         name: loaded.name,
     }))
 }
