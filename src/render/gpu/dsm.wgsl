@@ -2,18 +2,17 @@
 // point, from the chart's bricks (Hermite, linear or constant), as ChartMap does it.
 // A chart is 32 words in `dsm` (see src/render/gpu/upload.rs), its arrays after it.
 
-// Word `at` of the maps, which lie in three buffers of P.dsm_chunk words each (so a
-// map may be three times the largest buffer the GPU binds).
+// Word `at` of the maps: in dsm0 when they fit one buffer (P.dsm_chunk is then all of
+// them), else in three buffers of P.dsm_chunk words each. Compared, not divided: a
+// division by a uniform costs tens of instructions on every read.
 fn dw(at: u32) -> u32 {
-    let k = at / P.dsm_chunk;
-    let i = at - k * P.dsm_chunk;
-    if (k == 0u) {
-        return dsm0[i];
+    if (at < P.dsm_chunk) {
+        return dsm0[at];
     }
-    if (k == 1u) {
-        return dsm1[i];
+    if (at < 2u * P.dsm_chunk) {
+        return dsm1[at - P.dsm_chunk];
     }
-    return dsm2[i];
+    return dsm2[at - 2u * P.dsm_chunk];
 }
 
 fn df(at: u32) -> f32 {

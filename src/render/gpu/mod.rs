@@ -109,7 +109,7 @@ pub fn render_pixels(
         .nodes()
         .map_err(|_| "a density grid it cannot flatten")?;
     let lights = scene.illumination();
-    let buffers = upload::build(&upload::SceneParts {
+    let mut buffers = upload::build(&upload::SceneParts {
         grid,
         nodes,
         medium: scene.medium,
@@ -120,6 +120,7 @@ pub fn render_pixels(
         scatters: scene.scatters && scene.medium.scatters(),
     })?;
     let layout = t.elapsed().as_secs_f64();
+    buffers.split_maps(gpu.max_binding());
     let resident = gpu.upload(&buffers)?;
     drop(buffers);
     let upload = t.elapsed().as_secs_f64();

@@ -21,6 +21,8 @@ pub const SAMPLE_FLOATS: usize = 16;
 pub const RESULT_BASE: usize = 12;
 /// Where the sample count sits in the parameters (see `Params` in march.wgsl).
 pub const N_SAMPLES_AT: usize = 32;
+/// Where the shadow maps' part size sits in the parameters.
+const DSM_CHUNK_AT: usize = 44;
 /// Words of the parameters.
 const PARAM_WORDS: usize = 48;
 /// The buffers the shadow maps are spread over (`dsm0`..`dsm2` in march.wgsl).
@@ -38,7 +40,8 @@ pub struct Buffers {
     pub tree: Vec<u32>,
     pub vals: Vec<f32>,
     pub dsm: Vec<u32>,
-    /// Words of each of the [`DSM_BUFFERS`] buffers `dsm` is cut into.
+    /// Words of each of the [`DSM_BUFFERS`] buffers `dsm` is cut into: all of them
+    /// while they fit one binding (see [`Buffers::split_maps`]).
     pub dsm_chunk: usize,
     pub meta: Vec<f32>,
     pub params: Vec<u32>,
@@ -55,6 +58,18 @@ impl Buffers {
             ("the shadow maps", self.dsm_chunk as u64 * 4),
             ("the lights", self.meta.len() as u64 * 4),
         ]
+    }
+
+    /// Cuts the shadow maps into [`DSM_BUFFERS`] thirds where they exceed one binding of
+    /// `max_bytes`; else they stay whole in the first buffer.
+    pub fn split_maps(&mut self, max_bytes: u64) {
+        let words = self.dsm.len();
+        self.dsm_chunk = if words as u64 * 4 <= max_bytes {
+            words
+        } else {
+            words.div_ceil(DSM_BUFFERS).next_multiple_of(4)
+        };
+        self.params[DSM_CHUNK_AT] = self.dsm_chunk as u32;
     }
 
     /// Part `k` of the shadow maps (at least 4 words: a binding is never empty).
@@ -171,8 +186,8 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
         }
     }
     pad(&mut dsm);
-    // Thirds of whole vec4s.
-    let dsm_chunk = dsm.len().div_ceil(DSM_BUFFERS).next_multiple_of(4);
+    // Whole, until split_maps knows the adapter's binding size.
+    let dsm_chunk = dsm.len();
     // meta: the lights, then the phase table.
     let mut meta = Vec::with_capacity(s.lights.len() * 16 + PHASE_ENTRIES * 4);
     for ((light, shadow), first) in s.lights.iter().zip(s.shadows).zip(&first_chart) {
@@ -239,6 +254,7 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
         0,
     ]);
     debug_assert_eq!(params.len(), PARAM_WORDS);
+    debug_assert_eq!(params[DSM_CHUNK_AT] as usize, dsm_chunk);
     Ok(Buffers {
         tree,
         vals,
@@ -255,14 +271,13 @@ mod tests {
     use super::*;
 
     fn maps_of(words: usize) -> Buffers {
-        let dsm: Vec<u32> = (0..words as u32).map(|w| w + 1).collect();
         Buffers {
             tree: vec![],
             vals: vec![],
-            dsm_chunk: words.div_ceil(DSM_BUFFERS).next_multiple_of(4),
-            dsm,
+            dsm: (0..words as u32).map(|w| w + 1).collect(),
+            dsm_chunk: words,
             meta: vec![],
-            params: vec![],
+            params: vec![0; PARAM_WORDS],
             stride: 0,
         }
     }
@@ -270,19 +285,32 @@ mod tests {
     #[test]
     fn the_maps_parts_hold_every_word_once_in_order_and_none_is_empty() {
         for words in 4..200 {
-            let b = maps_of(words);
-            let parts: Vec<Vec<u32>> = (0..DSM_BUFFERS).map(|k| b.dsm_part(k).to_vec()).collect();
-            // Word w lies in part w / chunk at w % chunk, as dw() in dsm.wgsl reads it.
-            for (w, &v) in b.dsm.iter().enumerate() {
-                assert_eq!(parts[w / b.dsm_chunk][w % b.dsm_chunk], v, "{words} words");
+            for max_words in [words, words - 1, words / 3, 1] {
+                let mut b = maps_of(words);
+                b.split_maps(max_words as u64 * 4);
+                let chunk = b.dsm_chunk;
+                assert_eq!(b.params[DSM_CHUNK_AT] as usize, chunk);
+                // Whole while it fits one binding, else thirds of whole vec4s.
+                if max_words >= words {
+                    assert_eq!(chunk, words);
+                } else {
+                    assert!(chunk * DSM_BUFFERS >= words && chunk % 4 == 0);
+                    // Whole vec4s: only maps of over 12 words get shorter parts.
+                    assert!(
+                        words <= 12 || chunk < words,
+                        "{words} words cut into {chunk}"
+                    );
+                }
+                let parts: Vec<Vec<u32>> =
+                    (0..DSM_BUFFERS).map(|k| b.dsm_part(k).to_vec()).collect();
+                // Word w lies in part w / chunk at w % chunk, as dw() in dsm.wgsl reads it.
+                for (w, &v) in b.dsm.iter().enumerate() {
+                    assert_eq!(parts[w / chunk][w % chunk], v, "{words} words");
+                }
+                for p in &parts {
+                    assert!(p.len() >= 4 && p.len() <= chunk.max(4), "{words} words");
+                }
             }
-            for p in &parts {
-                assert!(
-                    p.len() >= 4 && p.len() <= b.dsm_chunk.max(4),
-                    "{words} words"
-                );
-            }
-            assert!(b.dsm_chunk * DSM_BUFFERS >= words && b.dsm_chunk % 4 == 0);
         }
     }
 }
