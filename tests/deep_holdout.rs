@@ -213,6 +213,10 @@ fn a_bad_deep_holdout_is_refused_in_one_line() {
         args.push(file);
         refused(&dir, &args, needle);
     }
+    // A deep image given as a flat depth image: the line says which flag takes it.
+    let mut deep_as_depth = base[..6].to_vec();
+    deep_as_depth.extend(["--holdout-depth", "deep16.exr"]);
+    refused(&dir, &deep_as_depth, "--holdout-deep");
     let mut both = base.to_vec();
     both.extend(["deep16.exr", "--holdout-depth", "flat16.exr"]);
     refused(&dir, &both, "one holdout at a time");

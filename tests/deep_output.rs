@@ -4,7 +4,7 @@
 
 mod common;
 use common::deep::{Deep, flat_channels, flatten, read_deep};
-use common::frames::{MURK, refused, scratch};
+use common::frames::{MURK, every_fixture, refused, scratch};
 use common::tools;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -105,39 +105,41 @@ fn flattened_it_is_the_flat_render_on_every_fixture() {
 }
 
 #[test]
-fn the_default_file_is_half_and_flattens_within_half_precision() {
-    // Without --float colour and opacity are half floats (the flat file's are too), each
-    // sample's chosen against what the samples before it flatten to once rounded: the
-    // pixel flattened is off by one rounding of what its last sample adds (a relative
-    // 2⁻¹¹), where rounding each sample alone would add one per sample along the ray.
-    let cases: &[(&str, &[&str])] = &[
-        ("cloud.vdb", &[]),
-        ("pyro.vdb", &[]),
-        ("dense_plume.vdb", &[]),
-        ("blender_smoke.vdb", &["--colorspace", "acescg"]),
-    ];
-    for (k, (input, extra)) in cases.iter().enumerate() {
-        let dir = scratch(&format!("deep-half-{k}"));
-        let (flat, deep) = render(
-            &dir,
-            &fixture(input),
-            &[&["--res", "64x36"], *extra].concat(),
-        );
-        let half_deep = dir.join("half_deep.exr");
+fn the_default_file_flattens_to_the_default_flat_file_on_every_fixture() {
+    // Without --float both files hold colour and opacity as half floats. Each deep
+    // sample's half values are chosen against what the samples in front of it already
+    // flatten to (no drift along the ray), then a few are moved (each change moving the
+    // opacity in front of a depth by at most a quarter of the tolerance) so the pixel
+    // lands on the flat file's stored value: flattened, the deep pixel is the flat file's
+    // within 1e-4 on most fixtures (within 1e-6 on most pixels), not within a half-float
+    // rounding (2.4e-4 at 0.5) of each. Where no move within the limit lands a pixel it
+    // stays within a rounding: 1.2e-4 to 1.7e-4 on the mixed-cell and graded meshes.
+    let fixtures = every_fixture();
+    assert!(fixtures.len() >= 25, "{fixtures:?}");
+    let mut report: Vec<(String, f64)> = Vec::new();
+    for (k, input) in fixtures.iter().enumerate() {
+        let dir = scratch(&format!("deep-default-{k}"));
+        let (flat, deep) = (dir.join("flat.exr"), dir.join("deep.exr"));
         let o = Command::new(MURK)
             .args(["render", &fixture(input), "-o"])
-            .arg(dir.join("half.exr"))
+            .arg(&flat)
             .arg("--deep")
-            .arg(&half_deep)
-            .args(["--quiet", "--res", "64x36"])
-            .args(*extra)
+            .arg(&deep)
+            .args(["--quiet", "--res", "32x18"])
             .output()
             .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let (d, f) = (read_deep(&half_deep), flat_channels(&flat));
-        // The channel list: name, then the pixel type (1 half, 2 float).
+        assert!(
+            o.status.success(),
+            "{input}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let d = read_deep(&deep);
+        // The channel list: name, then the pixel type (1 half, 2 float). Colour beyond
+        // the half floats' range is 32-bit in both files (tiles.vdb reaches 2.3e7).
+        let wide = flat_channels(&flat)["R"].iter().any(|v| v.abs() > 65504.0);
+        let colour = if wide { 2 } else { 1 };
         let list = &d.attributes["channels"].1;
-        for (name, kind) in [("R", 1), ("A", 1), ("Z", 2), ("ZBack", 2)] {
+        for (name, kind) in [("R", colour), ("A", colour), ("Z", 2), ("ZBack", 2)] {
             let at = list
                 .windows(name.len() + 1)
                 .position(|w| w == [name.as_bytes(), &[0]].concat())
@@ -145,16 +147,47 @@ fn the_default_file_is_half_and_flattens_within_half_precision() {
             assert_eq!(list[at + name.len() + 1], kind, "{input}: channel {name}");
         }
         assert_tidy(&d);
+        // In units of 1e-4, and of 32-bit float's own precision where colour is beyond
+        // the half range (tiles.vdb: 2.3e7, stored as float in both files).
+        let f = flat_channels(&flat);
         let mut worst: f64 = 0.0;
+        let flattened: Vec<[f64; 4]> = (0..d.pixels.len()).map(|i| flatten(&d, i)).collect();
         for (c, name) in ["R", "G", "B", "A"].iter().enumerate() {
-            for (i, want) in f[*name].iter().enumerate() {
-                let (got, want) = (flatten(&d, i)[c], *want as f64);
-                worst = worst.max((got - want).abs() / (1e-5 + want.abs() / 2048.0));
+            for (got, want) in flattened.iter().zip(&f[*name]) {
+                let want = *want as f64;
+                worst = worst.max((got[c] - want).abs() / (1e-4 + 1e-6 * want.abs()));
             }
         }
-        assert!(worst <= 1.0, "{input}: {worst} of the half precision bound");
-        // And smaller than the float file.
-        let (hb, fb) = (file_len(&half_deep), file_len(&deep));
+        report.push((input.to_string(), worst));
+    }
+    let text: Vec<String> = report.iter().map(|(f, w)| format!("{f} {w:.1e}")).collect();
+    eprintln!(
+        "largest differences, in 1e-4 + 1e-6 |value|: {}",
+        text.join(", ")
+    );
+    assert!(
+        report.iter().all(|(_, w)| *w <= 2.0),
+        "flattened differs from the flat file by (in 1e-4 + 1e-6 |value|): {}",
+        text.join(", ")
+    );
+}
+
+#[test]
+fn the_default_file_is_smaller_than_the_float_one() {
+    for input in ["cloud.vdb", "dense_plume.vdb"] {
+        let dir = scratch(&format!("deep-sizes-{input}"));
+        let (_, float) = render(&dir, &fixture(input), &["--res", "64x36"]);
+        let half = dir.join("half_deep.exr");
+        let o = Command::new(MURK)
+            .args(["render", &fixture(input), "-o"])
+            .arg(dir.join("half.exr"))
+            .arg("--deep")
+            .arg(&half)
+            .args(["--quiet", "--res", "64x36"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (hb, fb) = (file_len(&half), file_len(&float));
         assert!(hb < fb * 3 / 4, "{input}: {hb} bytes against {fb}");
     }
 }

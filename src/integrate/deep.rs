@@ -12,6 +12,10 @@
 
 use glam::DVec3;
 
+pub use super::deep_aovs::{
+    AOV_EMISSION, AOV_INDIRECT, AOV_LIGHTS, DeepAov, aov_width, select_aovs,
+};
+
 /// One point of a ray's or a pixel's cumulative curves.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DeepPoint {
@@ -23,25 +27,35 @@ pub struct DeepPoint {
     pub color: DVec3,
     /// The first point of a run: empty space lies between it and the point before.
     pub starts_run: bool,
+    /// Its place in its ray's trace (where its AOV values are); 0 in a mean of curves.
+    pub row: u32,
 }
 
 /// The record of one camera ray: runs of points, each run contiguous, gaps between.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DeepTrace {
     pub points: Vec<DeepPoint>,
+    /// With deep AOVs: per point, `aov_width` cumulative premultiplied values (as
+    /// `color` is), laid out as [`AOV_EMISSION`], [`AOV_INDIRECT`], [`AOV_LIGHTS`] say.
+    pub aovs: Vec<f64>,
+    /// Values per point in `aovs` (0: no AOVs recorded).
+    pub aov_width: usize,
 }
 
 impl DeepTrace {
     pub fn clear(&mut self) {
         self.points.clear();
+        self.aovs.clear();
     }
 
     /// Records the segment `[a, b]` of the ray that took the curves from `(a0, c0)` to
-    /// `(a1, c1)`; a segment that changed neither is left out (a gap).
+    /// `(a1, c1)`; a segment that changed neither is left out (a gap). Returns the
+    /// points added (0, 1, or 2 where the segment starts a run): with AOVs, the caller
+    /// gives the last one's with [`DeepTrace::aovs_now`].
     #[inline]
-    pub fn segment(&mut self, a: f64, b: f64, a0: f64, c0: DVec3, a1: f64, c1: DVec3) {
+    pub fn segment(&mut self, a: f64, b: f64, a0: f64, c0: DVec3, a1: f64, c1: DVec3) -> usize {
         if a1 == a0 && c1 == c0 {
-            return;
+            return 0;
         }
         let joined = self.points.last().is_some_and(|p| p.depth == a);
         if !joined {
@@ -50,6 +64,7 @@ impl DeepTrace {
                 alpha: a0,
                 color: c0,
                 starts_run: true,
+                row: self.points.len() as u32,
             });
         }
         self.points.push(DeepPoint {
@@ -57,7 +72,48 @@ impl DeepTrace {
             alpha: a1,
             color: c1,
             starts_run: false,
+            row: self.points.len() as u32,
         });
+        if joined { 1 } else { 2 }
+    }
+
+    /// After [`DeepTrace::segment`] added `added` points: the AOV values of a run's first
+    /// point (the last point's, zero before any), and room for the segment's end, which
+    /// the caller fills (the returned slice, zeroed). Nothing without AOVs.
+    #[inline]
+    pub fn aovs_now(&mut self, added: usize) -> &mut [f64] {
+        let w = self.aov_width;
+        if w == 0 || added == 0 {
+            return &mut [];
+        }
+        let n = self.aovs.len();
+        if added == 2 {
+            if n >= w {
+                self.aovs.extend_from_within(n - w..n);
+            } else {
+                self.aovs.resize(n + w, 0.0);
+            }
+        }
+        let n = self.aovs.len();
+        self.aovs.resize(n + w, 0.0);
+        &mut self.aovs[n..]
+    }
+
+    /// After [`DeepTrace::segment`] added `added` points that changed no AOV (an opaque
+    /// floor, not a layer): the last point's values for them.
+    pub fn hold_aovs(&mut self, added: usize) {
+        let w = self.aov_width;
+        let n = self.aovs.len();
+        if w == 0 || added == 0 {
+            return;
+        }
+        if n >= w {
+            for _ in 0..added {
+                self.aovs.extend_from_within(n - w..n);
+            }
+        } else {
+            self.aovs.resize(n + added * w, 0.0);
+        }
     }
 
     /// The curves so far (zero before the first point).
@@ -234,9 +290,92 @@ fn simplify_run(run: &[DeepPoint], tol: f64, color_scale: f64, out: &mut Vec<Dee
     }
 }
 
+/// One pixel's deep output: its samples, front to back, and with deep AOVs each
+/// sample's AOV values (three a selected AOV, in its order), sample after sample.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DeepPixel {
+    pub samples: Vec<DeepSample>,
+    pub aovs: Vec<f32>,
+}
+
+impl DeepPixel {
+    pub fn clear(&mut self) {
+        self.samples.clear();
+        self.aovs.clear();
+    }
+}
+
+/// What a pixel's rays recorded for its AOVs: per ray its AOV values (`width` per
+/// point of its curve), and the AOVs wanted.
+pub struct PixelAovs<'a> {
+    pub rows: &'a [Vec<f64>],
+    pub width: usize,
+    pub wanted: &'a [DeepAov],
+}
+
+/// The AOVs of a pixel's samples: its rays' curves (in depth) with their AOV values, and
+/// the AOVs wanted. Each sample's value of an AOV is what the AOV's curve (the mean of the
+/// rays', each split by OpenEXR's rule like colour) gains over the sample, over the
+/// transmittance in front of it, so each AOV flattens to the mean of the rays' totals:
+/// the flat layer.
+struct AovWalk<'a> {
+    curves: &'a [Vec<DeepPoint>],
+    rows: &'a [Vec<f64>],
+    width: usize,
+    wanted: &'a [DeepAov],
+    cursors: Vec<usize>,
+    /// What the samples so far add up to, flattened.
+    done: Vec<f64>,
+    now: Vec<f64>,
+}
+
+impl AovWalk<'_> {
+    /// The AOVs' cumulative values at `depth` (growing over calls) into `now`.
+    fn at(&mut self, depth: f64) {
+        self.now.iter_mut().for_each(|v| *v = 0.0);
+        let n = self.curves.len().max(1) as f64;
+        for ((curve, rows), cur) in self.curves.iter().zip(self.rows).zip(&mut self.cursors) {
+            let (i, j, share) = match locate(curve, depth, cur) {
+                Where::Zero => continue,
+                Where::Hold(i) => (i, i, 0.0),
+                Where::Between(i, j, f) => (i, j, split(&curve[i], &curve[j], f).1),
+            };
+            let at = |k: usize| curve[k].row as usize * self.width;
+            let (Some(ri), Some(rj)) = (rows.get(at(i)..), rows.get(at(j)..)) else {
+                continue;
+            };
+            for (k, aov) in self.wanted.iter().enumerate() {
+                for &r in &aov.rows {
+                    for c in 0..3 {
+                        let (a, b) = (ri[r + c], rj[r + c]);
+                        self.now[3 * k + c] += (a + (b - a) * share) / n;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The sample that ends at `depth` with transmittance `t0` in front of it.
+    fn sample(&mut self, depth: f64, t0: f64, out: &mut Vec<f32>) {
+        self.at(depth);
+        for (d, v) in self.done.iter_mut().zip(&self.now) {
+            out.push(((v - *d) / t0) as f32);
+            *d = *v;
+        }
+    }
+}
+
 /// The deep samples of a kept curve: one per interval inside a run, front to back,
 /// leaving out those that add nothing. A sample behind full opacity adds nothing either.
 pub fn samples_of(curve: &[DeepPoint], out: &mut Vec<DeepSample>) {
+    samples_with(curve, out, None);
+}
+
+fn samples_with(
+    curve: &[DeepPoint],
+    out: &mut Vec<DeepSample>,
+    mut aovs: Option<(&mut AovWalk, &mut Vec<f32>)>,
+) {
     for w in curve.windows(2) {
         let (p, q) = (w[0], w[1]);
         if q.starts_run {
@@ -257,26 +396,44 @@ pub fn samples_of(curve: &[DeepPoint], out: &mut Vec<DeepSample>) {
             rgb: [color.x as f32, color.y as f32, color.z as f32],
             alpha: alpha as f32,
         });
+        if let Some((walk, values)) = aovs.as_mut() {
+            walk.sample(q.depth, t0, values);
+        }
     }
 }
 
-/// A curve's value at `depth`: inside an interval by OpenEXR's split rule (ln T linear in
-/// depth, colour in proportion to opacity), in a gap or past the end its last value.
-/// `cursor` walks forward over calls with growing depths.
-fn value_at(curve: &[DeepPoint], depth: f64, cursor: &mut usize) -> (f64, DVec3) {
+/// Where `depth` falls on a curve: before it (zero), on or after point `i` with nothing
+/// changing until the next (its value), or inside the interval from point `i` to point
+/// `j` at fraction `f` of its depth. `cursor` walks forward over calls with growing depths.
+enum Where {
+    Zero,
+    Hold(usize),
+    Between(usize, usize, f64),
+}
+
+fn locate(curve: &[DeepPoint], depth: f64, cursor: &mut usize) -> Where {
     while *cursor < curve.len() && curve[*cursor].depth <= depth {
         *cursor += 1;
     }
     let i = *cursor;
     if i == 0 {
-        return (0.0, DVec3::ZERO);
+        return Where::Zero;
     }
-    let p = curve[i - 1];
     if i == curve.len() || curve[i].starts_run {
-        return (p.alpha, p.color);
+        return Where::Hold(i - 1);
     }
-    let q = curve[i];
-    let f = ((depth - p.depth) / (q.depth - p.depth)).clamp(0.0, 1.0);
+    let (p, q) = (&curve[i - 1], &curve[i]);
+    Where::Between(
+        i - 1,
+        i,
+        ((depth - p.depth) / (q.depth - p.depth)).clamp(0.0, 1.0),
+    )
+}
+
+/// Inside the interval from `p` to `q` at fraction `f` of its depth, by OpenEXR's split
+/// rule (ln T linear in depth): the opacity, and the share of the interval's opacity (of
+/// its colour, which follows opacity; of its depth where it has no opacity) in front.
+fn split(p: &DeepPoint, q: &DeepPoint, f: f64) -> (f64, f64) {
     let (t0, t1) = (1.0 - p.alpha, 1.0 - q.alpha);
     let t = if t0 > 0.0 {
         t0 * (t1 / t0).powf(f)
@@ -290,7 +447,22 @@ fn value_at(curve: &[DeepPoint], depth: f64, cursor: &mut usize) -> (f64, DVec3)
     } else {
         f
     };
-    (alpha, p.color + (q.color - p.color) * share)
+    (alpha, share)
+}
+
+/// A curve's value at `depth`: inside an interval by OpenEXR's split rule (ln T linear in
+/// depth, colour in proportion to opacity), in a gap or past the end its last value.
+/// `cursor` walks forward over calls with growing depths.
+fn value_at(curve: &[DeepPoint], depth: f64, cursor: &mut usize) -> (f64, DVec3) {
+    match locate(curve, depth, cursor) {
+        Where::Zero => (0.0, DVec3::ZERO),
+        Where::Hold(i) => (curve[i].alpha, curve[i].color),
+        Where::Between(i, j, f) => {
+            let (p, q) = (&curve[i], &curve[j]);
+            let (alpha, share) = split(p, q, f);
+            (alpha, p.color + (q.color - p.color) * share)
+        }
+    }
 }
 
 /// The mean of several curves (each a pixel sample's, in depth), as one curve whose
@@ -314,6 +486,7 @@ pub fn mean_curve(curves: &[Vec<DeepPoint>]) -> Vec<DeepPoint> {
             alpha: a / n,
             color: c / n,
             starts_run: false,
+            row: 0,
         };
         match out.last_mut() {
             // Nothing changed since the last point: empty space (or its end).
@@ -347,19 +520,51 @@ pub fn mean_curve(curves: &[Vec<DeepPoint>]) -> Vec<DeepPoint> {
 }
 
 /// The deep samples of one pixel from its samples' curves (each in depth): each thinned
-/// with half the tolerance, their mean thinned with the other half.
-pub fn pixel_samples(curves: &[Vec<DeepPoint>], tolerance: f64, out: &mut Vec<DeepSample>) {
+/// with half the tolerance, their mean thinned with the other half. With `aovs`, each
+/// sample's AOV values too (they follow the samples the beauty's curves make).
+pub fn pixel_samples(
+    curves: &[Vec<DeepPoint>],
+    tolerance: f64,
+    aovs: Option<PixelAovs>,
+    out: &mut DeepPixel,
+) {
     let scale = |c: &[DeepPoint]| c.last().map_or(0.0, |p| p.color.max_element().max(0.0));
-    match curves {
-        [] => {}
-        [one] => samples_of(&simplify(one, tolerance, scale(one)), out),
+    // The curves the kept one is made of (each a subset of its ray's points), and it.
+    let (thinned, kept) = match curves {
+        [] => return,
+        [one] => (Vec::new(), simplify(one, tolerance, scale(one))),
         many => {
             let half = 0.5 * tolerance;
             let thinned: Vec<Vec<DeepPoint>> =
                 many.iter().map(|c| simplify(c, half, scale(c))).collect();
             let mean = mean_curve(&thinned);
-            samples_of(&simplify(&mean, half, scale(&mean)), out);
+            let kept = simplify(&mean, half, scale(&mean));
+            (thinned, kept)
         }
+    };
+    // One ray: the kept curve is its thinned one.
+    let thinned = if thinned.is_empty() {
+        std::slice::from_ref(&kept)
+    } else {
+        thinned.as_slice()
+    };
+    match aovs.filter(|a| !a.wanted.is_empty() && a.rows.len() == curves.len()) {
+        Some(a) => {
+            let m = 3 * a.wanted.len();
+            // On the same curves as the colour: at every kept point the AOVs add up to
+            // the colour as the layers do.
+            let mut walk = AovWalk {
+                curves: thinned,
+                rows: a.rows,
+                width: a.width,
+                wanted: a.wanted,
+                cursors: vec![0; curves.len()],
+                done: vec![0.0; m],
+                now: vec![0.0; m],
+            };
+            samples_with(&kept, &mut out.samples, Some((&mut walk, &mut out.aovs)));
+        }
+        None => samples_with(&kept, &mut out.samples, None),
     }
 }
 

@@ -15,6 +15,13 @@ fn slab(z0: f64, z1: f64, sigma_t: f64, h: f64, k: f64) -> DeepTrace {
     tr
 }
 
+/// The deep samples of a pixel whose rays made `curves`, without AOVs.
+fn samples(curves: &[Vec<DeepPoint>], tolerance: f64) -> Vec<DeepSample> {
+    let mut out = DeepPixel::default();
+    pixel_samples(curves, tolerance, None, &mut out);
+    out.samples
+}
+
 /// Opacity of deep samples in front of depth `d`, each split there by OpenEXR's rule.
 fn alpha_before(samples: &[DeepSample], d: f64) -> f64 {
     let mut t = 1.0;
@@ -37,8 +44,7 @@ fn alpha_before(samples: &[DeepSample], d: f64) -> f64 {
 fn a_uniform_slab_splits_as_its_closed_form() {
     let (z0, z1, sigma_t) = (2.0, 6.0, 0.8);
     let tr = slab(z0, z1, sigma_t, 0.01, 1.0);
-    let mut out = Vec::new();
-    pixel_samples(&[tr.to_depth(1.0)], 0.01, &mut out);
+    let out = samples(&[tr.to_depth(1.0)], 0.01);
     // Uniform: ln T is linear, so one sample holds it all.
     assert_eq!(out.len(), 1, "{out:?}");
     for i in 0..=400 {
@@ -89,8 +95,7 @@ fn flattening_gives_back_the_flat_pixel() {
     for seed in 0..5 {
         let tr = lumpy(seed);
         let (a, c) = tr.last();
-        let mut out = Vec::new();
-        pixel_samples(&[tr.to_depth(1.3)], 0.01, &mut out);
+        let out = samples(&[tr.to_depth(1.3)], 0.01);
         check_tidy(&out);
         let f = flatten(&out);
         assert!((f[3] - a).abs() < 1e-5, "alpha {} against {a}", f[3]);
@@ -106,8 +111,7 @@ fn several_rays_flatten_to_their_mean() {
     let traces: Vec<Vec<DeepPoint>> = (0..9)
         .map(|s| lumpy(s).to_depth(1.0 + 0.01 * s as f64))
         .collect();
-    let mut out = Vec::new();
-    pixel_samples(&traces, 0.01, &mut out);
+    let out = samples(&traces, 0.01);
     check_tidy(&out);
     let n = traces.len() as f64;
     let a: f64 = traces.iter().map(|t| t.last().unwrap().alpha).sum::<f64>() / n;
@@ -129,8 +133,7 @@ fn merged_samples_split_within_the_tolerance() {
     for tol in [0.01, 0.002] {
         let tr = lumpy(3);
         let curve = tr.to_depth(1.0);
-        let mut out = Vec::new();
-        pixel_samples(std::slice::from_ref(&curve), tol, &mut out);
+        let out = samples(std::slice::from_ref(&curve), tol);
         let exact = simplify(&curve, 0.0, 1.0);
         assert!(out.len() < exact.len(), "{} of {}", out.len(), exact.len());
         for p in &curve {
@@ -147,8 +150,7 @@ fn merged_samples_split_within_the_tolerance() {
 
 #[test]
 fn a_gap_stays_empty() {
-    let mut out = Vec::new();
-    pixel_samples(&[lumpy(1).to_depth(1.0)], 0.05, &mut out);
+    let out = samples(&[lumpy(1).to_depth(1.0)], 0.05);
     // Steps 200..260 are empty: depths 5.0..6.2 from z = 1.01.
     for s in &out {
         assert!(s.z_back <= 5.02 || s.z >= 6.2, "a sample in the gap: {s:?}");
@@ -167,8 +169,7 @@ fn rays_apart_in_depth_flatten_to_their_mean() {
             c
         })
         .collect();
-    let mut out = Vec::new();
-    pixel_samples(&traces, 0.01, &mut out);
+    let out = samples(&traces, 0.01);
     check_tidy(&out);
     let n = traces.len() as f64;
     let a: f64 = traces.iter().map(|t| t.last().unwrap().alpha).sum::<f64>() / n;
@@ -204,8 +205,7 @@ fn structure_behind_near_full_opacity_is_one_sample() {
         tr.segment(p.depth, q.depth, pa, pc, qa, qc);
     }
     let curve = tr.to_depth(1.0);
-    let mut out = Vec::new();
-    pixel_samples(std::slice::from_ref(&curve), 0.01, &mut out);
+    let out = samples(std::slice::from_ref(&curve), 0.01);
     check_tidy(&out);
     let behind = out.iter().filter(|s| s.z >= 1.6).count();
     assert!(behind <= 2, "{behind} samples behind the slab: {out:?}");

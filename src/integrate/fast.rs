@@ -137,6 +137,13 @@ impl<'a> FastScattering<'a> {
             single: self.single.with_deep(on),
         }
     }
+
+    /// As [`SingleScattering::with_deep_aovs`].
+    pub fn with_deep_aovs(self, on: bool) -> Self {
+        FastScattering {
+            single: self.single.with_deep_aovs(on),
+        }
+    }
 }
 
 impl Integrator for FastScattering<'_> {
@@ -162,5 +169,9 @@ impl Integrator for FastScattering<'_> {
 
     fn deep_trace<'s>(&self, scratch: &'s Scratch) -> Option<&'s super::deep::DeepTrace> {
         self.single.deep_trace(scratch)
+    }
+
+    fn deep_aovs(&self) -> Vec<super::deep::DeepAov> {
+        self.single.deep_aovs()
     }
 }

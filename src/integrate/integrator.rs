@@ -119,4 +119,10 @@ pub trait Integrator: Sync {
         let _ = scratch;
         None
     }
+
+    /// The layers whose values deep records keep when asked (deep AOVs), in the order
+    /// of the passes; none for integrators without deep output.
+    fn deep_aovs(&self) -> Vec<super::deep::DeepAov> {
+        Vec::new()
+    }
 }

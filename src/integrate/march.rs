@@ -142,7 +142,15 @@ impl RayResult {
 
 /// Opacity of optical depth `tau`: the mean over the channels of `1 − e^{−τ}`.
 fn alpha_of(tau: DVec3) -> f64 {
-    ((one_minus_exp(tau.x) + one_minus_exp(tau.y) + one_minus_exp(tau.z)) / 3.0).clamp(0.0, 1.0)
+    // A grey medium's channels are equal: one exponential for the same sum.
+    let x = one_minus_exp(tau.x);
+    let grey = tau.x == tau.y && tau.y == tau.z;
+    let (y, z) = if grey {
+        (x, x)
+    } else {
+        (one_minus_exp(tau.y), one_minus_exp(tau.z))
+    };
+    ((x + y + z) / 3.0).clamp(0.0, 1.0)
 }
 
 /// The parts of a scene the integral needs.
@@ -369,7 +377,9 @@ fn record_deep(
     let alpha = alpha_of(tau);
     if let Some(tr) = scratch.deep.as_mut() {
         let (a0, c0) = tr.last();
-        tr.segment(a, b, a0, c0, alpha, color);
+        let added = tr.segment(a, b, a0, c0, alpha, color);
+        let now = tr.aovs_now(added);
+        super::deep_aovs::put(now, out.emission, scratch.indirect, &scratch.per_light);
     }
 }
 

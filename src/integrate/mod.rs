@@ -4,6 +4,7 @@
 
 pub mod blackbody;
 pub mod deep;
+pub mod deep_aovs;
 pub mod fast;
 pub mod ground;
 pub mod integrator;

@@ -54,6 +54,8 @@ pub struct ScatterPassSpec {
 pub struct ScatterPasses {
     layout: PassLayout,
     at: Offsets,
+    /// The lights that scatter, in their layers' order.
+    lights: Vec<String>,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -127,7 +129,38 @@ impl ScatterPasses {
                 .first()
                 .and_then(|v| off(&pass_names::volume_of(v))),
         };
-        ScatterPasses { layout, at }
+        ScatterPasses {
+            layout,
+            at,
+            lights: names.clone(),
+        }
+    }
+
+    /// The layers a deep file may carry as AOVs ([`super::deep`]'s record of a march:
+    /// emission, scattered light per light and its indirect part): those of these passes.
+    pub fn deep_aovs(&self) -> Vec<super::deep::DeepAov> {
+        use super::deep::{AOV_EMISSION, AOV_INDIRECT, AOV_LIGHTS, DeepAov};
+        let aov = |layer: &str, rows: Vec<usize>| DeepAov {
+            layer: layer.to_string(),
+            rows,
+        };
+        let lights: Vec<usize> = (0..self.lights.len()).map(|l| AOV_LIGHTS + 3 * l).collect();
+        let mut out = Vec::new();
+        if self.at.emission.is_some() {
+            out.push(aov(pass_names::EMISSION, vec![AOV_EMISSION]));
+        }
+        if self.at.scatter.is_some() {
+            out.push(aov(pass_names::SCATTER, lights.clone()));
+        }
+        if self.at.indirect.is_some() {
+            out.push(aov(pass_names::INDIRECT, vec![AOV_INDIRECT]));
+        }
+        if self.at.per_light.is_some() {
+            for (name, row) in self.lights.iter().zip(lights) {
+                out.push(aov(&pass_names::scatter_of(name), vec![row]));
+            }
+        }
+        out
     }
 
     pub fn layout(&self) -> &PassLayout {

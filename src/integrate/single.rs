@@ -1,7 +1,7 @@
 //! Single scattering: emission, absorption and light scattered once toward the camera,
 //! by the ray march ([`march`]), with an optional ground plane behind the volume.
 
-use super::deep::DeepTrace;
+use super::deep::{DeepAov, DeepTrace};
 use super::ground::{ALBEDO, Ground, GroundLight};
 use super::integrator::{CameraSample, Integrator, SampleRng};
 use super::march::{Illumination, MarchSettings, RayResult, Scratch, Volume, march};
@@ -21,6 +21,8 @@ pub struct SingleScattering<'a> {
     passes: ScatterPasses,
     /// Deep output: every camera ray keeps its record.
     deep: bool,
+    /// Deep AOVs: the records keep the layers' values too.
+    deep_aovs: bool,
 }
 
 impl<'a> SingleScattering<'a> {
@@ -50,12 +52,20 @@ impl<'a> SingleScattering<'a> {
             settings,
             passes,
             deep: false,
+            deep_aovs: false,
         }
     }
 
     /// With `on`, every camera ray keeps its deep record ([`Integrator::deep_trace`]).
     pub fn with_deep(mut self, on: bool) -> Self {
         self.deep = on;
+        self
+    }
+
+    /// With `on` (and deep output), the records keep every layer's values for the deep
+    /// AOVs ([`Integrator::deep_aovs`]).
+    pub fn with_deep_aovs(mut self, on: bool) -> Self {
+        self.deep_aovs = on;
         self
     }
 }
@@ -70,13 +80,24 @@ impl Integrator for SingleScattering<'_> {
     fn scratch(&self) -> Scratch {
         let mut s = Scratch::new(self.lights.map_or(0, |l| l.light_count()));
         if self.deep {
-            s.deep = Some(DeepTrace::default());
+            s.deep = Some(DeepTrace {
+                aov_width: if self.deep_aovs {
+                    super::deep::aov_width(s.per_light.len())
+                } else {
+                    0
+                },
+                ..DeepTrace::default()
+            });
         }
         s
     }
 
     fn deep_trace<'s>(&self, scratch: &'s Scratch) -> Option<&'s DeepTrace> {
         scratch.deep.as_ref()
+    }
+
+    fn deep_aovs(&self) -> Vec<DeepAov> {
+        self.passes.deep_aovs()
     }
 
     fn sample(
@@ -120,7 +141,9 @@ impl Integrator for SingleScattering<'_> {
             // The opaque floor: a sample of no depth that ends the ray.
             let radiance = light.irradiance * (ALBEDO / std::f64::consts::PI);
             let (a0, c0) = tr.last();
-            tr.segment(t, t, a0, c0, 1.0, c0 + r.transmittance * radiance);
+            let added = tr.segment(t, t, a0, c0, 1.0, c0 + r.transmittance * radiance);
+            // In the beauty, not in a layer.
+            tr.hold_aovs(added);
         }
         self.record(
             &r,

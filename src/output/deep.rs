@@ -31,6 +31,12 @@ pub struct DeepImage {
     pub width: usize,
     pub height: usize,
     pub pixels: Vec<Vec<DeepSample>>,
+    /// Layers each sample carries too (deep AOVs: channels `<layer>.R`, `.G`, `.B`),
+    /// premultiplied as the colour is.
+    pub aov_layers: Vec<String>,
+    /// With `aov_layers`: per pixel, each sample's values (3 a layer, in its order),
+    /// sample after sample; else empty.
+    pub aovs: Vec<Vec<f32>>,
 }
 
 impl DeepImage {
@@ -58,6 +64,41 @@ pub struct DeepExrOptions {
     pub tolerance: f64,
     /// The displayWindow (the frame less its overscan) and `pixelAspectRatio`.
     pub plate: super::Plate,
+    /// Per pixel, the flat file's `R, G, B, A` as it stores them ([`flat_targets`];
+    /// empty: none): with `half`, samples' half values are moved so each pixel flattens
+    /// onto them ([`super::deep_pack::land_on`]).
+    pub targets: Vec<[f32; 4]>,
+}
+
+/// The flat file's beauty and alpha per pixel as [`super::write_exr`] stores them with
+/// `opts`: in its colour space, half floats unless `--float` or beyond the half range.
+pub fn flat_targets(frame: &super::Frame, opts: &super::ExrOptions) -> Vec<[f32; 4]> {
+    let converted;
+    let frame = if opts.colorspace == super::ColorSpace::LinRec709 || opts.colour_converted {
+        frame
+    } else {
+        converted = super::colorspace::convert_frame(frame, opts.colorspace);
+        &converted
+    };
+    let (Some(r), Some(g), Some(b), Some(a)) = (
+        frame.channel("R"),
+        frame.channel("G"),
+        frame.channel("B"),
+        frame.channel("A"),
+    ) else {
+        return Vec::new();
+    };
+    let half = !super::exr::overflowing_layers(frame, opts).contains(&String::new());
+    let stored = |v: f32| {
+        if half && !opts.float {
+            f16::from_f32(v).to_f32()
+        } else {
+            v
+        }
+    };
+    (0..r.len())
+        .map(|i| [stored(r[i]), stored(g[i]), stored(b[i]), stored(a[i])])
+        .collect()
 }
 
 /// What a written deep file holds.
@@ -68,8 +109,35 @@ pub struct DeepWriteSummary {
     pub max_samples_per_pixel: u32,
 }
 
-/// Channels in the order OpenEXR stores them (by name).
-const CHANNELS: [&str; 6] = ["A", "B", "G", "R", "Z", "ZBack"];
+/// What a channel of the file holds.
+#[derive(Clone, Copy)]
+enum Source {
+    /// Colour (0..3) or alpha (3).
+    Rgba(usize),
+    Z,
+    ZBack,
+    /// The AOV value at this place among a sample's.
+    Aov(usize),
+}
+
+/// The file's channels in the order OpenEXR stores them (by name).
+fn channels(aov_layers: &[String]) -> Vec<(String, Source)> {
+    let mut list: Vec<(String, Source)> = vec![
+        ("R".into(), Source::Rgba(0)),
+        ("G".into(), Source::Rgba(1)),
+        ("B".into(), Source::Rgba(2)),
+        ("A".into(), Source::Rgba(3)),
+        ("Z".into(), Source::Z),
+        ("ZBack".into(), Source::ZBack),
+    ];
+    for (k, layer) in aov_layers.iter().enumerate() {
+        for (c, name) in ["R", "G", "B"].iter().enumerate() {
+            list.push((format!("{layer}.{name}"), Source::Aov(3 * k + c)));
+        }
+    }
+    list.sort_by(|a, b| a.0.as_bytes().cmp(b.0.as_bytes()));
+    list
+}
 const HALF: i32 = 1;
 const FLOAT: i32 = 2;
 const ZIPS: u8 = 2;
@@ -129,44 +197,77 @@ fn zip(raw: &[u8]) -> std::io::Result<Option<Vec<u8>>> {
     Ok((packed.len() < raw.len()).then_some(packed))
 }
 
-/// One scan line's samples as written: packed ([`super::deep_pack`]) with `half` on.
-fn pack_row(row: &[Vec<DeepSample>], opts: &DeepExrOptions) -> Vec<Vec<DeepSample>> {
+/// One scan line's samples and their AOV values as written: packed
+/// ([`super::deep_pack`]) with `half` on.
+type Row = (Vec<Vec<DeepSample>>, Vec<Vec<f32>>);
+
+fn pack_row(
+    row: &[Vec<DeepSample>],
+    aovs: &[Vec<f32>],
+    m: usize,
+    targets: &[[f32; 4]],
+    opts: &DeepExrOptions,
+) -> Row {
     if !opts.half {
-        return row.to_vec();
+        return (row.to_vec(), aovs.to_vec());
     }
-    row.iter()
-        .map(|px| {
+    let mut values = Vec::with_capacity(if m > 0 { row.len() } else { 0 });
+    let samples = row
+        .iter()
+        .enumerate()
+        .map(|(x, px)| {
             let mut out = Vec::with_capacity(px.len());
-            super::deep_pack::round_colour(px, &mut out);
+            let mut out_aovs = Vec::new();
+            let given = aovs.get(x).map_or(&[][..], Vec::as_slice);
+            super::deep_pack::round_with_aovs(px, given, m, &mut out, &mut out_aovs);
+            // Not with AOVs: moving opacity would move their flattened values, which
+            // are rounded against the samples as they are.
+            if let (Some(t), 0) = (targets.get(x), m) {
+                super::deep_pack::land_on(&mut out, *t, opts.tolerance);
+            }
             super::deep_pack::round_depths(&mut out, opts.tolerance);
+            if m > 0 {
+                values.push(out_aovs);
+            }
             out
         })
-        .collect()
+        .collect();
+    (samples, values)
 }
 
 /// One scan line's chunk: `y`, the three sizes, the count table and the samples.
-fn chunk(y: usize, row: &[Vec<DeepSample>], half: bool) -> std::io::Result<Vec<u8>> {
+fn chunk(
+    y: usize,
+    (row, aovs): &Row,
+    list: &[(String, Source)],
+    half: bool,
+) -> std::io::Result<Vec<u8>> {
     let mut counts = Vec::with_capacity(row.len() * 4);
     let mut total: i32 = 0;
     for px in row {
         total = total.saturating_add(px.len() as i32);
         counts.extend_from_slice(&total.to_le_bytes());
     }
-    let mut data = Vec::with_capacity(total as usize * 4 * CHANNELS.len());
-    for c in 0..CHANNELS.len() {
-        for s in row.iter().flatten() {
-            let v = match c {
-                0 => s.rgba[3],
-                1 => s.rgba[2],
-                2 => s.rgba[1],
-                3 => s.rgba[0],
-                4 => s.z,
-                _ => s.z_back,
-            };
-            if half && c < 4 {
-                data.extend_from_slice(&f16::from_f32(v).to_le_bytes());
-            } else {
-                data.extend_from_slice(&v.to_le_bytes());
+    let m = list.len().saturating_sub(6);
+    let mut data = Vec::with_capacity(total as usize * 4 * list.len());
+    for (_, source) in list {
+        for (x, px) in row.iter().enumerate() {
+            for (i, s) in px.iter().enumerate() {
+                let v = match *source {
+                    Source::Rgba(k) => s.rgba[k],
+                    Source::Z => s.z,
+                    Source::ZBack => s.z_back,
+                    Source::Aov(k) => aovs
+                        .get(x)
+                        .and_then(|a| a.get(i * m + k))
+                        .copied()
+                        .unwrap_or(0.0),
+                };
+                if half && !matches!(source, Source::Z | Source::ZBack) {
+                    data.extend_from_slice(&f16::from_f32(v).to_le_bytes());
+                } else {
+                    data.extend_from_slice(&v.to_le_bytes());
+                }
             }
         }
     }
@@ -196,6 +297,17 @@ fn encode(image: &DeepImage, opts: &DeepExrOptions) -> Result<(Vec<u8>, DeepWrit
             image.pixels.len()
         ));
     }
+    let m = 3 * image.aov_layers.len();
+    if m > 0
+        && (image.aovs.len() != w * h
+            || image
+                .aovs
+                .iter()
+                .zip(&image.pixels)
+                .any(|(a, p)| a.len() != m * p.len()))
+    {
+        return Err("a deep image's AOV values do not match its samples".into());
+    }
     if w > i32::MAX as usize || h > i32::MAX as usize {
         return Err(format!("a deep image of {w}x{h} pixels is too large"));
     }
@@ -208,24 +320,63 @@ fn encode(image: &DeepImage, opts: &DeepExrOptions) -> Result<(Vec<u8>, DeepWrit
                 let v = m * glam::Vec3::new(s.rgba[0], s.rgba[1], s.rgba[2]);
                 s.rgba[..3].copy_from_slice(&v.to_array());
             }
+            // The layers' colours too, as the flat file's are.
+            for rgb in c.aovs.iter_mut().flat_map(|a| a.chunks_exact_mut(3)) {
+                let v = m * glam::Vec3::new(rgb[0], rgb[1], rgb[2]);
+                rgb.copy_from_slice(&v.to_array());
+            }
             converted = c;
             &converted
         }
         None => image,
     };
     // Scan lines pack and compress independently: on every thread.
-    let rows: Vec<Vec<Vec<DeepSample>>> = (0..h)
+    // Colour beyond the half floats' range: all 32-bit, as the flat file's layer is.
+    let beyond = |v: &f32| v.abs() as f64 > super::deep_pack::HALF_MAX;
+    let fits_half = !image
+        .pixels
+        .iter()
+        .flatten()
+        .any(|s| s.rgba.iter().any(beyond))
+        && !image.aovs.iter().flatten().any(beyond);
+    let widened;
+    let opts = if opts.half && !fits_half {
+        widened = DeepExrOptions {
+            half: false,
+            ..opts.clone()
+        };
+        &widened
+    } else {
+        opts
+    };
+    let targets = if opts.targets.len() == w * h {
+        opts.targets.as_slice()
+    } else {
+        &[]
+    };
+    let rows: Vec<Row> = (0..h)
         .into_par_iter()
-        .map(|y| pack_row(&image.pixels[y * w..(y + 1) * w], opts))
+        .map(|y| {
+            let aovs = image.aovs.get(y * w..(y + 1) * w).unwrap_or(&[]);
+            let targets = targets.get(y * w..(y + 1) * w).unwrap_or(&[]);
+            pack_row(&image.pixels[y * w..(y + 1) * w], aovs, m, targets, opts)
+        })
         .collect();
-    let max = rows.iter().flatten().map(Vec::len).max().unwrap_or(0);
-    let samples: usize = rows.iter().flatten().map(Vec::len).sum();
+    let max = rows
+        .iter()
+        .flat_map(|r| &r.0)
+        .map(Vec::len)
+        .max()
+        .unwrap_or(0);
+    let samples: usize = rows.iter().flat_map(|r| &r.0).map(Vec::len).sum();
+    let list = channels(&image.aov_layers);
     let mut hd = Header(Vec::new());
     let mut ch = Vec::new();
-    for (c, name) in CHANNELS.iter().enumerate() {
+    for (name, source) in &list {
         ch.extend_from_slice(name.as_bytes());
         ch.push(0);
-        let kind = if opts.half && c < 4 { HALF } else { FLOAT };
+        let depth = matches!(source, Source::Z | Source::ZBack);
+        let kind = if opts.half && !depth { HALF } else { FLOAT };
         ch.extend_from_slice(&kind.to_le_bytes());
         ch.extend_from_slice(&[0, 0, 0, 0]); // pLinear, reserved
         ch.extend_from_slice(&1i32.to_le_bytes());
@@ -290,7 +441,7 @@ fn encode(image: &DeepImage, opts: &DeepExrOptions) -> Result<(Vec<u8>, DeepWrit
     let chunks: Vec<Vec<u8>> = rows
         .par_iter()
         .enumerate()
-        .map(|(y, row)| chunk(y, row, opts.half))
+        .map(|(y, row)| chunk(y, row, &list, opts.half))
         .collect::<std::io::Result<_>>()
         .map_err(|e| e.to_string())?;
     for (y, c) in chunks.iter().enumerate() {

@@ -13,6 +13,10 @@
 //!   the sample or gap beside it, so samples stay sorted and apart.
 //!   Zeroed low bits are what makes 32-bit depths compress; a point shared by two
 //!   samples (`ZBack` of one, `Z` of the next) is rounded once, so they stay joined.
+//! - **Landing on the flat file.** Given the flat file's stored pixel (its half floats),
+//!   [`land_on`] then moves a few samples' half values (each change moving the opacity
+//!   in front of any depth by at most a quarter of the tolerance) so the pixel flattens
+//!   onto it, not within a rounding of it.
 
 use exr::prelude::f16;
 
@@ -28,7 +32,7 @@ pub struct DeepSample {
 pub const DEPTH_SHARE: f64 = 0.75;
 
 /// The largest finite half float.
-const HALF_MAX: f64 = 65504.0;
+pub const HALF_MAX: f64 = 65504.0;
 
 fn to_half(v: f64) -> f32 {
     f16::from_f64(v.clamp(-HALF_MAX, HALF_MAX)).to_f32()
@@ -38,17 +42,37 @@ fn to_half(v: f64) -> f32 {
 /// (front to back, "over") to within one rounding of what `samples` flatten to. Samples
 /// that add nothing once rounded, and those behind a rounded opacity of one, are left out.
 pub fn round_colour(samples: &[DeepSample], out: &mut Vec<DeepSample>) {
+    round_with_aovs(samples, &[], 0, out, &mut Vec::new());
+}
+
+/// [`round_colour`] for samples that carry `m` AOV values each (`aovs`, sample after
+/// sample): theirs are rounded against what the rounded samples flatten to as well,
+/// into `aovs_out`.
+pub fn round_with_aovs(
+    samples: &[DeepSample],
+    aovs: &[f32],
+    m: usize,
+    out: &mut Vec<DeepSample>,
+    aovs_out: &mut Vec<f32>,
+) {
     out.clear();
+    aovs_out.clear();
     // Flattened so far: exactly, and from the rounded samples.
     let (mut t, mut c) = (1.0f64, [0.0f64; 3]);
     let (mut tq, mut cq) = (1.0f64, [0.0f64; 3]);
-    for s in samples {
+    let (mut e, mut eq) = (vec![0.0f64; m], vec![0.0f64; m]);
+    for (i, s) in samples.iter().enumerate() {
         if !(tq > 0.0) {
             break;
         }
         let a = s.rgba[3] as f64;
         for (k, ck) in c.iter_mut().enumerate() {
             *ck += t * s.rgba[k] as f64;
+        }
+        if let Some(v) = aovs.get(i * m..(i + 1) * m) {
+            for (ek, vk) in e.iter_mut().zip(v) {
+                *ek += t * *vk as f64;
+            }
         }
         t *= 1.0 - a;
         let alpha = to_half((1.0 - t / tq).clamp(0.0, 1.0));
@@ -58,6 +82,11 @@ pub fn round_colour(samples: &[DeepSample], out: &mut Vec<DeepSample>) {
         }
         for (k, ck) in cq.iter_mut().enumerate() {
             *ck += tq * rgb[k] as f64;
+        }
+        for (ek, eqk) in e.iter().zip(eq.iter_mut()) {
+            let v = to_half((ek - *eqk) / tq);
+            *eqk += tq * v as f64;
+            aovs_out.push(v);
         }
         tq *= 1.0 - alpha as f64;
         out.push(DeepSample {
@@ -140,6 +169,166 @@ pub fn round_depths(samples: &mut [DeepSample], tol: f64) {
     for (s, (z, zb)) in samples.iter_mut().zip(moved) {
         s.z = z;
         s.z_back = zb.max(z);
+    }
+}
+
+/// The spacing of half floats at `v`.
+fn half_ulp(v: f64) -> f64 {
+    let a = v.abs();
+    if a < 6.103_515_625e-5 {
+        5.960_464_477_539_063e-8 // 2⁻²⁴: subnormals
+    } else {
+        (a.log2().floor() - 10.0).exp2()
+    }
+}
+
+/// The two half floats about `v` (`v` rounded down and up).
+fn bracket(v: f64) -> [f32; 2] {
+    let h = to_half(v);
+    let other = if (h as f64) < v {
+        to_half(h as f64 + half_ulp(h as f64))
+    } else {
+        to_half(h as f64 - half_ulp(h as f64))
+    };
+    [h, other]
+}
+
+/// Transmittance in front of each sample, and behind the last.
+fn t_front(samples: &[DeepSample]) -> Vec<f64> {
+    let mut t = vec![1.0f64; samples.len() + 1];
+    for (i, x) in samples.iter().enumerate() {
+        t[i + 1] = t[i] * (1.0 - x.rgba[3] as f64);
+    }
+    t
+}
+
+/// How many samples [`land_on`] may move per channel.
+const LANDING_PASSES: usize = 4;
+
+/// A change considered by [`land_on`]: its error after, how much it moves the opacity
+/// (or colour) in front of a depth, the sample and its new value.
+type Move = (f64, f64, usize, f32);
+
+fn better(m: Move, best: Option<Move>, now: f64) -> bool {
+    match best {
+        None => m.0 < now,
+        Some(b) => m.0 < b.0 - 1e-12 || (m.0 <= b.0 + 1e-12 && m.1 < b.1),
+    }
+}
+
+/// Moves the half-float values of one pixel's samples so it flattens onto `target` — the
+/// flat file's stored `R, G, B, A` — instead of within a rounding of it (the flat
+/// file's own rounding, 2⁻¹¹ of the value, is one the deep samples need not make).
+/// Opacity first (it weighs the colour behind it): a few times, the one sample's alpha whose
+/// half-float change brings the pixel's transmittance nearest the target's, among
+/// changes that move the opacity in front of any depth by at most a quarter of the deep
+/// tolerance; then each colour channel the same way (a change that moves the
+/// flattened colour by the difference to the target moves it in front of any depth by
+/// no more). A target more than a few half-float steps away is not a rounding of this
+/// pixel: nothing moves.
+pub fn land_on(samples: &mut [DeepSample], target: [f32; 4], tolerance: f64) {
+    if samples.is_empty() || target.iter().any(|v| !v.is_finite()) {
+        return;
+    }
+    let reach = 0.25 * tolerance;
+    let far = |want: f64| 4.0 * half_ulp(want) + 1e-6;
+    // How far the pixel is from the target, per channel: a change that leaves any
+    // channel further from it is undone.
+    let off = |s: &[DeepSample]| {
+        let t = t_front(s);
+        let mut out = [0.0f64; 4];
+        for (c, o) in out.iter_mut().enumerate().take(3) {
+            let sum: f64 = s.iter().zip(&t).map(|(x, t)| t * x.rgba[c] as f64).sum();
+            *o = (sum - target[c] as f64).abs();
+        }
+        out[3] = (1.0 - t[s.len()] - target[3] as f64).abs();
+        out
+    };
+    let before = samples.to_vec();
+    let off_before = off(samples);
+    let want_t = 1.0 - target[3] as f64;
+    for _ in 0..LANDING_PASSES {
+        let t = t_front(samples);
+        let t_end = t[samples.len()];
+        let now = (t_end - want_t).abs();
+        if now == 0.0 || now > far(target[3] as f64) {
+            break;
+        }
+        let mut best: Option<Move> = None;
+        for (i, s) in samples.iter().enumerate() {
+            let a = s.rgba[3] as f64;
+            let front = t[i] * (1.0 - a);
+            if !(a < 1.0) || !(front > 0.0) {
+                continue;
+            }
+            // What the samples behind let through.
+            let behind = t_end / front;
+            for h in bracket(1.0 - want_t / (t[i] * behind)) {
+                let moved = t[i] * (h as f64 - a).abs();
+                if !(0.0..=1.0).contains(&h) || moved > reach {
+                    continue;
+                }
+                let m = (
+                    (t[i] * (1.0 - h as f64) * behind - want_t).abs(),
+                    moved,
+                    i,
+                    h,
+                );
+                if better(m, best, now) {
+                    best = Some(m);
+                }
+            }
+        }
+        match best {
+            Some((_, _, i, h)) => samples[i].rgba[3] = h,
+            None => break,
+        }
+    }
+    let t = t_front(samples);
+    for c in 0..3 {
+        let want = target[c] as f64;
+        for _ in 0..LANDING_PASSES {
+            let sum: f64 = samples
+                .iter()
+                .zip(&t)
+                .map(|(s, t)| t * s.rgba[c] as f64)
+                .sum();
+            let now = (sum - want).abs();
+            // Not a rounding away before the opacity moved: another pixel's value.
+            if now == 0.0 || off_before[c] > far(want) {
+                break;
+            }
+            let mut best: Option<Move> = None;
+            for (i, s) in samples.iter().enumerate() {
+                let v = s.rgba[c] as f64;
+                if !(t[i] > 0.0) {
+                    continue;
+                }
+                let ideal = v + (want - sum) / t[i];
+                if ideal.abs() > HALF_MAX {
+                    continue;
+                }
+                for h in bracket(ideal) {
+                    // Light stays light: no negative colour where there was none.
+                    if v >= 0.0 && h < 0.0 {
+                        continue;
+                    }
+                    let moved = t[i] * (h as f64 - v).abs();
+                    let m = ((sum + t[i] * (h as f64 - v) - want).abs(), moved, i, h);
+                    if better(m, best, now) {
+                        best = Some(m);
+                    }
+                }
+            }
+            match best {
+                Some((_, _, i, h)) => samples[i].rgba[c] = h,
+                None => break,
+            }
+        }
+    }
+    let off_after = off(samples);
+    if (0..4).any(|k| off_after[k] > off_before[k]) {
+        samples.copy_from_slice(&before);
     }
 }
 
@@ -230,5 +419,48 @@ mod tests {
         }
         // Something was rounded: the faint samples' depths have zero low bits.
         assert!(s[3].z_back.to_bits() & 0xff == 0, "{}", s[3].z_back);
+    }
+
+    #[test]
+    fn landing_puts_the_flattened_pixel_on_the_flat_files_value() {
+        // Bright, dense samples: rounded against each other they flatten within a
+        // rounding of the exact pixel, and the flat file's half value is another rounding
+        // away; near full opacity only a dense sample's alpha can move the total.
+        let samples: Vec<DeepSample> = (0..12)
+            .map(|i| {
+                let z = i as f32 * 0.1;
+                sample(z, z + 0.1, 0.371_234_5 + i as f32 * 0.0123, 0.534_5)
+            })
+            .collect();
+        let exact = flatten(&samples);
+        let target = exact.map(|v| to_half(v));
+        let mut out = Vec::new();
+        round_colour(&samples, &mut out);
+        let before = flatten(&out);
+        let off = |f: &[f64; 4]| {
+            (0..4)
+                .map(|k| (f[k] - target[k] as f64).abs())
+                .fold(0.0, f64::max)
+        };
+        assert!(
+            off(&before) > 2e-5,
+            "the test needs a pixel off its flat value: {before:?}"
+        );
+        let rounded = out.clone();
+        land_on(&mut out, target, 0.01);
+        assert!(
+            off(&flatten(&out)) < 1e-6,
+            "{:?} against {target:?}",
+            flatten(&out)
+        );
+        // Half floats still, and the opacity in front of every sample within a quarter of
+        // the tolerance of what it was.
+        let (mut t0, mut t1) = (1.0f64, 1.0f64);
+        for (a, b) in out.iter().zip(&rounded) {
+            assert!(a.rgba.iter().all(|v| *v == to_half(*v as f64)));
+            t0 *= 1.0 - a.rgba[3] as f64;
+            t1 *= 1.0 - b.rgba[3] as f64;
+            assert!((t0 - t1).abs() <= 0.0025, "{t0} against {t1}");
+        }
     }
 }

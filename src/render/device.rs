@@ -60,6 +60,7 @@ pub(super) fn render_frame_gpu(
         rows,
         antialias: plan.sampling.antialias,
         deep: None,
+        deep_aovs: &[],
         holdout,
         shutter: None,
         camera_motion: None,

@@ -113,7 +113,9 @@ fn run_frame_here(
         write_exr(&plan.outputs.path, &frame, &exr)?;
         written.push(&plan.outputs.path);
         if let (Some(d), Some(image)) = (&plan.outputs.deep, &deep) {
-            let summary = write_deep_exr(&d.path, image, &deep_options(&exr, d.tolerance))?;
+            let mut opts = deep_options(&exr, d.tolerance);
+            opts.targets = crate::output::deep::flat_targets(&frame, &exr);
+            let summary = write_deep_exr(&d.path, image, &opts)?;
             written.push(&d.path);
             st.scene.notes.push(deep_note(image, summary));
         }
@@ -213,6 +215,11 @@ fn render_image_frame_here(
     let extent = Extent {
         rows: rows.clone(),
         deep,
+        deep_aovs: plan
+            .outputs
+            .deep
+            .as_ref()
+            .map_or(&[], |d| d.aovs.as_slice()),
         holdout: holdout.as_ref().map(|h| h.depths.as_slice()),
     };
     let scene = Scene::build_reusing(plan, progress, reuse)?;
@@ -246,8 +253,9 @@ fn render_image_frame_here(
                     march,
                 )
             };
-            let integrator =
-                make(march_settings(plan, &scene, &mut st, make)).with_deep(deep.is_some());
+            let integrator = make(march_settings(plan, &scene, &mut st, make))
+                .with_deep(deep.is_some())
+                .with_deep_aovs(!extent.deep_aovs.is_empty());
             let on_gpu = match &gpu {
                 Some(g) => {
                     let rows = extent.rows.clone();
@@ -324,8 +332,9 @@ fn render_image_frame_here(
                     march,
                 )
             };
-            let integrator =
-                make(march_settings(plan, &scene, &mut st, make)).with_deep(deep.is_some());
+            let integrator = make(march_settings(plan, &scene, &mut st, make))
+                .with_deep(deep.is_some())
+                .with_deep_aovs(!extent.deep_aovs.is_empty());
             render_frame(&integrator, &scene, plan, &extent, progress, &mut st)?
         }
     };
@@ -417,6 +426,7 @@ fn deep_options(exr: &crate::output::ExrOptions, tolerance: f64) -> DeepExrOptio
         half: !exr.float,
         tolerance,
         plate: exr.plate,
+        targets: Vec::new(),
     }
 }
 
@@ -473,6 +483,8 @@ fn march_settings<I: Integrator>(
 struct Extent<'a> {
     rows: std::ops::Range<usize>,
     deep: Option<f64>,
+    /// `--deep-aovs` as given.
+    deep_aovs: &'a [String],
     holdout: Option<&'a [f32]>,
 }
 
@@ -486,6 +498,13 @@ fn render_frame<I: Integrator>(
     progress: &dyn Progress,
     st: &mut RenderStats,
 ) -> Result<(Frame, f64, Option<DeepImage>)> {
+    let aovs = match extent.deep {
+        Some(_) if !extent.deep_aovs.is_empty() => {
+            crate::integrate::deep::select_aovs(&integrator.deep_aovs(), extent.deep_aovs)
+                .map_err(|e| RenderError::Flag(format!("--deep-aovs {e}")))?
+        }
+        _ => Vec::new(),
+    };
     let t = Instant::now();
     let job = pixels::PixelJob {
         integrator,
@@ -495,6 +514,7 @@ fn render_frame<I: Integrator>(
         rows: extent.rows.clone(),
         antialias: plan.sampling.antialias,
         deep: extent.deep,
+        deep_aovs: &aovs,
         holdout: extent.holdout,
         shutter: plan.motion.shutter,
         camera_motion: scene.camera_motion.as_ref(),
@@ -508,21 +528,29 @@ fn render_frame<I: Integrator>(
     st.rays = passes.rays;
     st.samples = passes.samples;
     st.samples_per_second = passes.samples as f64 / render_seconds.max(1e-9);
-    let deep = passes.deep.take().map(|pixels| DeepImage {
-        width: passes.width,
-        height: passes.height,
-        pixels: pixels
-            .into_iter()
-            .map(|px| {
-                px.into_iter()
+    let deep = passes.deep.take().map(|pixels| {
+        let mut image = DeepImage {
+            width: passes.width,
+            height: passes.height,
+            aov_layers: aovs.iter().map(|a| a.layer.clone()).collect(),
+            ..DeepImage::default()
+        };
+        for px in pixels {
+            image.pixels.push(
+                px.samples
+                    .iter()
                     .map(|s| crate::output::DeepSample {
                         z: s.z,
                         z_back: s.z_back,
                         rgba: [s.rgb[0], s.rgb[1], s.rgb[2], s.alpha],
                     })
-                    .collect()
-            })
-            .collect(),
+                    .collect(),
+            );
+            if !aovs.is_empty() {
+                image.aovs.push(px.aovs);
+            }
+        }
+        image
     });
     Ok((channels::assemble(&passes)?, render_seconds, deep))
 }

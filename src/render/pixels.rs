@@ -2,7 +2,7 @@
 //! an [`Integrator`] into the buffer its passes lay out, then averaged.
 
 use crate::integrate::WorldRay;
-use crate::integrate::deep::{DeepPoint, DeepSample, pixel_samples};
+use crate::integrate::deep::{DeepAov, DeepPixel, DeepPoint, PixelAovs, pixel_samples};
 use crate::integrate::integrator::{
     CameraSample, Integrator, SampleRng, shutter_time, unit_random,
 };
@@ -26,8 +26,9 @@ pub struct PixelPasses {
     pub planes: Vec<Vec<Vec<f32>>>,
     pub rays: u64,
     pub samples: u64,
-    /// With deep output: each pixel's deep samples, row-major (empty outside the rows).
-    pub deep: Option<Vec<Vec<DeepSample>>>,
+    /// With deep output: each pixel's deep samples (and AOVs), row-major (empty outside
+    /// the rows).
+    pub deep: Option<Vec<DeepPixel>>,
 }
 
 impl PixelPasses {
@@ -53,6 +54,9 @@ pub struct PixelJob<'a, I: Integrator> {
     /// Deep output with this merge tolerance (`--deep-tolerance`): the integrator must
     /// keep its rays' records ([`Integrator::deep_trace`]).
     pub deep: Option<f64>,
+    /// With deep output: the layers each deep sample carries too (`--deep-aovs`); the
+    /// integrator must keep them in its records ([`Integrator::deep_aovs`]).
+    pub deep_aovs: &'a [DeepAov],
     /// `--holdout-depth`: per pixel, the camera-space depth at which its rays stop.
     pub holdout: Option<&'a [f32]>,
     /// `--shutter`: open and close in frames from the frame; each sample is taken at a
@@ -206,10 +210,12 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                         scratch: &mut I::Scratch,
                         acc: &mut [f64],
                         px: &mut [f32],
-                        deep: &mut Vec<DeepSample>|
+                        deep: &mut DeepPixel|
      -> u64 {
         acc.fill(0.0);
         let mut curves: Vec<Vec<DeepPoint>> = Vec::new();
+        let mut aov_rows: Vec<Vec<f64>> = Vec::new();
+        let mut aov_width = 0;
         let mut n_samples = 0;
         let count = if grid == 0 { job.spp } else { grid * grid };
         let (sx, sy) = job.stream_pixel(x, y);
@@ -225,11 +231,20 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                 && let Some(trace) = job.integrator.deep_trace(scratch)
             {
                 curves.push(trace.to_depth(sample.depth_rate));
+                if !job.deep_aovs.is_empty() {
+                    aov_rows.push(trace.aovs.clone());
+                    aov_width = trace.aov_width;
+                }
             }
         }
         if let Some(tolerance) = job.deep {
             deep.clear();
-            pixel_samples(&curves, tolerance, deep);
+            let aovs = (aov_width > 0).then_some(PixelAovs {
+                rows: &aov_rows,
+                width: aov_width,
+                wanted: job.deep_aovs,
+            });
+            pixel_samples(&curves, tolerance, aovs, deep);
         }
         finish_pixel(px, acc, count as usize, alpha_at, depth_at);
         n_samples
@@ -238,7 +253,7 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
     // row-major buffer of rows c0..c1.
     let tiles_x = w.div_ceil(TILE);
     let tiles = job.tiles();
-    let results: Vec<(usize, Vec<f32>, Vec<Vec<DeepSample>>)> = (0..tiles)
+    let results: Vec<(usize, Vec<f32>, Vec<DeepPixel>)> = (0..tiles)
         .into_par_iter()
         .map_init(
             || (job.integrator.scratch(), vec![0f64; stride]),
@@ -247,8 +262,8 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(c1));
                 let n = (x1 - x0) * (y1 - y0);
                 let mut out = vec![0f32; n * stride];
-                let mut deep = vec![Vec::new(); if job.deep.is_some() { n } else { 0 }];
-                let mut none = Vec::new();
+                let mut deep = vec![DeepPixel::default(); if job.deep.is_some() { n } else { 0 }];
+                let mut none = DeepPixel::default();
                 let mut tile_samples = 0;
                 for y in y0..y1 {
                     for x in x0..x1 {
@@ -265,7 +280,7 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         )
         .collect();
     let mut values = vec![0f32; w * (c1 - c0) * stride];
-    let mut deep: Option<Vec<Vec<DeepSample>>> = job.deep.map(|_| vec![Vec::new(); w * h]);
+    let mut deep: Option<Vec<DeepPixel>> = job.deep.map(|_| vec![DeepPixel::default(); w * h]);
     for (tile, out, tile_deep) in results {
         let (x0, y0) = ((tile % tiles_x) * TILE, c0 + (tile / tiles_x) * TILE);
         let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(c1));
@@ -300,14 +315,14 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
             .into_par_iter()
             .flat_map_iter(|y| (0..w).map(move |x| (x, y)).filter(|&(x, y)| is_edge(x, y)))
             .collect();
-        let again: Vec<(usize, Vec<f32>, Vec<Vec<DeepSample>>)> = edge_pixels
+        let again: Vec<(usize, Vec<f32>, Vec<DeepPixel>)> = edge_pixels
             .par_chunks(TILE * TILE / 4)
             .enumerate()
             .map_init(
                 || (job.integrator.scratch(), vec![0f64; stride]),
                 |(scratch, acc), (chunk, pixels)| {
                     let mut out = vec![0f32; pixels.len() * stride];
-                    let mut deep = vec![Vec::new(); pixels.len()];
+                    let mut deep = vec![DeepPixel::default(); pixels.len()];
                     let mut chunk_samples = 0;
                     for ((&(x, y), px), d) in pixels
                         .iter()
@@ -460,6 +475,7 @@ mod tests {
             rows,
             antialias,
             deep: None,
+            deep_aovs: &[],
             holdout: None,
             shutter: None,
             camera_motion: None,

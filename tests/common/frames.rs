@@ -134,3 +134,40 @@ pub fn differs(a: &Path, b: &Path) -> bool {
         .unwrap()
         .success()
 }
+
+/// Every fixture murk renders: the volumes and meshes in fixtures/ and fixtures/caches/.
+/// Those it refuses as input (no density grid, a level set) must still be refused.
+pub fn every_fixture() -> Vec<String> {
+    const REFUSED: [&str; 2] = ["bad_types.vdb", "caches/levelset_sphere.vdb"];
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let mut out = Vec::new();
+    for sub in ["", "caches"] {
+        for e in std::fs::read_dir(root.join(sub)).unwrap() {
+            let name = e.unwrap().file_name().to_string_lossy().into_owned();
+            let ext = name.rsplit('.').next().unwrap_or("");
+            if ["vdb", "vtu", "vtk"].contains(&ext) {
+                let rel = if sub.is_empty() {
+                    name
+                } else {
+                    format!("{sub}/{name}")
+                };
+                if !REFUSED.contains(&rel.as_str()) {
+                    out.push(rel);
+                }
+            }
+        }
+    }
+    out.sort();
+    let dir = scratch("deep-refused-fixtures");
+    for f in REFUSED {
+        let out = Command::new(MURK)
+            .arg("render")
+            .arg(root.join(f))
+            .arg("-o")
+            .arg(dir.join("r.exr"))
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "{f} is rendered now: add it");
+    }
+    out
+}

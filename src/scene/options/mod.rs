@@ -255,6 +255,10 @@ render_options! {
     /// Largest error in opacity (and in colour, relative to the pixel's) that merging
     /// deep samples may make at any depth inside a merged sample: larger, fewer samples.
     deep_tolerance: Option<f64> = (Image, "T", Value("0.01"), Render);
+    /// Layers each deep sample carries too, comma-separated, as channels named as in
+    /// the flat file: emission, scatter, indirect, lights (each light's scatter_<light>)
+    /// or all. Premultiplied like R,G,B: flattened, each is its flat layer.
+    deep_aovs: Option<String> = (Image, "LIST", NoDefault, Render);
     /// Preview exposure in stops.
     exposure: Option<f32> = (Image, "STOPS", Value("0"), Render);
     /// Preview background: transparent, black, checker or r,g,b.

@@ -27,6 +27,38 @@ pub struct OutputPlan {
 pub struct DeepPlan {
     pub path: PathBuf,
     pub tolerance: f64,
+    /// `--deep-aovs`: the layers each sample carries too (`emission`, `scatter`,
+    /// `indirect`, `lights`, `all`), as given; empty: none.
+    pub aovs: Vec<String>,
+}
+
+/// The names `--deep-aovs` takes.
+pub const DEEP_AOVS: [&str; 5] = ["emission", "scatter", "indirect", "lights", "all"];
+
+/// `--deep-aovs`' list: known names, each once.
+fn deep_aovs(list: Option<&str>) -> Result<Vec<String>, String> {
+    let mut out: Vec<String> = Vec::new();
+    for name in list.unwrap_or("").split(',').map(str::trim) {
+        if name.is_empty() {
+            continue;
+        }
+        if !DEEP_AOVS.contains(&name) {
+            return Err(format!(
+                "{{deep_aovs}}: {name:?} is not one of {}",
+                DEEP_AOVS.join(", ")
+            ));
+        }
+        if !out.iter().any(|n| n == name) {
+            out.push(name.to_string());
+        }
+    }
+    if list.is_some() && out.is_empty() {
+        return Err(format!(
+            "{{deep_aovs}} is empty: name one of {}",
+            DEEP_AOVS.join(", ")
+        ));
+    }
+    Ok(out)
 }
 
 impl OutputPlan {
@@ -65,9 +97,16 @@ impl OutputPlan {
                 "{{deep_tolerance}} must be at least 0 and below 1 (an opacity), not {tolerance}"
             ));
         }
+        let aovs = deep_aovs(o.deep_aovs.as_deref())?;
+        if !aovs.is_empty() && o.deep.is_none() {
+            return Err(
+                "{deep_aovs} adds channels to the deep file: give {deep} FILE.exr too".into(),
+            );
+        }
         let deep = o.deep.as_ref().map(|p| DeepPlan {
             path: p.clone(),
             tolerance,
+            aovs,
         });
         if deep.as_ref().is_some_and(|d| d.path == path) {
             return Err(
