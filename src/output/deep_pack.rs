@@ -433,7 +433,7 @@ mod tests {
             })
             .collect();
         let exact = flatten(&samples);
-        let target = exact.map(|v| to_half(v));
+        let target = exact.map(to_half);
         let mut out = Vec::new();
         round_colour(&samples, &mut out);
         let before = flatten(&out);

@@ -294,7 +294,7 @@ mod tests {
                 if max_words >= words {
                     assert_eq!(chunk, words);
                 } else {
-                    assert!(chunk * DSM_BUFFERS >= words && chunk % 4 == 0);
+                    assert!(chunk * DSM_BUFFERS >= words && chunk.is_multiple_of(4));
                     // Whole vec4s: only maps of over 12 words get shorter parts.
                     assert!(
                         words <= 12 || chunk < words,
