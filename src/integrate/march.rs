@@ -44,6 +44,10 @@ use crate::field::Field;
 use crate::field::advect::RayFlow;
 use glam::DVec3;
 
+pub use super::march_settings::{
+    DEFAULT_STEP, DEFAULT_TERMINATION, MarchSettings, REFERENCE_STEP, THIN_STEP_DEPTH,
+};
+
 /// How a light reaches a point: unshadowed irradiance and propagation direction, and
 /// the density integral `∫ρ ds` (world units) from the point toward the light.
 pub trait Illumination: Sync {
@@ -67,52 +71,6 @@ pub trait Illumination: Sync {
     /// (`integrate::fast`).
     fn multiple_scattered(&self, _light: usize, _x: DVec3, _omega: DVec3) -> DVec3 {
         DVec3::ZERO
-    }
-}
-
-/// Largest optical depth (majorant × step) a step of the default length (0.5 voxel) may
-/// cover before it is no longer lengthened in thin cells; it scales with the step.
-pub const THIN_STEP_DEPTH: f64 = 0.01;
-
-/// The source term's step of the reference render, in voxels.
-pub const REFERENCE_STEP: f64 = 1.0 / 64.0;
-
-/// Step, jitter and termination of the march.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MarchSettings {
-    /// Largest segment, in voxels of the density grid.
-    pub step_voxels: f64,
-    /// Transmittance below which the march stops (T set to 0).
-    pub termination: f64,
-}
-
-/// The default march step, in voxels.
-pub const DEFAULT_STEP: f64 = 0.5;
-/// The default early-termination transmittance.
-pub const DEFAULT_TERMINATION: f64 = 1e-4;
-
-impl Default for MarchSettings {
-    fn default() -> Self {
-        MarchSettings {
-            step_voxels: DEFAULT_STEP,
-            termination: DEFAULT_TERMINATION,
-        }
-    }
-}
-
-impl MarchSettings {
-    /// The reference render's march: [`REFERENCE_STEP`], never terminated early.
-    pub fn reference() -> Self {
-        MarchSettings {
-            step_voxels: REFERENCE_STEP,
-            termination: 0.0,
-        }
-    }
-
-    /// Optical depth a lengthened step in a thin cell may reach: [`THIN_STEP_DEPTH`] at
-    /// the default step, proportional to the step.
-    pub fn thin_step_depth(&self) -> f64 {
-        THIN_STEP_DEPTH * (self.step_voxels / 0.5)
     }
 }
 

@@ -9,6 +9,7 @@ pub mod fast;
 pub mod ground;
 pub mod integrator;
 pub mod march;
+pub mod march_settings;
 pub mod mattes;
 pub mod medium;
 pub mod motion;
