@@ -319,7 +319,7 @@ impl MsLattice {
                     (acc.as_vec3().to_array(), travel)
                 })
                 .collect();
-            let travel: Vec<DVec3> = first.iter().map(|(_, t)| *t).collect();
+            let travel: Vec<DVec3> = first.par_iter().map(|(_, t)| *t).collect();
             let phase = |mu: f64| vol.phase.eval(mu).x;
             // The phase's peak is resolved where it carries no more than a few times what
             // one direction's share of the sphere does: Henyey–Greenstein up to g ≈ 0.85
@@ -336,7 +336,7 @@ impl MsLattice {
             // A grey medium with no colour grid is one channel, scaled by the light's
             // colour; else the three are swept together.
             let (total, swept, ratio) = if grey {
-                let source: Vec<[f32; 1]> = first.iter().map(|(a, _)| [a[0]]).collect();
+                let source: Vec<[f32; 1]> = first.par_iter().map(|(a, _)| [a[0]]).collect();
                 let sources = Sources {
                     rho: &rho,
                     first: &source,
@@ -349,7 +349,7 @@ impl MsLattice {
                 let colour = colour.as_vec3().to_array();
                 solve_moments(&grid, &sources, &coeffs, &iteration, colour)
             } else {
-                let source: Vec<[f32; 3]> = first.iter().map(|(a, _)| *a).collect();
+                let source: Vec<[f32; 3]> = first.par_iter().map(|(a, _)| *a).collect();
                 let sources = Sources {
                     rho: &rho,
                     first: &source,
@@ -496,6 +496,7 @@ fn solve_moments<const C: usize>(
 ) -> (Vec<[f32; MOMENTS]>, u32, f64) {
     let solved = solve(grid, sources, coeffs, iteration);
     let total = (0..grid.len)
+        .into_par_iter()
         .map(|n| {
             let mut t = [0f32; MOMENTS];
             for (rgb, sc) in scale.iter().enumerate() {
