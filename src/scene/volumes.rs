@@ -10,10 +10,11 @@ use super::conventions::{TemperatureMapping, Tool, UpAxis};
 use super::plan::{GridChoice, GridRoles, RenderPlan, VolumePlan, VolumesPlan};
 use super::report::SceneReport;
 use super::roles::{Emitter, SceneFields, VolumeParts, load_fields};
-use crate::field::albedo_mix::{AlbedoMix, PlacedColor};
+use super::volumes_keyed::{KeyedEmitter, KeyedMember, KeyedVolumes, tint};
+use crate::field::albedo_mix::PlacedColor;
 use crate::field::sum::FieldSum;
 use crate::field::{ColorField, Field};
-use glam::{DMat4, DVec3};
+use glam::DMat4;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -94,6 +95,9 @@ pub fn load_volumes(
     let mut members = Vec::with_capacity(volumes.list.len());
     let mut colors: Vec<Option<Arc<dyn ColorField>>> = Vec::with_capacity(volumes.list.len());
     let mut glowing = Vec::new();
+    // Which decoded file each volume is, and each glowing one's fields unplaced.
+    let mut chosen = Vec::with_capacity(volumes.list.len());
+    let mut keyed_emitters = Vec::new();
     for v in &volumes.list {
         let at = |e: String| SceneError::input(&v.file, format!("[[volume]] \"{}\": {e}", v.name));
         let key = key_of(v, scatters);
@@ -126,6 +130,7 @@ pub fn load_volumes(
                 loaded.len() - 1
             }
         };
+        chosen.push(i);
         let d = &loaded[i].1;
         members.push((d.density.clone(), v.placement, v.weight));
         colors.push(match &d.color {
@@ -141,6 +146,11 @@ pub fn load_volumes(
                 plan.temperature_scale = m.scale;
                 plan.temperature_offset = m.offset;
             }
+            keyed_emitters.push(KeyedEmitter {
+                member: chosen.len() - 1,
+                emission: d.emission.clone(),
+                temperature: d.temperature.clone(),
+            });
             glowing.push(Glowing {
                 volume: v,
                 emission: d.emission.clone(),
@@ -171,7 +181,35 @@ pub fn load_volumes(
         loaded.len(),
         if loaded.len() == 1 { "" } else { "s" }
     ));
-    let color = tint(&sum, volumes, colors);
+    let keyed = match plan.motion.shutter {
+        Some(shutter) if volumes.frame.is_some() => {
+            let members = volumes
+                .list
+                .iter()
+                .zip(&chosen)
+                .map(|(v, &i)| {
+                    let d = &loaded[i].1;
+                    KeyedMember {
+                        density: d.density.clone(),
+                        weight: v.weight,
+                        placement: v.placement,
+                        keys: v.keys.clone(),
+                        color: d.color.clone(),
+                        albedo: v.albedo,
+                    }
+                })
+                .collect();
+            KeyedVolumes::new(volumes, shutter, members, keyed_emitters, frame).map(Box::new)
+        }
+        _ => None,
+    };
+    if keyed.is_some() {
+        report.notes.push(
+            "--shutter: the volumes' keyed placements move while it is open: they blur (the shadow maps are baked as they are at the frame)".into(),
+        );
+    }
+    let albedo = volumes.list.iter().map(|v| v.albedo).collect();
+    let color = tint(&sum, volumes.tinted, albedo, colors);
     let (tool, up_from_data) =
         first.ok_or_else(|| SceneError::input(&plan.input, "no [[volume]] to render"))?;
     let parts = (volumes.list.len() > 1).then(|| VolumeParts {
@@ -189,43 +227,6 @@ pub fn load_volumes(
         up_from_data,
         emitters,
         parts,
+        keyed,
     })
-}
-
-/// The scattering tint: the albedos' mix where they differ (the plan's medium then
-/// scatters its whole extinction), each volume's colour grid on its own share; one
-/// untinted volume's colour grid as it is.
-fn tint(
-    sum: &FieldSum,
-    volumes: &VolumesPlan,
-    mut colors: Vec<Option<Arc<dyn ColorField>>>,
-) -> Option<Box<dyn ColorField>> {
-    let coloured = colors.iter().any(Option::is_some);
-    if !volumes.tinted && !coloured {
-        return None;
-    }
-    if !volumes.tinted && colors.len() == 1 {
-        return colors
-            .pop()
-            .flatten()
-            .map(|c| Box::new(Shared(c)) as Box<dyn ColorField>);
-    }
-    let albedo = volumes
-        .list
-        .iter()
-        .map(|v| if volumes.tinted { v.albedo } else { DVec3::ONE })
-        .collect();
-    AlbedoMix::with_colors(sum.clone(), albedo, colors).map(|m| Box::new(m) as Box<dyn ColorField>)
-}
-
-/// A shared colour field as a boxed one.
-struct Shared(Arc<dyn ColorField>);
-
-impl ColorField for Shared {
-    fn transform(&self) -> &crate::field::IndexToWorld {
-        self.0.transform()
-    }
-    fn color_at_index(&self, p: DVec3) -> glam::Vec3 {
-        self.0.color_at_index(p)
-    }
 }
