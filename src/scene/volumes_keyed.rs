@@ -263,3 +263,79 @@ impl ColorField for Shared {
         self.0.color_at_index(p)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::shapes::ConstantBox;
+    use crate::field::{IndexBox, ValueRange};
+    use crate::integrate::Medium;
+    use glam::Vec3;
+
+    /// A unit box keyed to slide 2 units along x and turn a quarter turn about y between
+    /// frames 0 and 2, seen at frame 1 through a one-frame shutter: at every time its
+    /// centre has density 1 in the sum `at_time` gives, and the swept density's range
+    /// around that point holds 1 (the majorants skip nothing it moves through), while
+    /// far from its path the swept range is 0.
+    #[test]
+    fn the_swept_density_bounds_the_volume_at_every_time() {
+        let cube: Arc<dyn Field> =
+            Arc::new(ConstantBox::new(DVec3::ZERO, DVec3::ONE, 1.0, 0.05).unwrap());
+        let table: crate::scene::options::volume::VolumeTable = toml::from_str(
+            "file = \"a\"\n[[keys]]\nframe = 0\n[[keys]]\nframe = 2\ntranslate = [2, 0, 0]\nrotate = [0, 90, 0]\n",
+        )
+        .unwrap();
+        let keys = PlacementKeys::of_table(&table, "a").unwrap().unwrap();
+        let placement = keys.at(1.0);
+        let member = || KeyedMember {
+            density: cube.clone(),
+            weight: 1.0,
+            placement,
+            keys: Some(keys.clone()),
+            color: None,
+            albedo: DVec3::ONE,
+        };
+        let still = FieldSum::new(vec![(cube.clone(), placement, 1.0)]).unwrap();
+        let plan = VolumesPlan {
+            list: Vec::new(),
+            tinted: false,
+            frame: Some(1.0),
+        };
+        let keyed = KeyedVolumes::new(
+            &plan,
+            (-0.5, 0.5),
+            vec![member()],
+            Vec::new(),
+            *still.transform(),
+        )
+        .unwrap();
+        let medium = Medium {
+            sigma_a: DVec3::ONE,
+            sigma_s: DVec3::ZERO,
+            density_scale: 1.0,
+            g: 0.0,
+        };
+        let base = Volume::of(&still, medium);
+        let swept = keyed.swept();
+        let around = |w: DVec3| {
+            let p = swept.transform().world_to_index(w).as_vec3();
+            swept.range_over(&IndexBox::new(p - Vec3::splat(0.5), p + Vec3::splat(0.5)))
+        };
+        for k in 0..=40 {
+            let t = -0.5 + k as f64 / 40.0;
+            let centre = keys.at(1.0 + t).transform_point3(DVec3::splat(0.5));
+            let mut value = f32::NAN;
+            keyed.at_time(&base, t, &mut |v| value = v.density.value_at_world(centre));
+            assert_eq!(value, 1.0, "t {t}: centre {centre}");
+            assert!(around(centre).max >= 1.0, "t {t}: {:?}", around(centre));
+        }
+        assert_eq!(around(DVec3::new(0.5, 5.0, 0.5)), ValueRange::ZERO);
+        // Keys that do not move within the shutter: nothing is keyed.
+        let late = VolumesPlan {
+            frame: Some(9.0),
+            ..plan
+        };
+        let index = *still.transform();
+        assert!(KeyedVolumes::new(&late, (-0.5, 0.5), vec![member()], Vec::new(), index).is_none());
+    }
+}
