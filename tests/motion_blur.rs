@@ -270,7 +270,8 @@ mod cli {
     /// above moves the box: 24 units a second at 24 fps) blurs into the same closed-form
     /// ramp, by single scattering and by the path tracer (under the majorants of the
     /// density swept over the shutter); keys that do not move it render the sharp image
-    /// bit for bit.
+    /// bit for bit; a `[[volume]]` of the cache with the `vel` grid blurs by it into the
+    /// same ramp.
     #[test]
     fn a_keyed_volume_blurs_as_the_closed_form_says() {
         need!(tools::PYOPENVDB);
@@ -287,7 +288,7 @@ mod cli {
         );
         let at2 = ["--frames", "2", "--shutter", "-0.25,0.25"];
         let err = render(&dir, "keyed.toml", "keyed.exr", &at2);
-        assert!(err.contains("keyed placements move"), "{err}");
+        assert!(err.contains("volumes that move while it is open"), "{err}");
         assert_ramp(&dir.join("keyed.exr"), 0.5);
         let path = [&at2[..], &["--scattering", "path"]].concat();
         render(&dir, "keyed.toml", "keyed-path.exr", &path);
@@ -308,6 +309,16 @@ mod cli {
         // And the keyed volume without a shutter: sharp, where frame 2 places it.
         render(&dir, "keyed.toml", "keyed-sharp.exr", &["--frames", "2"]);
         assert_eq!(bits("keyed-sharp.exr"), bits("plain.exr"));
+        // A volume whose file has a `vel` grid blurs by it, as the same file given as
+        // the input does; `--velocity-grid none` leaves it sharp.
+        std::fs::write(dir.join("vel.toml"), "[[volume]]\nfile = \"moving.vdb\"\n").unwrap();
+        let shutter = ["--shutter", "-0.25,0.25"];
+        render(&dir, "vel.toml", "vel.exr", &shutter);
+        assert_ramp(&dir.join("vel.exr"), 0.5);
+        let none = [&shutter[..], &["--velocity-grid", "none"]].concat();
+        let err = render(&dir, "vel.toml", "vel-none.exr", &none);
+        assert!(err.contains("no volume moves"), "{err}");
+        assert_eq!(bits("vel-none.exr"), bits("plain.exr"));
     }
 
     /// The path tracer blurs as the march does: the same cache through `--scattering

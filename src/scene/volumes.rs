@@ -11,7 +11,10 @@ use super::plan::{GridChoice, GridRoles, RenderPlan, VolumePlan, VolumesPlan};
 use super::report::SceneReport;
 use super::roles::{Emitter, SceneFields, VolumeParts, load_fields};
 use super::volumes_keyed::{KeyedEmitter, KeyedMember, KeyedVolumes, tint};
+use crate::field::advect::VelocityField;
+use crate::field::advect_shared::SharedFlow;
 use crate::field::albedo_mix::PlacedColor;
+use crate::field::padded_cells::CellCache;
 use crate::field::sum::FieldSum;
 use crate::field::{ColorField, Field};
 use glam::DMat4;
@@ -25,6 +28,8 @@ struct Decoded {
     temperature: Option<Arc<dyn Field>>,
     color: Option<Arc<dyn ColorField>>,
     mapping: Option<TemperatureMapping>,
+    /// With a shutter: the file's velocity, and how many of its time units a frame is.
+    flow: Option<(SharedFlow, f64)>,
 }
 
 /// What decides what a file gives: the file, its grids and how it glows.
@@ -54,6 +59,28 @@ fn placed(
                 .map_err(|e| e.to_string())
         })
         .transpose()
+}
+
+/// The velocity of a volume's file (`None` without a shutter or a velocity grid; the
+/// scene's note says what moves).
+fn velocity_of(
+    source: &dyn super::source::FieldSource,
+    plan: &RenderPlan,
+    density: &dyn Field,
+    report: &mut SceneReport,
+) -> Result<Option<(SharedFlow, f64)>, SceneError> {
+    let notes = report.notes.len();
+    let Some(m) = super::velocity::load(source, plan, density, report)? else {
+        report.notes.truncate(notes);
+        return Ok(None);
+    };
+    let reach = m.velocity.max_speed() * (m.per_frame * m.frames).abs();
+    let flow = SharedFlow {
+        velocity: Arc::new(m.velocity),
+        reach,
+        cells: Arc::new(CellCache::default()),
+    };
+    Ok(Some((flow, m.per_frame)))
 }
 
 /// An error about a volume's file, saying which volume (a grid asked for that it lacks,
@@ -113,6 +140,8 @@ pub fn load_volumes(
                 one.production.temperature_explicit = v.temperature_explicit;
                 let fields = load_fields(source.as_ref(), &one, scatters, report)
                     .map_err(|e| in_volume(e, v))?;
+                let flow = velocity_of(source.as_ref(), &one, fields.density.as_ref(), report)
+                    .map_err(|e| in_volume(e, v))?;
                 emission_found |= fields.emission_found;
                 if first.is_none() {
                     first = Some((fields.tool, fields.up_from_data));
@@ -125,6 +154,7 @@ pub fn load_volumes(
                         temperature: fields.temperature.map(Arc::from),
                         color: fields.color.map(Arc::from),
                         mapping: fields.temperature_mapping,
+                        flow,
                     },
                 ));
                 loaded.len() - 1
@@ -182,7 +212,7 @@ pub fn load_volumes(
         if loaded.len() == 1 { "" } else { "s" }
     ));
     let keyed = match plan.motion.shutter {
-        Some(shutter) if volumes.frame.is_some() => {
+        Some(shutter) => {
             let members = volumes
                 .list
                 .iter()
@@ -196,6 +226,7 @@ pub fn load_volumes(
                         keys: v.keys.clone(),
                         color: d.color.clone(),
                         albedo: v.albedo,
+                        flow: d.flow.clone(),
                     }
                 })
                 .collect();
@@ -203,10 +234,11 @@ pub fn load_volumes(
         }
         _ => None,
     };
-    if keyed.is_some() {
-        report.notes.push(
-            "--shutter: the volumes' keyed placements move while it is open: they blur (the shadow maps are baked as they are at the frame)".into(),
-        );
+    if let Some((open, close)) = plan.motion.shutter {
+        report.notes.push(match &keyed {
+            Some(_) => format!("--shutter {open},{close}: the volumes that move while it is open (by their keys or velocity grids) blur; the shadow maps are those of the frame"),
+            None => format!("--shutter {open},{close}: no volume moves while it is open (no velocity grid, no keys that move then): they render sharp"),
+        });
     }
     let albedo = volumes.list.iter().map(|v| v.albedo).collect();
     let color = tint(&sum, volumes.tinted, albedo, colors);

@@ -1,11 +1,14 @@
-//! Volumes whose keyed placements (`[[volume.keys]]`) move while the shutter is open:
-//! each camera sample sees every volume placed as at its time — the summed density, the
-//! glowing volumes' emission, the colour tint and the per-volume alphas — and the path
-//! tracer's majorants bound the density at every time at once, each moving volume's
-//! ranges grown by the farthest any of its points moves within the shutter.
+//! Volumes that move while the shutter is open, by their keyed placements
+//! (`[[volume.keys]]`) or their files' velocity grids: each camera sample sees every
+//! volume as it is at its time — placed as then, and advected back along its own velocity
+//! in its file's frame — in the summed density, the glowing volumes' emission, the colour
+//! tint and the per-volume alphas; the path tracer's majorants bound the density at every
+//! time at once, each moving volume's ranges grown by the farthest any of its points
+//! moves within the shutter.
 
 use super::plan::{PlacementKeys, VolumesPlan};
 use crate::field::advect::index_pad;
+use crate::field::advect_shared::{AdvectedShared, AdvectedSharedColor, SharedFlow};
 use crate::field::albedo_mix::{AlbedoMix, PlacedColor};
 use crate::field::padded_cells::Grown;
 use crate::field::sum::FieldSum;
@@ -29,6 +32,8 @@ pub struct KeyedMember {
     /// Its colour grid, unplaced.
     pub color: Option<Arc<dyn ColorField>>,
     pub albedo: DVec3,
+    /// Its file's velocity, and how many of its time units a frame is.
+    pub flow: Option<(SharedFlow, f64)>,
 }
 
 /// A glowing volume: which member, and its emission and temperature fields unplaced.
@@ -92,28 +97,37 @@ impl KeyedVolumes {
         emitters: Vec<KeyedEmitter>,
         index: IndexToWorld,
     ) -> Option<KeyedVolumes> {
-        let frame = plan.frame?;
+        let frame = plan.frame.unwrap_or(0.0);
         let (a, b) = (frame + shutter.0, frame + shutter.1);
-        let moving: Vec<bool> = members
+        let keyed: Vec<bool> = members
             .iter()
             .map(|m| m.keys.as_ref().is_some_and(|k| k.moves_between(a, b)))
             .collect();
-        if !moving.iter().any(|m| *m) {
+        if !keyed
+            .iter()
+            .zip(&members)
+            .any(|(k, m)| *k || m.flow.is_some())
+        {
             return None;
         }
         let swept = members
             .iter()
-            .zip(&moving)
-            .map(|(m, moves)| {
-                let field = match (&m.keys, moves) {
-                    (Some(k), true) => {
-                        let far = reach(m, k, a, b);
-                        let own = m.density.transform();
-                        let pad = IndexToWorld::new(m.placement * own.matrix(), own.origin)
-                            .map_or(DVec3::splat(f64::INFINITY), |t| index_pad(&t, far));
-                        Arc::new(Grown::new(m.density.clone(), pad)) as Arc<dyn Field>
-                    }
-                    _ => m.density.clone(),
+            .zip(&keyed)
+            .map(|(m, keyed)| {
+                let own = m.density.transform();
+                let mut pad = DVec3::ZERO;
+                if let (Some(k), true) = (&m.keys, keyed) {
+                    let far = reach(m, k, a, b);
+                    pad += IndexToWorld::new(m.placement * own.matrix(), own.origin)
+                        .map_or(DVec3::splat(f64::INFINITY), |t| index_pad(&t, far));
+                }
+                if let Some((flow, _)) = &m.flow {
+                    pad += index_pad(own, flow.reach);
+                }
+                let field = if pad == DVec3::ZERO {
+                    m.density.clone()
+                } else {
+                    Arc::new(Grown::new(m.density.clone(), pad)) as Arc<dyn Field>
                 };
                 (field, m.placement, m.weight)
             })
@@ -138,26 +152,38 @@ impl TimedVolume for KeyedVolumes {
             .iter()
             .map(|m| placement_at(m, frame))
             .collect();
+        // A field of member `m` as it is at `time`: moved back along its velocity.
+        let moved = |f: &Arc<dyn Field>, m: &KeyedMember| match &m.flow {
+            Some((flow, per_frame)) if time != 0.0 => Arc::new(AdvectedShared::new(
+                f.clone(),
+                flow.clone(),
+                per_frame * time,
+            )) as Arc<dyn Field>,
+            _ => f.clone(),
+        };
         let members = self
             .members
             .iter()
             .zip(&placements)
-            .map(|(m, p)| (m.density.clone(), *p, m.weight))
+            .map(|(m, p)| (moved(&m.density, m), *p, m.weight))
             .collect();
         let Ok(sum) = FieldSum::in_frame(members, self.index) else {
             return f(base);
         };
-        let place = |field: &Option<Arc<dyn Field>>, p: DMat4| {
-            field
-                .as_ref()
-                .and_then(|g| FieldSum::in_frame(vec![(g.clone(), p, 1.0)], self.index).ok())
+        let place = |field: &Option<Arc<dyn Field>>, i: usize| {
+            field.as_ref().and_then(|g| {
+                let g = moved(g, &self.members[i]);
+                FieldSum::in_frame(vec![(g, placements[i], 1.0)], self.index).ok()
+            })
         };
         let glowing: Vec<(Option<FieldSum>, Option<FieldSum>)> = self
             .emitters
             .iter()
             .map(|e| {
-                let p = placements[e.member];
-                (place(&e.emission, p), place(&e.temperature, p))
+                (
+                    place(&e.emission, e.member),
+                    place(&e.temperature, e.member),
+                )
             })
             .collect();
         let colors = self
@@ -166,7 +192,16 @@ impl TimedVolume for KeyedVolumes {
             .zip(&placements)
             .map(|(m, p)| {
                 m.color.as_ref().and_then(|c| {
-                    PlacedColor::new(c.clone(), *p).map(|c| Arc::new(c) as Arc<dyn ColorField>)
+                    let c = match &m.flow {
+                        Some((flow, per_frame)) if time != 0.0 => Arc::new(AdvectedSharedColor {
+                            inner: c.clone(),
+                            velocity: flow.velocity.clone(),
+                            shift: per_frame * time,
+                        })
+                            as Arc<dyn ColorField>,
+                        _ => c.clone(),
+                    };
+                    PlacedColor::new(c, *p).map(|c| Arc::new(c) as Arc<dyn ColorField>)
                 })
             })
             .collect();
@@ -294,6 +329,7 @@ mod tests {
             keys: Some(keys.clone()),
             color: None,
             albedo: DVec3::ONE,
+            flow: None,
         };
         let still = FieldSum::new(vec![(cube.clone(), placement, 1.0)]).unwrap();
         let plan = VolumesPlan {
