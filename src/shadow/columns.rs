@@ -10,6 +10,7 @@
 //! the chart blends with Hermite.
 
 use super::chart::{Chart, ChartKind, Column, LateralBlend};
+use super::column_marcher::ColumnMarcher;
 use super::map::{BRICK, BrickSamples, side, spacing};
 use super::march::exact_integral;
 use crate::accel::{IndexRay, Spans};
@@ -23,75 +24,128 @@ use std::collections::BTreeMap;
 /// twist across the light, for fields without closed-form slopes.
 const SLOPE_OFFSET: f64 = 1.0 / 1024.0;
 
-/// Samples of the bricks `keys` at `level`, by marching columns.
+/// A brick stack: its lateral position and its bricks, `(z, index into the keys)`,
+/// front (near the light) first.
+pub(super) type Stack = ((i32, i32), Vec<(i32, usize)>);
+
+/// The brick stacks of `keys`, in lateral order.
+pub(super) fn stacks_of(keys: &[IVec3]) -> Vec<Stack> {
+    let mut stacks: BTreeMap<(i32, i32), Vec<(i32, usize)>> = BTreeMap::new();
+    for (idx, k) in keys.iter().enumerate() {
+        stacks.entry((k.x, k.y)).or_default().push((k.z, idx));
+    }
+    stacks
+        .into_iter()
+        .map(|(xy, mut v)| {
+            v.sort_unstable();
+            (xy, v)
+        })
+        .collect()
+}
+
+/// Where a stack's columns start (`t0`, world units along the column) and the depths
+/// they are read at: `m` a brick, through every brick of the stack.
+pub(super) fn stack_depths(
+    chart: &Chart,
+    stack: &Stack,
+    level: u8,
+    stack_start: &BTreeMap<(i32, i32), i32>,
+) -> (f64, Vec<f64>) {
+    let ((bx, by), bricks) = stack;
+    let (m, s, b) = (side(level), spacing(level), BRICK as f64);
+    let start = stack_start.get(&(*bx, *by)).copied().unwrap_or(bricks[0].0) as f64 * b;
+    let mut depths = Vec::with_capacity(bricks.len() * m);
+    for &(bz, _) in bricks {
+        for k in 0..m {
+            depths.push((bz as f64 * b + k as f64 * s) * chart.unit);
+        }
+    }
+    let t0 = match chart.kind {
+        ChartKind::Parallel { .. } => start * chart.unit,
+        ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
+    };
+    (t0, depths)
+}
+
+/// Lattice position of column `c` (`i + m·j`) of a stack.
+pub(super) fn column_xy(stack: &Stack, level: u8, c: usize) -> (f64, f64) {
+    let ((bx, by), _) = stack;
+    let (m, s, b) = (side(level), spacing(level), BRICK as f64);
+    let (i, j) = (c % m, c / m);
+    (*bx as f64 * b + i as f64 * s, *by as f64 * b + j as f64 * s)
+}
+
+/// Puts column `c`'s samples (per depth, `[τ, ρ, ∂τ/∂x, ∂τ/∂y, ∂²τ/∂x∂y]`) into its
+/// stack's bricks `values`.
+pub(super) fn put_column<T: Copy + Into<f64>>(
+    values: &mut [BrickSamples],
+    m: usize,
+    c: usize,
+    samples: &[[T; 5]],
+) {
+    let (i, j) = (c % m, c / m);
+    for (n, v) in values.iter_mut().enumerate() {
+        for k in 0..m {
+            let [tau, rho, tau_x, tau_y, tau_xy] = samples[n * m + k].map(|x| x.into() as f32);
+            let at = i + m * (j + m * k);
+            v.tau[at] = tau;
+            v.rho[at] = rho;
+            v.tau_x[at] = tau_x;
+            v.tau_y[at] = tau_y;
+            v.tau_xy[at] = tau_xy;
+        }
+    }
+}
+
+/// Samples of the bricks `keys` at `level`, by marching columns: on `elsewhere` (the
+/// GPU) where it takes the density, else (and for the columns it could not march) here.
 pub(super) fn sample_level(
     density: &dyn Field,
     chart: &Chart,
     keys: &[IVec3],
     level: u8,
     stack_start: &BTreeMap<(i32, i32), i32>,
+    elsewhere: Option<&dyn ColumnMarcher>,
     report: &mut BakeReport,
 ) -> Vec<BrickSamples> {
-    let m = side(level);
-    let s = spacing(level);
-    let b = BRICK as f64;
-    // Brick stacks: the bricks sharing a lateral position, front (near the light) first.
-    let mut stacks: BTreeMap<(i32, i32), Vec<(i32, usize)>> = BTreeMap::new();
-    for (idx, k) in keys.iter().enumerate() {
-        stacks.entry((k.x, k.y)).or_default().push((k.z, idx));
+    let stacks = stacks_of(keys);
+    if let Some(marcher) = elsewhere.filter(|c| c.takes(density)) {
+        let done = super::column_marcher::sample_stacks(
+            marcher,
+            density,
+            chart,
+            &stacks,
+            level,
+            stack_start,
+            keys.len(),
+        );
+        if let Some((out, columns)) = done {
+            report.columns += columns;
+            return out;
+        }
     }
-    // ((x, y) of the stack, [(z, index into keys)]).
-    type Stack = ((i32, i32), Vec<(i32, usize)>);
-    let stacks: Vec<Stack> = stacks
-        .into_iter()
-        .map(|(xy, mut v)| {
-            v.sort_unstable();
-            (xy, v)
-        })
-        .collect();
+    let m = side(level);
     type Marched = (Vec<(usize, BrickSamples)>, u64);
     let results: Vec<Marched> = stacks
         .par_iter()
-        .map(|((bx, by), bricks)| {
+        .map(|stack| {
+            let bricks = &stack.1;
             let mut columns = 0u64;
             let mut values = vec![BrickSamples::zeros(m * m * m); bricks.len()];
-            let start = stack_start.get(&(*bx, *by)).copied().unwrap_or(bricks[0].0) as f64 * b;
-            let mut depths = Vec::with_capacity(bricks.len() * m);
-            for &(bz, _) in bricks {
-                for k in 0..m {
-                    depths.push((bz as f64 * b + k as f64 * s) * chart.unit);
-                }
-            }
-            let t0 = match chart.kind {
-                ChartKind::Parallel { .. } => start * chart.unit,
-                ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
-            };
+            let (t0, depths) = stack_depths(chart, stack, level, stack_start);
             // The stack's columns in parallel too: at the fine levels a batch holds only a
             // few stacks of m² columns each.
             let marched: Vec<(Vec<[f64; 5]>, u64)> = (0..m * m)
                 .into_par_iter()
                 .map_init(ColumnScratch::default, |column, c| {
-                    let (i, j) = (c % m, c / m);
-                    let x = *bx as f64 * b + i as f64 * s;
-                    let y = *by as f64 * b + j as f64 * s;
+                    let (x, y) = column_xy(stack, level, c);
                     let n = column.march(density, chart, x, y, t0, &depths);
                     (std::mem::take(&mut column.samples), n)
                 })
                 .collect();
             for (c, (samples, n)) in marched.into_iter().enumerate() {
-                let (i, j) = (c % m, c / m);
                 columns += n;
-                for (n, v) in values.iter_mut().enumerate() {
-                    for k in 0..m {
-                        let [tau, rho, tau_x, tau_y, tau_xy] = samples[n * m + k];
-                        let at = i + m * (j + m * k);
-                        v.tau[at] = tau as f32;
-                        v.rho[at] = rho as f32;
-                        v.tau_x[at] = tau_x as f32;
-                        v.tau_y[at] = tau_y as f32;
-                        v.tau_xy[at] = tau_xy as f32;
-                    }
-                }
+                put_column(&mut values, m, c, &samples);
             }
             let out: Vec<(usize, BrickSamples)> =
                 bricks.iter().map(|&(_, idx)| idx).zip(values).collect();
@@ -110,9 +164,9 @@ pub(super) fn sample_level(
 
 /// One column's samples and the buffers that make them, reused from column to column.
 #[derive(Default)]
-struct ColumnScratch {
+pub(super) struct ColumnScratch {
     /// Per target depth: τ, ρ, ∂τ/∂x, ∂τ/∂y, ∂²τ/∂x∂y.
-    samples: Vec<[f64; 5]>,
+    pub(super) samples: Vec<[f64; 5]>,
     slopes: Vec<[f64; 4]>,
     sums: [Vec<(f64, f64)>; 4],
 }
@@ -122,7 +176,7 @@ impl ColumnScratch {
     /// many light rays it marched. The slopes come in closed form where the field has
     /// them, else from the column's neighbours at (ε, 0), (0, ε) and (ε, ε) — those the
     /// chart's blend reads: slopes only along Hermite axes, the twist only if both are.
-    fn march(
+    pub(super) fn march(
         &mut self,
         density: &dyn Field,
         chart: &Chart,
@@ -180,7 +234,7 @@ impl ColumnScratch {
 /// parallel chart's columns shift by `e1`, `e2` (one lattice step each); a perspective
 /// chart's turn about the light, `D = normalize(e3 + (x·e1 + y·e2)/S)`, so the point at
 /// distance t moves by `t·∂D/∂x`, `t·∂D/∂y` and `t·∂²D/∂x∂y`.
-fn sideways(chart: &Chart, density: &dyn Field, x: f64, y: f64) -> Sideways {
+pub(super) fn sideways(chart: &Chart, density: &dyn Field, x: f64, y: f64) -> Sideways {
     let tr = density.transform();
     let index = |w: DVec3| tr.world_dir_to_index(w);
     match chart.kind {
