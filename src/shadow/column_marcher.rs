@@ -1,17 +1,11 @@
 //! Light columns marched outside the bake's own loop (on a GPU), through one seam: the
 //! bake sets each column up in f64 — its ray from where its march starts, how its points
 //! move across the light, its sample depths — and hands a level's batch to a
-//! [`ColumnMarcher`]; the columns that one could not march are marched here, as
-//! [`super::columns`] always does. The marcher lives above this module (the render's GPU
+//! [`ColumnMarcher`]; the columns that one could not march, [`super::columns`] marches
+//! itself. The marcher lives above this module (the render's GPU
 //! backend) and is passed down to [`super::bake::bake_with`], so `shadow` imports none of it.
 
-use super::brick::BrickSamples;
-use super::chart::Chart;
-use super::columns::{ColumnScratch, Stack, column_xy, put_column, sideways, stack_depths};
-use super::map::side;
-use crate::field::{Affine, Field, IndexRay, Sideways};
-use rayon::prelude::*;
-use std::collections::BTreeMap;
+use crate::field::{Field, IndexRay, Sideways};
 
 /// One light column to march.
 #[derive(Clone, Copy, Debug)]
@@ -48,111 +42,6 @@ pub trait ColumnMarcher: Send + Sync {
         jobs: &[ColumnJob],
         depths: &[f64],
     ) -> Result<MarchedColumns, String>;
-}
-
-/// `side` with its t measured from `t0` on.
-fn from(side: Sideways, t0: f64) -> Sideways {
-    let shift = |a: Affine| Affine::new(a.at(t0), a.rate);
-    Sideways {
-        a: shift(side.a),
-        b: shift(side.b),
-        c: shift(side.c),
-    }
-}
-
-/// The samples of every brick of `stacks` (`keys` of them) at `level`, their columns
-/// marched by `marcher` (those it could not, here), and how many light rays were marched;
-/// `None` when the marcher failed the batch.
-pub(super) fn sample_stacks(
-    marcher: &dyn ColumnMarcher,
-    density: &dyn Field,
-    chart: &Chart,
-    stacks: &[Stack],
-    level: u8,
-    stack_start: &BTreeMap<(i32, i32), i32>,
-    keys: usize,
-) -> Option<(Vec<BrickSamples>, u64)> {
-    let m = side(level);
-    let columns = m * m;
-    // Each stack's start and depths (its columns share them), and its columns' jobs with
-    // `first` counted within the stack.
-    type Setup = (f64, Vec<f64>, Vec<ColumnJob>);
-    let setups: Vec<Setup> = stacks
-        .par_iter()
-        .map(|stack| {
-            let (t0, depths) = stack_depths(chart, stack, level, stack_start);
-            let jobs = (0..columns)
-                .map(|c| {
-                    let (x, y) = column_xy(stack, level, c);
-                    let column = chart.column(x, y);
-                    let ray = IndexRay::new(density, column.origin, column.dir);
-                    ColumnJob {
-                        ray: IndexRay {
-                            origin: ray.at(t0),
-                            dir: ray.dir,
-                        },
-                        side: from(sideways(chart, density, x, y), t0),
-                        first: 0,
-                        count: depths.len(),
-                    }
-                })
-                .collect();
-            (t0, depths, jobs)
-        })
-        .collect();
-    let mut depths = Vec::new();
-    let mut jobs = Vec::with_capacity(stacks.len() * columns);
-    for (t0, d, stack_jobs) in &setups {
-        let first = depths.len();
-        depths.extend(d.iter().map(|t| t - t0));
-        jobs.extend(stack_jobs.iter().map(|j| ColumnJob { first, ..*j }));
-    }
-    let marched = marcher.march(density, &jobs, &depths).ok()?;
-    if marched.done.len() != jobs.len()
-        || marched.samples.len() != jobs.iter().map(|j| j.count).sum::<usize>()
-    {
-        return None;
-    }
-    // Where each stack's samples begin in the batch's.
-    let mut offsets = Vec::with_capacity(stacks.len());
-    let mut at = 0;
-    for (_, d, _) in &setups {
-        offsets.push(at);
-        at += d.len() * columns;
-    }
-    type Filled = (Vec<BrickSamples>, u64);
-    let filled: Vec<Filled> = stacks
-        .par_iter()
-        .zip(&setups)
-        .enumerate()
-        .map(|(s, (stack, (t0, depths, _)))| {
-            let mut values = vec![BrickSamples::zeros(m * m * m); stack.1.len()];
-            let mut rays = 0;
-            let mut scratch = ColumnScratch::default();
-            let n = depths.len();
-            for c in 0..columns {
-                if marched.done[s * columns + c] {
-                    let from = offsets[s] + c * n;
-                    put_column(&mut values, m, c, &marched.samples[from..from + n]);
-                    rays += 1;
-                } else {
-                    let (x, y) = column_xy(stack, level, c);
-                    rays += scratch.march(density, chart, x, y, *t0, depths);
-                    put_column(&mut values, m, c, &scratch.samples);
-                }
-            }
-            (values, rays)
-        })
-        .collect();
-    let mut out = vec![BrickSamples::default(); keys];
-    let mut rays = 0;
-    for (stack, (values, n)) in stacks.iter().zip(filled) {
-        rays += n;
-        for (&(_, idx), v) in stack.1.iter().zip(values) {
-            out[idx] = v;
-        }
-    }
-    Some((out, rays))
 }
 
 #[cfg(test)]

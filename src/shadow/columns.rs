@@ -10,7 +10,7 @@
 //! the chart blends with Hermite.
 
 use super::chart::{Chart, ChartKind, Column, LateralBlend};
-use super::column_marcher::ColumnMarcher;
+use super::column_marcher::{ColumnJob, ColumnMarcher};
 use super::map::{BRICK, BrickSamples, side, spacing};
 use super::march::exact_integral;
 use crate::accel::{IndexRay, Spans};
@@ -26,10 +26,10 @@ const SLOPE_OFFSET: f64 = 1.0 / 1024.0;
 
 /// A brick stack: its lateral position and its bricks, `(z, index into the keys)`,
 /// front (near the light) first.
-pub(super) type Stack = ((i32, i32), Vec<(i32, usize)>);
+type Stack = ((i32, i32), Vec<(i32, usize)>);
 
 /// The brick stacks of `keys`, in lateral order.
-pub(super) fn stacks_of(keys: &[IVec3]) -> Vec<Stack> {
+fn stacks_of(keys: &[IVec3]) -> Vec<Stack> {
     let mut stacks: BTreeMap<(i32, i32), Vec<(i32, usize)>> = BTreeMap::new();
     for (idx, k) in keys.iter().enumerate() {
         stacks.entry((k.x, k.y)).or_default().push((k.z, idx));
@@ -45,7 +45,7 @@ pub(super) fn stacks_of(keys: &[IVec3]) -> Vec<Stack> {
 
 /// Where a stack's columns start (`t0`, world units along the column) and the depths
 /// they are read at: `m` a brick, through every brick of the stack.
-pub(super) fn stack_depths(
+fn stack_depths(
     chart: &Chart,
     stack: &Stack,
     level: u8,
@@ -68,7 +68,7 @@ pub(super) fn stack_depths(
 }
 
 /// Lattice position of column `c` (`i + m·j`) of a stack.
-pub(super) fn column_xy(stack: &Stack, level: u8, c: usize) -> (f64, f64) {
+fn column_xy(stack: &Stack, level: u8, c: usize) -> (f64, f64) {
     let ((bx, by), _) = stack;
     let (m, s, b) = (side(level), spacing(level), BRICK as f64);
     let (i, j) = (c % m, c / m);
@@ -77,7 +77,7 @@ pub(super) fn column_xy(stack: &Stack, level: u8, c: usize) -> (f64, f64) {
 
 /// Puts column `c`'s samples (per depth, `[τ, ρ, ∂τ/∂x, ∂τ/∂y, ∂²τ/∂x∂y]`) into its
 /// stack's bricks `values`.
-pub(super) fn put_column<T: Copy + Into<f64>>(
+fn put_column<T: Copy + Into<f64>>(
     values: &mut [BrickSamples],
     m: usize,
     c: usize,
@@ -110,7 +110,7 @@ pub(super) fn sample_level(
 ) -> Vec<BrickSamples> {
     let stacks = stacks_of(keys);
     if let Some(marcher) = elsewhere.filter(|c| c.takes(density)) {
-        let done = super::column_marcher::sample_stacks(
+        let done = sample_stacks(
             marcher,
             density,
             chart,
@@ -162,11 +162,116 @@ pub(super) fn sample_level(
     out
 }
 
+/// `side` with its t measured from `t0` on.
+fn from(side: Sideways, t0: f64) -> Sideways {
+    let shift = |a: Affine| Affine::new(a.at(t0), a.rate);
+    Sideways {
+        a: shift(side.a),
+        b: shift(side.b),
+        c: shift(side.c),
+    }
+}
+
+/// The samples of every brick of `stacks` (`keys` of them) at `level`, their columns
+/// marched by `marcher` (those it could not, here), and how many light rays were marched;
+/// `None` when the marcher failed the batch.
+fn sample_stacks(
+    marcher: &dyn ColumnMarcher,
+    density: &dyn Field,
+    chart: &Chart,
+    stacks: &[Stack],
+    level: u8,
+    stack_start: &BTreeMap<(i32, i32), i32>,
+    keys: usize,
+) -> Option<(Vec<BrickSamples>, u64)> {
+    let m = side(level);
+    let columns = m * m;
+    // Each stack's start and depths (its columns share them), and its columns' jobs with
+    // `first` counted within the stack.
+    type Setup = (f64, Vec<f64>, Vec<ColumnJob>);
+    let setups: Vec<Setup> = stacks
+        .par_iter()
+        .map(|stack| {
+            let (t0, depths) = stack_depths(chart, stack, level, stack_start);
+            let jobs = (0..columns)
+                .map(|c| {
+                    let (x, y) = column_xy(stack, level, c);
+                    let column = chart.column(x, y);
+                    let ray = IndexRay::new(density, column.origin, column.dir);
+                    ColumnJob {
+                        ray: IndexRay {
+                            origin: ray.at(t0),
+                            dir: ray.dir,
+                        },
+                        side: from(sideways(chart, density, x, y), t0),
+                        first: 0,
+                        count: depths.len(),
+                    }
+                })
+                .collect();
+            (t0, depths, jobs)
+        })
+        .collect();
+    let mut depths = Vec::new();
+    let mut jobs = Vec::with_capacity(stacks.len() * columns);
+    for (t0, d, stack_jobs) in &setups {
+        let first = depths.len();
+        depths.extend(d.iter().map(|t| t - t0));
+        jobs.extend(stack_jobs.iter().map(|j| ColumnJob { first, ..*j }));
+    }
+    let marched = marcher.march(density, &jobs, &depths).ok()?;
+    if marched.done.len() != jobs.len()
+        || marched.samples.len() != jobs.iter().map(|j| j.count).sum::<usize>()
+    {
+        return None;
+    }
+    // Where each stack's samples begin in the batch's.
+    let mut offsets = Vec::with_capacity(stacks.len());
+    let mut at = 0;
+    for (_, d, _) in &setups {
+        offsets.push(at);
+        at += d.len() * columns;
+    }
+    type Filled = (Vec<BrickSamples>, u64);
+    let filled: Vec<Filled> = stacks
+        .par_iter()
+        .zip(&setups)
+        .enumerate()
+        .map(|(s, (stack, (t0, depths, _)))| {
+            let mut values = vec![BrickSamples::zeros(m * m * m); stack.1.len()];
+            let mut rays = 0;
+            let mut scratch = ColumnScratch::default();
+            let n = depths.len();
+            for c in 0..columns {
+                if marched.done[s * columns + c] {
+                    let from = offsets[s] + c * n;
+                    put_column(&mut values, m, c, &marched.samples[from..from + n]);
+                    rays += 1;
+                } else {
+                    let (x, y) = column_xy(stack, level, c);
+                    rays += scratch.march(density, chart, x, y, *t0, depths);
+                    put_column(&mut values, m, c, &scratch.samples);
+                }
+            }
+            (values, rays)
+        })
+        .collect();
+    let mut out = vec![BrickSamples::default(); keys];
+    let mut rays = 0;
+    for (stack, (values, n)) in stacks.iter().zip(filled) {
+        rays += n;
+        for (&(_, idx), v) in stack.1.iter().zip(values) {
+            out[idx] = v;
+        }
+    }
+    Some((out, rays))
+}
+
 /// One column's samples and the buffers that make them, reused from column to column.
 #[derive(Default)]
-pub(super) struct ColumnScratch {
+struct ColumnScratch {
     /// Per target depth: τ, ρ, ∂τ/∂x, ∂τ/∂y, ∂²τ/∂x∂y.
-    pub(super) samples: Vec<[f64; 5]>,
+    samples: Vec<[f64; 5]>,
     slopes: Vec<[f64; 4]>,
     sums: [Vec<(f64, f64)>; 4],
 }
@@ -176,7 +281,7 @@ impl ColumnScratch {
     /// many light rays it marched. The slopes come in closed form where the field has
     /// them, else from the column's neighbours at (ε, 0), (0, ε) and (ε, ε) — those the
     /// chart's blend reads: slopes only along Hermite axes, the twist only if both are.
-    pub(super) fn march(
+    fn march(
         &mut self,
         density: &dyn Field,
         chart: &Chart,
@@ -234,7 +339,7 @@ impl ColumnScratch {
 /// parallel chart's columns shift by `e1`, `e2` (one lattice step each); a perspective
 /// chart's turn about the light, `D = normalize(e3 + (x·e1 + y·e2)/S)`, so the point at
 /// distance t moves by `t·∂D/∂x`, `t·∂D/∂y` and `t·∂²D/∂x∂y`.
-pub(super) fn sideways(chart: &Chart, density: &dyn Field, x: f64, y: f64) -> Sideways {
+fn sideways(chart: &Chart, density: &dyn Field, x: f64, y: f64) -> Sideways {
     let tr = density.transform();
     let index = |w: DVec3| tr.world_dir_to_index(w);
     match chart.kind {
