@@ -81,7 +81,7 @@ fn bake_shadow_file_here(plan: &RenderPlan, progress: &dyn Progress) -> Result<R
         problem: "this input cannot be fingerprinted for a shadow cache".into(),
     })?;
     let t = Instant::now();
-    let (maps, map_stats) = bake_maps(&density_only, density, hash, sigma_t, progress)?;
+    let (maps, map_stats) = bake_maps(&density_only, density, hash, sigma_t, progress, None)?;
     report
         .stages
         .insert("shadows".into(), Stage::ran(t.elapsed().as_secs_f64()));

@@ -1,12 +1,61 @@
 //! Which device renders a frame under `--device`, and a frame's march on the GPU.
 
 use super::{RenderError, Result, channels, gpu, pixels};
+use crate::integrate::ScatteringMode;
 use crate::integrate::single::SingleScattering;
 use crate::output::Frame;
 use crate::render::stats::{RenderStats, Stage};
 use crate::scene::plan::Device;
+use crate::scene::progress::Progress;
+use crate::scene::report::SceneReport;
+use crate::scene::reuse::FrameReuse;
 use crate::scene::{RenderPlan, Scene};
+use std::sync::Arc;
 use std::time::Instant;
+
+/// Builds the scene, its shadow bake's light columns marched on the GPU where the render
+/// may run there (`--device gpu|auto`, single scattering, no deep output) and a GPU opens;
+/// the GPU's marcher is returned for its times.
+pub(super) fn build_scene(
+    plan: &RenderPlan,
+    progress: &dyn Progress,
+    reuse: &mut FrameReuse,
+) -> Result<(Scene, Option<Arc<gpu::GpuColumns>>)> {
+    let may = plan.sampling.device != Device::Cpu
+        && plan.transport.mode == ScatteringMode::Single
+        && plan.outputs.deep.is_none();
+    let columns = may
+        .then(gpu::Gpu::shared)
+        .and_then(|g| g.ok())
+        .map(|g| Arc::new(gpu::GpuColumns::new(g)));
+    reuse.columns = columns
+        .clone()
+        .map(|c| c as Arc<dyn crate::shadow::ColumnMarcher>);
+    let scene = Scene::build_reusing(plan, progress, reuse);
+    reuse.columns = None;
+    Ok((scene?, columns))
+}
+
+/// The bake's GPU stages in the stats: `gpu_bake_upload` (the grid's layout and upload
+/// for the columns) and `gpu_bake` (the columns' batches: layout, upload, march and
+/// readback), and a note where the GPU stopped marching them.
+pub(super) fn report_bake(columns: Option<&gpu::GpuColumns>, report: &mut SceneReport) {
+    let Some(c) = columns else { return };
+    let times = c.times();
+    if times.marched > 0 || times.upload > 0.0 {
+        report
+            .stages
+            .insert("gpu_bake_upload".into(), Stage::ran(times.upload));
+        report
+            .stages
+            .insert("gpu_bake".into(), Stage::ran(times.columns));
+    }
+    if let Some(why) = c.failure() {
+        report.notes.push(format!(
+            "the shadow bake's light columns were marched on the CPU: {why}"
+        ));
+    }
+}
 
 /// The GPU a render runs on under `--device gpu|auto`, or none (the CPU); and under
 /// `auto`, a note saying why the CPU renders. Under `gpu` a scene the GPU backend does not

@@ -27,7 +27,7 @@ use crate::scene::Scene;
 use crate::scene::plan::{MarchPlan, ShadowMode};
 use crate::scene::reuse::FrameReuse;
 pub use bake_file::bake_shadow_file;
-use device::{choose_device, render_frame_gpu};
+use device::{build_scene, choose_device, render_frame_gpu, report_bake};
 pub use error::RenderError;
 use piece::Piece;
 use stats::{RenderStats, Stage};
@@ -222,7 +222,7 @@ fn render_image_frame_here(
             .map_or(&[], |d| d.aovs.as_slice()),
         holdout: holdout.as_ref().map(|h| h.depths.as_slice()),
     };
-    let scene = Scene::build_reusing(plan, progress, reuse)?;
+    let (scene, columns) = build_scene(plan, progress, reuse)?;
     let traversal = scene.traversal();
     let volume = scene.volume(&traversal);
     let lights = scene.illumination();
@@ -390,6 +390,7 @@ fn render_image_frame_here(
     st.scene = scene.report;
     st.scene.stages.extend(gpu_stages);
     st.scene.notes.extend(device_note);
+    report_bake(columns.as_deref(), &mut st.scene);
     st.device = match &gpu {
         Some(g) => format!("gpu: {}", g.name),
         None => "cpu".into(),

@@ -8,8 +8,8 @@ use crate::field::Field;
 use crate::integrate::Illumination;
 use crate::shadow::cache::CacheError;
 use crate::shadow::{
-    BakeSettings, ShadowMap, ShadowMapStats, ShadowQuadrature, bake, cache, density_integral,
-    verify,
+    BakeSettings, ColumnMarcher, ShadowMap, ShadowMapStats, ShadowQuadrature, bake_with, cache,
+    density_integral, verify,
 };
 use glam::DVec3;
 use std::time::Instant;
@@ -61,13 +61,15 @@ impl Illumination for SceneLights<'_> {
 /// Points `--dsm-verify` measures at.
 pub const VERIFY_POINTS: usize = 10_000;
 
-/// Bakes (or, with a cache, reads) one map per light. `sigma_t` is per unit density.
+/// Bakes (or, with a cache, reads) one map per light. `sigma_t` is per unit density;
+/// `columns` marches the bake's light columns where it takes the density (the GPU).
 pub fn bake_maps(
     plan: &RenderPlan,
     density: &dyn Field,
     density_hash: u64,
     sigma_t: DVec3,
     progress: &dyn Progress,
+    columns: Option<&dyn ColumnMarcher>,
 ) -> Result<(Vec<ShadowMap>, Vec<ShadowMapStats>), CacheError> {
     let settings = BakeSettings::new(plan.shadows.dsm_tolerance, sigma_t);
     progress.start("baking shadow maps", plan.lights.len() as u64, "lights");
@@ -94,7 +96,7 @@ pub fn bake_maps(
                 ),
             ),
             None => {
-                let (map, report) = bake(density, light.geometry(), &settings);
+                let (map, report) = bake_with(density, light.geometry(), &settings, columns);
                 (map, report, "baked".to_string())
             }
         };

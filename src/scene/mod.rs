@@ -403,7 +403,9 @@ impl Scene {
             let (m, map_stats) = match kept {
                 Some(k) => k,
                 None => {
-                    let (m, s) = bake_maps(plan, density, hash.unwrap_or(0), sigma_t, progress)?;
+                    let columns = reuse.columns.as_deref();
+                    let (m, s) =
+                        bake_maps(plan, density, hash.unwrap_or(0), sigma_t, progress, columns)?;
                     if let Some(h) = hash {
                         reuse.keep_shadow_maps(plan, h, sigma_t, &m, &s);
                     }

@@ -2,7 +2,7 @@
 //! the density's content hash (and everything else a map depends on) is unchanged.
 
 use crate::scene::RenderPlan;
-use crate::shadow::{ShadowMap, ShadowMapStats};
+use crate::shadow::{ColumnMarcher, ShadowMap, ShadowMapStats};
 use glam::DVec3;
 
 /// Carried across the frames of one `murk render` (a fresh one per frame is a plain render).
@@ -16,6 +16,9 @@ pub struct FrameReuse {
     /// The world box the default camera frames in every frame (the union of the
     /// frames' densities), so that it does not move; `None`: each frame's own.
     pub frame_box: Option<(DVec3, DVec3)>,
+    /// Where the shadow bake's light columns are marched besides the CPU: the GPU's
+    /// marcher, which the render sets under `--device gpu|auto`.
+    pub columns: Option<std::sync::Arc<dyn ColumnMarcher>>,
 }
 
 /// Everything a set of shadow maps depends on, as one comparable string: the density's

@@ -27,6 +27,7 @@
 //!    one τ and its columns are not marched.
 
 use super::chart::Chart;
+use super::column_marcher::ColumnMarcher;
 use super::lattice::{
     MAX_COARSENINGS, block_corners, block_edge, cells_per_column, cells_per_unit, charts_for,
     column_cells,
@@ -71,6 +72,17 @@ pub fn bake(
     light: LightGeometry,
     settings: &BakeSettings,
 ) -> (ShadowMap, BakeReport) {
+    bake_with(density, light, settings, None)
+}
+
+/// [`bake`] with the light columns marched by `columns` (a GPU) where it takes the
+/// density; the decisions stay here.
+pub fn bake_with(
+    density: &dyn Field,
+    light: LightGeometry,
+    settings: &BakeSettings,
+    columns: Option<&dyn ColumnMarcher>,
+) -> (ShadowMap, BakeReport) {
     let mut unit = lattice_unit(density, 0);
     let voxel_unit = unit;
     for coarsenings in 0..MAX_COARSENINGS {
@@ -80,6 +92,7 @@ pub fn bake(
             settings,
             unit,
             block_edge(unit / voxel_unit),
+            columns,
         ) {
             report.lattice_coarsenings = coarsenings;
             return (map, report);
@@ -112,6 +125,7 @@ fn bake_at(
     settings: &BakeSettings,
     unit: f64,
     edge: i32,
+    columns: Option<&dyn ColumnMarcher>,
 ) -> Option<(ShadowMap, BakeReport)> {
     // A block maps to up to 2³ bricks at least: more blocks than an eighth of the brick
     // budget cannot fit, and would only cost their enumeration.
@@ -186,7 +200,15 @@ fn bake_at(
             keys.iter().copied(),
             settings.max_bricks.saturating_mul(16),
         )?;
-        refine(density, keys, settings, &mut report, &mut cells, &mut map)?;
+        refine(
+            density,
+            keys,
+            settings,
+            &mut report,
+            &mut cells,
+            &mut map,
+            columns,
+        )?;
         maps.push(map);
     }
     // The bake's samples are packed and freed: return them before the render.

@@ -10,6 +10,7 @@
 //! the chart blends with Hermite.
 
 use super::chart::{Chart, ChartKind, Column, LateralBlend};
+use super::column_marcher::{ColumnJob, ColumnMarcher};
 use super::map::{BRICK, BrickSamples, side, spacing};
 use super::march::exact_integral;
 use crate::accel::{IndexRay, Spans};
@@ -23,75 +24,128 @@ use std::collections::BTreeMap;
 /// twist across the light, for fields without closed-form slopes.
 const SLOPE_OFFSET: f64 = 1.0 / 1024.0;
 
-/// Samples of the bricks `keys` at `level`, by marching columns.
+/// A brick stack: its lateral position and its bricks, `(z, index into the keys)`,
+/// front (near the light) first.
+type Stack = ((i32, i32), Vec<(i32, usize)>);
+
+/// The brick stacks of `keys`, in lateral order.
+fn stacks_of(keys: &[IVec3]) -> Vec<Stack> {
+    let mut stacks: BTreeMap<(i32, i32), Vec<(i32, usize)>> = BTreeMap::new();
+    for (idx, k) in keys.iter().enumerate() {
+        stacks.entry((k.x, k.y)).or_default().push((k.z, idx));
+    }
+    stacks
+        .into_iter()
+        .map(|(xy, mut v)| {
+            v.sort_unstable();
+            (xy, v)
+        })
+        .collect()
+}
+
+/// Where a stack's columns start (`t0`, world units along the column) and the depths
+/// they are read at: `m` a brick, through every brick of the stack.
+fn stack_depths(
+    chart: &Chart,
+    stack: &Stack,
+    level: u8,
+    stack_start: &BTreeMap<(i32, i32), i32>,
+) -> (f64, Vec<f64>) {
+    let ((bx, by), bricks) = stack;
+    let (m, s, b) = (side(level), spacing(level), BRICK as f64);
+    let start = stack_start.get(&(*bx, *by)).copied().unwrap_or(bricks[0].0) as f64 * b;
+    let mut depths = Vec::with_capacity(bricks.len() * m);
+    for &(bz, _) in bricks {
+        for k in 0..m {
+            depths.push((bz as f64 * b + k as f64 * s) * chart.unit);
+        }
+    }
+    let t0 = match chart.kind {
+        ChartKind::Parallel { .. } => start * chart.unit,
+        ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
+    };
+    (t0, depths)
+}
+
+/// Lattice position of column `c` (`i + m·j`) of a stack.
+fn column_xy(stack: &Stack, level: u8, c: usize) -> (f64, f64) {
+    let ((bx, by), _) = stack;
+    let (m, s, b) = (side(level), spacing(level), BRICK as f64);
+    let (i, j) = (c % m, c / m);
+    (*bx as f64 * b + i as f64 * s, *by as f64 * b + j as f64 * s)
+}
+
+/// Puts column `c`'s samples (per depth, `[τ, ρ, ∂τ/∂x, ∂τ/∂y, ∂²τ/∂x∂y]`) into its
+/// stack's bricks `values`.
+fn put_column<T: Copy + Into<f64>>(
+    values: &mut [BrickSamples],
+    m: usize,
+    c: usize,
+    samples: &[[T; 5]],
+) {
+    let (i, j) = (c % m, c / m);
+    for (n, v) in values.iter_mut().enumerate() {
+        for k in 0..m {
+            let [tau, rho, tau_x, tau_y, tau_xy] = samples[n * m + k].map(|x| x.into() as f32);
+            let at = i + m * (j + m * k);
+            v.tau[at] = tau;
+            v.rho[at] = rho;
+            v.tau_x[at] = tau_x;
+            v.tau_y[at] = tau_y;
+            v.tau_xy[at] = tau_xy;
+        }
+    }
+}
+
+/// Samples of the bricks `keys` at `level`, by marching columns: on `elsewhere` (the
+/// GPU) where it takes the density, else (and for the columns it could not march) here.
 pub(super) fn sample_level(
     density: &dyn Field,
     chart: &Chart,
     keys: &[IVec3],
     level: u8,
     stack_start: &BTreeMap<(i32, i32), i32>,
+    elsewhere: Option<&dyn ColumnMarcher>,
     report: &mut BakeReport,
 ) -> Vec<BrickSamples> {
-    let m = side(level);
-    let s = spacing(level);
-    let b = BRICK as f64;
-    // Brick stacks: the bricks sharing a lateral position, front (near the light) first.
-    let mut stacks: BTreeMap<(i32, i32), Vec<(i32, usize)>> = BTreeMap::new();
-    for (idx, k) in keys.iter().enumerate() {
-        stacks.entry((k.x, k.y)).or_default().push((k.z, idx));
+    let stacks = stacks_of(keys);
+    if let Some(marcher) = elsewhere.filter(|c| c.takes(density)) {
+        let done = sample_stacks(
+            marcher,
+            density,
+            chart,
+            &stacks,
+            level,
+            stack_start,
+            keys.len(),
+        );
+        if let Some((out, columns)) = done {
+            report.columns += columns;
+            return out;
+        }
     }
-    // ((x, y) of the stack, [(z, index into keys)]).
-    type Stack = ((i32, i32), Vec<(i32, usize)>);
-    let stacks: Vec<Stack> = stacks
-        .into_iter()
-        .map(|(xy, mut v)| {
-            v.sort_unstable();
-            (xy, v)
-        })
-        .collect();
+    let m = side(level);
     type Marched = (Vec<(usize, BrickSamples)>, u64);
     let results: Vec<Marched> = stacks
         .par_iter()
-        .map(|((bx, by), bricks)| {
+        .map(|stack| {
+            let bricks = &stack.1;
             let mut columns = 0u64;
             let mut values = vec![BrickSamples::zeros(m * m * m); bricks.len()];
-            let start = stack_start.get(&(*bx, *by)).copied().unwrap_or(bricks[0].0) as f64 * b;
-            let mut depths = Vec::with_capacity(bricks.len() * m);
-            for &(bz, _) in bricks {
-                for k in 0..m {
-                    depths.push((bz as f64 * b + k as f64 * s) * chart.unit);
-                }
-            }
-            let t0 = match chart.kind {
-                ChartKind::Parallel { .. } => start * chart.unit,
-                ChartKind::Perspective { .. } => (start * chart.unit).max(0.0),
-            };
+            let (t0, depths) = stack_depths(chart, stack, level, stack_start);
             // The stack's columns in parallel too: at the fine levels a batch holds only a
             // few stacks of m² columns each.
             let marched: Vec<(Vec<[f64; 5]>, u64)> = (0..m * m)
                 .into_par_iter()
                 .map_init(ColumnScratch::default, |column, c| {
-                    let (i, j) = (c % m, c / m);
-                    let x = *bx as f64 * b + i as f64 * s;
-                    let y = *by as f64 * b + j as f64 * s;
+                    let (x, y) = column_xy(stack, level, c);
                     let n = column.march(density, chart, x, y, t0, &depths);
                     (std::mem::take(&mut column.samples), n)
                 })
                 .collect();
             for (c, (samples, n)) in marched.into_iter().enumerate() {
-                let (i, j) = (c % m, c / m);
                 columns += n;
-                for (n, v) in values.iter_mut().enumerate() {
-                    for k in 0..m {
-                        let [tau, rho, tau_x, tau_y, tau_xy] = samples[n * m + k];
-                        let at = i + m * (j + m * k);
-                        v.tau[at] = tau as f32;
-                        v.rho[at] = rho as f32;
-                        v.tau_x[at] = tau_x as f32;
-                        v.tau_y[at] = tau_y as f32;
-                        v.tau_xy[at] = tau_xy as f32;
-                    }
-                }
+                put_column(&mut values, m, c, &samples);
             }
             let out: Vec<(usize, BrickSamples)> =
                 bricks.iter().map(|&(_, idx)| idx).zip(values).collect();
@@ -106,6 +160,111 @@ pub(super) fn sample_level(
         }
     }
     out
+}
+
+/// `side` with its t measured from `t0` on.
+fn from(side: Sideways, t0: f64) -> Sideways {
+    let shift = |a: Affine| Affine::new(a.at(t0), a.rate);
+    Sideways {
+        a: shift(side.a),
+        b: shift(side.b),
+        c: shift(side.c),
+    }
+}
+
+/// The samples of every brick of `stacks` (`keys` of them) at `level`, their columns
+/// marched by `marcher` (those it could not, here), and how many light rays were marched;
+/// `None` when the marcher failed the batch.
+fn sample_stacks(
+    marcher: &dyn ColumnMarcher,
+    density: &dyn Field,
+    chart: &Chart,
+    stacks: &[Stack],
+    level: u8,
+    stack_start: &BTreeMap<(i32, i32), i32>,
+    keys: usize,
+) -> Option<(Vec<BrickSamples>, u64)> {
+    let m = side(level);
+    let columns = m * m;
+    // Each stack's start and depths (its columns share them), and its columns' jobs with
+    // `first` counted within the stack.
+    type Setup = (f64, Vec<f64>, Vec<ColumnJob>);
+    let setups: Vec<Setup> = stacks
+        .par_iter()
+        .map(|stack| {
+            let (t0, depths) = stack_depths(chart, stack, level, stack_start);
+            let jobs = (0..columns)
+                .map(|c| {
+                    let (x, y) = column_xy(stack, level, c);
+                    let column = chart.column(x, y);
+                    let ray = IndexRay::new(density, column.origin, column.dir);
+                    ColumnJob {
+                        ray: IndexRay {
+                            origin: ray.at(t0),
+                            dir: ray.dir,
+                        },
+                        side: from(sideways(chart, density, x, y), t0),
+                        first: 0,
+                        count: depths.len(),
+                    }
+                })
+                .collect();
+            (t0, depths, jobs)
+        })
+        .collect();
+    let mut depths = Vec::new();
+    let mut jobs = Vec::with_capacity(stacks.len() * columns);
+    for (t0, d, stack_jobs) in &setups {
+        let first = depths.len();
+        depths.extend(d.iter().map(|t| t - t0));
+        jobs.extend(stack_jobs.iter().map(|j| ColumnJob { first, ..*j }));
+    }
+    let marched = marcher.march(density, &jobs, &depths).ok()?;
+    if marched.done.len() != jobs.len()
+        || marched.samples.len() != jobs.iter().map(|j| j.count).sum::<usize>()
+    {
+        return None;
+    }
+    // Where each stack's samples begin in the batch's.
+    let mut offsets = Vec::with_capacity(stacks.len());
+    let mut at = 0;
+    for (_, d, _) in &setups {
+        offsets.push(at);
+        at += d.len() * columns;
+    }
+    type Filled = (Vec<BrickSamples>, u64);
+    let filled: Vec<Filled> = stacks
+        .par_iter()
+        .zip(&setups)
+        .enumerate()
+        .map(|(s, (stack, (t0, depths, _)))| {
+            let mut values = vec![BrickSamples::zeros(m * m * m); stack.1.len()];
+            let mut rays = 0;
+            let mut scratch = ColumnScratch::default();
+            let n = depths.len();
+            for c in 0..columns {
+                if marched.done[s * columns + c] {
+                    let from = offsets[s] + c * n;
+                    put_column(&mut values, m, c, &marched.samples[from..from + n]);
+                    rays += 1;
+                } else {
+                    let (x, y) = column_xy(stack, level, c);
+                    rays += scratch.march(density, chart, x, y, *t0, depths);
+                    put_column(&mut values, m, c, &scratch.samples);
+                }
+            }
+            (values, rays)
+        })
+        .collect();
+    let mut out = vec![BrickSamples::default(); keys];
+    let mut rays = 0;
+    for (stack, (values, n)) in stacks.iter().zip(filled) {
+        rays += n;
+        for (&(_, idx), v) in stack.1.iter().zip(values) {
+            out[idx] = v;
+        }
+    }
+    Some((out, rays))
 }
 
 /// One column's samples and the buffers that make them, reused from column to column.

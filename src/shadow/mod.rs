@@ -11,6 +11,7 @@ pub mod cache;
 mod cache_check;
 mod cache_error;
 pub mod chart;
+pub mod column_marcher;
 pub mod columns;
 pub mod flat;
 mod lattice;
@@ -21,7 +22,8 @@ mod refine;
 pub mod settings;
 pub mod verify;
 
-pub use bake::bake;
+pub use bake::{bake, bake_with};
+pub use column_marcher::{ColumnJob, ColumnMarcher, MarchedColumns};
 pub use map::ShadowMap;
 pub use march::{ShadowQuadrature, density_integral};
 pub use settings::{BakeReport, BakeSettings, LightGeometry};

@@ -12,6 +12,7 @@
 //! alone: the map's lookups are the same as when every brick was sampled together.
 
 use super::chart::Chart;
+use super::column_marcher::ColumnMarcher;
 use super::columns::sample_level;
 use super::lattice::{cells_per_column, cells_per_unit, column_cells};
 use super::level_checks::{Upstream, channels, coarse_error, coarsen, unresolved_bounds};
@@ -57,6 +58,7 @@ pub(super) fn refine(
     report: &mut BakeReport,
     cells: &mut f64,
     map: &mut ChartMap,
+    elsewhere: Option<&dyn ColumnMarcher>,
 ) -> Option<()> {
     let chart: Chart = map.chart;
     let sigmas = channels(settings.sigma_t);
@@ -115,6 +117,7 @@ pub(super) fn refine(
                 &batch_keys,
                 fine_level,
                 &stack_start,
+                elsewhere,
                 report,
             );
             // Each brick is decided and packed on its own (in parallel), then appended

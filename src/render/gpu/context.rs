@@ -7,9 +7,11 @@ use wgpu::util::DeviceExt;
 
 /// An opened GPU with the march compiled for it.
 pub struct Gpu {
-    device: wgpu::Device,
-    queue: wgpu::Queue,
+    pub(super) device: wgpu::Device,
+    pub(super) queue: wgpu::Queue,
     pipeline: wgpu::ComputePipeline,
+    /// The shadow bake's column march, compiled on first use.
+    columns: std::sync::OnceLock<Result<wgpu::ComputePipeline, String>>,
     /// The adapter as it names itself, its device type and backend.
     pub name: String,
     pub limits: wgpu::Limits,
@@ -18,10 +20,10 @@ pub struct Gpu {
 /// Storage buffers the march binds.
 const STORAGE_BUFFERS: u32 = 8;
 /// Invocations per workgroup (`@workgroup_size` in march.wgsl).
-const WORKGROUP: u32 = 64;
+pub(super) const WORKGROUP: u32 = 64;
 /// Workgroups per dispatch dimension (WebGPU's least limit; the shader spreads a
 /// larger dispatch over y).
-const GROUPS_X: u32 = 65535;
+pub(super) const GROUPS_X: u32 = 65535;
 
 impl Gpu {
     /// The process's GPU, opened (and its march compiled) on first use and kept for every
@@ -89,9 +91,48 @@ impl Gpu {
             device,
             queue,
             pipeline,
+            columns: std::sync::OnceLock::new(),
             name,
             limits,
         })
+    }
+
+    /// The shadow bake's column march (columns.wgsl, with the tree lookups of
+    /// march.wgsl), compiled on first use.
+    pub(super) fn columns_pipeline(&self) -> Result<&wgpu::ComputePipeline, String> {
+        let compiled = self.columns.get_or_init(|| {
+            let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+            let source = [
+                include_str!("march.wgsl"),
+                include_str!("dsm.wgsl"),
+                include_str!("columns.wgsl"),
+            ]
+            .join("\n");
+            let module = self
+                .device
+                .create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some("columns"),
+                    source: wgpu::ShaderSource::Wgsl(source.into()),
+                });
+            let pipeline = self
+                .device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some("columns"),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some("march_columns"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                });
+            match pollster::block_on(scope.pop()) {
+                Some(e) => Err(format!(
+                    "{}: the column march does not compile ({e})",
+                    self.name
+                )),
+                None => Ok(pipeline),
+            }
+        });
+        compiled.as_ref().map_err(Clone::clone)
     }
 
     /// The most bytes one storage buffer may bind.
@@ -245,7 +286,7 @@ impl Gpu {
     }
 }
 
-fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+pub(super) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
         binding,
         resource: buffer.as_entire_binding(),

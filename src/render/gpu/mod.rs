@@ -6,10 +6,12 @@
 //! What it renders is checked first ([`unsupported`]): a scene with anything else runs on
 //! the CPU under `--device auto` (with a note naming it) and is refused under `gpu`.
 
+mod bake;
 mod context;
 mod pixels;
 mod upload;
 
+pub use bake::{BakeTimes, GpuColumns};
 pub use context::Gpu;
 
 use super::pixels::{PixelJob, PixelPasses};

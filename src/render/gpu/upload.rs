@@ -25,6 +25,10 @@ pub const N_SAMPLES_AT: usize = 32;
 const DSM_CHUNK_AT: usize = 44;
 /// Words of the parameters.
 const PARAM_WORDS: usize = 48;
+/// Where the grid's parts begin in the parameters (`upper_base` in march.wgsl).
+const GRID_BASES_AT: usize = 36;
+/// Where the grid's background value sits in the parameters.
+const BACKGROUND_AT: usize = 42;
 /// The buffers the shadow maps are spread over (`dsm0`..`dsm2` in march.wgsl).
 pub const DSM_BUFFERS: usize = 3;
 /// Words of a chart's header in `dsm`.
@@ -112,21 +116,25 @@ fn pad(v: &mut Vec<u32>) {
     }
 }
 
-/// Lays the scene out for the march.
-pub fn build(s: &SceneParts) -> Result<Buffers, String> {
-    use crate::field::Field;
-    let n = &s.nodes;
-    if s.lights.len() > MAX_LIGHTS {
-        return Err(format!("more than {MAX_LIGHTS} lights"));
-    }
-    // tree: root, upper slots, lower slots.
+/// The density grid's arrays: its nodes (`tree`: root, upper slots, lower slots) and
+/// its values (`vals`: leaf values, tile values, then every slot's cell range), with
+/// where each part begins.
+pub struct GridArrays {
+    pub tree: Vec<u32>,
+    pub vals: Vec<f32>,
+    /// Words of the parameters that say where the parts begin, in the order of `Params`
+    /// in march.wgsl from `upper_base` to `lower_cells`.
+    bases: [u32; 6],
+}
+
+/// Lays the grid's nodes out.
+pub fn grid_arrays(n: &GridNodes) -> GridArrays {
     let mut tree = n.root.clone();
     let upper_base = tree.len();
     tree.extend(&n.upper);
     let lower_base = tree.len();
     tree.extend(&n.lower);
     pad(&mut tree);
-    // vals: leaf values, tile values, then every slot's cell range.
     let mut vals = n.leaf_values.clone();
     let tile_base = vals.len();
     vals.extend(&n.tile_values);
@@ -139,6 +147,38 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
     let upper_cells = cells(&n.upper_cells);
     let lower_cells = cells(&n.lower_cells);
     vals.resize(vals.len().max(4), 0.0);
+    let bases = [
+        upper_base,
+        lower_base,
+        tile_base,
+        root_cells,
+        upper_cells,
+        lower_cells,
+    ]
+    .map(|b| b as u32);
+    GridArrays { tree, vals, bases }
+}
+
+/// The parameters that the grid's lookups read (the rest 0): the light columns' march.
+pub fn grid_params(grid: &VoxelGrid, n: &GridNodes, arrays: &GridArrays) -> Vec<u32> {
+    let mut params = vec![0u32; PARAM_WORDS];
+    let ivec = |v: glam::IVec3| [v.x as u32, v.y as u32, v.z as u32, 0];
+    params[0..4].copy_from_slice(&ivec(n.origin));
+    params[4..8].copy_from_slice(&ivec(n.root_min));
+    params[8..12].copy_from_slice(&ivec(n.root_dims));
+    params[GRID_BASES_AT..GRID_BASES_AT + 6].copy_from_slice(&arrays.bases);
+    params[BACKGROUND_AT] = grid.background().to_bits();
+    params
+}
+
+/// Lays the scene out for the march.
+pub fn build(s: &SceneParts) -> Result<Buffers, String> {
+    use crate::field::Field;
+    let n = &s.nodes;
+    if s.lights.len() > MAX_LIGHTS {
+        return Err(format!("more than {MAX_LIGHTS} lights"));
+    }
+    let GridArrays { tree, vals, bases } = grid_arrays(n);
     // dsm: one header per chart, then the charts' arrays.
     let mut charts: Vec<FlatChart> = Vec::new();
     let mut first_chart = Vec::new();
@@ -240,12 +280,9 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
         stride,
         PHASE_ENTRIES as u32,
         phase_base as u32,
-        upper_base as u32,
-        lower_base as u32,
-        tile_base as u32,
-        root_cells as u32,
-        upper_cells as u32,
-        lower_cells as u32,
+    ]);
+    params.extend(bases);
+    params.extend([
         s.grid.background().to_bits(),
         u32::from(s.scatters),
         dsm_chunk as u32,
@@ -255,6 +292,8 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
     ]);
     debug_assert_eq!(params.len(), PARAM_WORDS);
     debug_assert_eq!(params[DSM_CHUNK_AT] as usize, dsm_chunk);
+    debug_assert_eq!(params[GRID_BASES_AT..GRID_BASES_AT + 6], bases);
+    debug_assert_eq!(params[BACKGROUND_AT], s.grid.background().to_bits());
     Ok(Buffers {
         tree,
         vals,
