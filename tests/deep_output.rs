@@ -3,38 +3,15 @@
 //! split at any depth gives its closed form. Bad input refused in one line.
 
 mod common;
-use common::deep::{Deep, flat_channels, flatten, read_deep};
+use common::deep::{Deep, SLAB_VIEW, fixture, flat_channels, flatten, read_deep, render_deep};
 use common::frames::{MURK, every_fixture, refused, scratch};
 use common::tools;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn fixture(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("fixtures")
-        .join(name)
-        .display()
-        .to_string()
-}
-
 /// Renders `input` with `args` into `dir`: the flat EXR (float) and the deep one.
 fn render(dir: &Path, input: &str, args: &[&str]) -> (PathBuf, PathBuf) {
-    let (flat, deep) = (dir.join("flat.exr"), dir.join("deep.exr"));
-    let out = Command::new(MURK)
-        .args(["render", input, "-o"])
-        .arg(&flat)
-        .arg("--deep")
-        .arg(&deep)
-        .args(["--float", "--quiet"])
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "murk render {input} {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    (flat, deep)
+    render_deep(dir, input, &["--float"], args)
 }
 
 /// Every pixel's samples sorted, `Z ≤ ZBack`, not overlapping, alpha in [0, 1].
@@ -394,27 +371,6 @@ fn depth_image(
         .to_file(path)
         .unwrap();
 }
-
-const SLAB_VIEW: [&str; 18] = [
-    "--res",
-    "16x16",
-    "--camera",
-    "ortho",
-    "--eye",
-    "0,0,5",
-    "--look-at",
-    "0,0,0",
-    "--up",
-    "0,1,0",
-    "--ortho-width",
-    "1",
-    "--no-lights",
-    "--sigma-a",
-    "3",
-    "--sigma-s",
-    "0",
-    "--float",
-];
 
 #[test]
 fn a_holdout_cuts_the_slab_where_its_closed_form_says() {

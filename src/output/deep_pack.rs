@@ -122,12 +122,25 @@ fn round_depth(z: f32, most: f64) -> f32 {
     if !(most > 0.0) || !most.is_finite() || !z.is_finite() {
         return z;
     }
-    let grid = (2.0 * most).log2().floor().exp2();
+    let grid = pow2_floor(2.0 * most);
+    if !grid.is_finite() {
+        return z;
+    }
     // Finer than the float's own spacing: nothing to round.
     if grid <= (z.abs() as f64) * f32::EPSILON as f64 {
         return z;
     }
     ((z as f64 / grid).round() * grid) as f32
+}
+
+/// The largest power of two not above `x` (positive): a normal float with its mantissa
+/// bits cleared, without a logarithm (this runs for every depth of the file).
+fn pow2_floor(x: f64) -> f64 {
+    if x >= f64::MIN_POSITIVE {
+        f64::from_bits(x.to_bits() & 0xfff0_0000_0000_0000)
+    } else {
+        x.log2().floor().exp2()
+    }
 }
 
 /// Rounds the depths of one pixel's tidy samples (see the module's notes); `tol` is the
@@ -178,7 +191,7 @@ fn half_ulp(v: f64) -> f64 {
     if a < 6.103_515_625e-5 {
         5.960_464_477_539_063e-8 // 2⁻²⁴: subnormals
     } else {
-        (a.log2().floor() - 10.0).exp2()
+        pow2_floor(a) / 1024.0
     }
 }
 
@@ -358,6 +371,15 @@ mod tests {
             t *= 1.0 - x.rgba[3] as f64;
         }
         [c[0], c[1], c[2], 1.0 - t]
+    }
+
+    #[test]
+    fn pow2_floor_is_the_power_of_two_at_or_below() {
+        for x in [1.0, 1.5, 0.75, 3.999, 4.0, 1e-300, 6.2e4, 1e-310, 0.1] {
+            let p = pow2_floor(x);
+            assert!(p <= x && 2.0 * p > x, "{x}: {p}");
+            assert_eq!(p.log2().fract(), 0.0, "{x}: {p}");
+        }
     }
 
     #[test]
