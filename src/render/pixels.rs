@@ -414,6 +414,44 @@ pub(crate) fn finish_pixel(
     }
 }
 
+/// The deep image of a render's pixels (rows top to bottom), with the layers
+/// `aov_layers` where the pixels carry AOV values.
+pub fn deep_image(
+    pixels: Vec<DeepPixel>,
+    width: usize,
+    height: usize,
+    aov_layers: Vec<String>,
+) -> DeepImage {
+    // Half a million pixels' lists: on every thread.
+    let (samples, values): (Vec<_>, Vec<_>) = pixels
+        .into_par_iter()
+        .map(|px| {
+            let samples: Vec<DeepSample> = px
+                .samples
+                .iter()
+                .map(|s| DeepSample {
+                    z: s.z,
+                    z_back: s.z_back,
+                    rgba: [s.rgb[0], s.rgb[1], s.rgb[2], s.alpha],
+                })
+                .collect();
+            (samples, px.aovs)
+        })
+        .unzip();
+    let aovs = if aov_layers.is_empty() {
+        Vec::new()
+    } else {
+        values
+    };
+    DeepImage {
+        width,
+        height,
+        pixels: samples,
+        aov_layers,
+        aovs,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -540,43 +578,5 @@ mod tests {
                 }
             }
         }
-    }
-}
-
-/// The deep image of a render's pixels (rows top to bottom), with the layers
-/// `aov_layers` where the pixels carry AOV values.
-pub fn deep_image(
-    pixels: Vec<DeepPixel>,
-    width: usize,
-    height: usize,
-    aov_layers: Vec<String>,
-) -> DeepImage {
-    // Half a million pixels' lists: on every thread.
-    let (samples, values): (Vec<_>, Vec<_>) = pixels
-        .into_par_iter()
-        .map(|px| {
-            let samples: Vec<DeepSample> = px
-                .samples
-                .iter()
-                .map(|s| DeepSample {
-                    z: s.z,
-                    z_back: s.z_back,
-                    rgba: [s.rgb[0], s.rgb[1], s.rgb[2], s.alpha],
-                })
-                .collect();
-            (samples, px.aovs)
-        })
-        .unzip();
-    let aovs = if aov_layers.is_empty() {
-        Vec::new()
-    } else {
-        values
-    };
-    DeepImage {
-        width,
-        height,
-        pixels: samples,
-        aov_layers,
-        aovs,
     }
 }
