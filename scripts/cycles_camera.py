@@ -10,71 +10,27 @@ built from the numbers alone: the world matrix as given (the stage's coordinates
 Blender's, as the VDB's are), the lens and gate in millimetres with a horizontal sensor
 fit, the lens shift in units of the gate's width, as Blender measures it.
 
-VOXEL is the VDB's voxel size: Blender 3.4 draws a VDB's voxels half a voxel toward +x,
-+y, +z of where OpenVDB's index space puts their centres (measured on cloud.vdb through
-these cameras: every frame's alpha centroid 0.17 px off murk's, mean |dA| 0.009 to
-0.012; moved back by half a voxel, 0.004 px and 0.0008), so the volume object is moved
-back by half a voxel: the comparison is of the cameras, not of that convention.
+VOXEL is the VDB's voxel size: the volume is moved back by half a voxel (see
+scripts/cycles_absorbing.py).
 """
 
 import json
+import os
 import sys
 
 import bpy
 from mathutils import Matrix
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cycles_absorbing import absorbing_scene, absorbing_volume, scene_camera  # noqa: E402
+
 argv = sys.argv[sys.argv.index("--") + 1 :]
 camera_json, vdb, voxel, prefix, res = argv
 width, height = (int(v) for v in res.split("x"))
 
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.engine = "CYCLES"
-scene.cycles.device = "CPU"
-scene.cycles.samples = 64
-scene.cycles.use_denoising = False
-scene.cycles.use_adaptive_sampling = False
-scene.cycles.filter_type = "BOX"
-scene.cycles.filter_width = 1.0
-scene.cycles.volume_step_rate = 0.25
-scene.cycles.volume_max_steps = 4096
-scene.cycles.max_bounces = 0
-scene.render.film_transparent = True
-scene.render.resolution_x = width
-scene.render.resolution_y = height
-scene.render.resolution_percentage = 100
-scene.render.pixel_aspect_x = 1.0
-scene.render.pixel_aspect_y = 1.0
-scene.render.image_settings.file_format = "OPEN_EXR"
-scene.render.image_settings.color_mode = "RGBA"
-scene.render.image_settings.color_depth = "32"
-world = bpy.data.worlds.new("black")
-world.color = (0.0, 0.0, 0.0)
-scene.world = world
-
-volume = bpy.data.volumes.new("cache")
-volume.filepath = vdb
-obj = bpy.data.objects.new("cache", volume)
-scene.collection.objects.link(obj)
-half = -0.5 * float(voxel)
-obj.location = (half, half, half)
-mat = bpy.data.materials.new("absorb")
-mat.use_nodes = True
-nodes = mat.node_tree.nodes
-nodes.clear()
-out = nodes.new("ShaderNodeOutputMaterial")
-absorb = nodes.new("ShaderNodeVolumeAbsorption")
-absorb.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-attr = nodes.new("ShaderNodeAttribute")
-attr.attribute_name = "density"
-mat.node_tree.links.new(attr.outputs["Fac"], absorb.inputs["Density"])
-mat.node_tree.links.new(absorb.outputs["Volume"], out.inputs["Volume"])
-volume.materials.append(mat)
-
-cam_data = bpy.data.cameras.new("shot")
-cam = bpy.data.objects.new("shot", cam_data)
-scene.collection.objects.link(cam)
-scene.camera = cam
+scene = absorbing_scene(width, height, 64)
+absorbing_volume(scene, vdb, voxel)
+cam, cam_data = scene_camera(scene)
 
 for f in json.load(open(camera_json))["frames"]:
     if not 1 <= f["frame"] <= 3:

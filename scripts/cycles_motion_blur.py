@@ -15,42 +15,27 @@ OPEN to CLOSE frames around the frame (Cycles' shutter is CLOSE - OPEN frames, c
 on the frame when OPEN = -CLOSE, starting on it when OPEN = 0, ending on it when
 CLOSE = 0).
 
-VOXEL is the VDB's voxel size: Blender 3.4 draws a VDB's voxels half a voxel toward +x,
-+y, +z of where OpenVDB's index space puts them (see scripts/cycles_camera.py), so the
-volume object is moved back by half a voxel.
+VOXEL is the VDB's voxel size: the volume is moved back by half a voxel (see
+scripts/cycles_absorbing.py).
 """
 
 import math
+import os
 import sys
 
 import bpy
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cycles_absorbing import absorbing_scene, absorbing_volume, scene_camera  # noqa: E402
 
 argv = sys.argv[sys.argv.index("--") + 1 :]
 (vdb, voxel, sigma, t, r, focal, hap, vap, shutter, fps, samples, res, prefix) = argv
 width, height = (int(v) for v in res.split("x"))
 open_, close = (float(v) for v in shutter.split(","))
 
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.engine = "CYCLES"
-scene.cycles.device = "CPU"
-scene.cycles.samples = int(samples)
-scene.cycles.use_denoising = False
-scene.cycles.use_adaptive_sampling = False
-scene.cycles.filter_type = "BOX"
-scene.cycles.filter_width = 1.0
-scene.cycles.volume_step_rate = 0.25
-scene.cycles.volume_max_steps = 4096
-scene.cycles.max_bounces = 0
-scene.render.film_transparent = True
-scene.render.resolution_x = width
-scene.render.resolution_y = height
-scene.render.resolution_percentage = 100
+scene = absorbing_scene(width, height, int(samples))
 scene.render.fps = int(fps)
 scene.render.fps_base = 1.0
-scene.render.image_settings.file_format = "OPEN_EXR"
-scene.render.image_settings.color_mode = "RGBA"
-scene.render.image_settings.color_depth = "32"
 scene.render.motion_blur_shutter = close - open_
 # Cycles places its shutter on the frame by where it opens: centred, opening on the
 # frame, or closing on it; another shutter has no Cycles equivalent.
@@ -62,43 +47,14 @@ elif close == 0.0:
     scene.cycles.motion_blur_position = "END"
 else:
     sys.exit("shutter %s: Cycles opens it centred on, at or before the frame" % shutter)
-world = bpy.data.worlds.new("black")
-world.color = (0.0, 0.0, 0.0)
-scene.world = world
-
-volume = bpy.data.volumes.new("cache")
-volume.filepath = vdb
+volume = absorbing_volume(scene, vdb, voxel, float(sigma))
 volume.grids.load()
 volume.velocity_grid = "velocity"
 assert volume.velocity_grid == "velocity", [g.name for g in volume.grids]
 volume.velocity_unit = "SECOND"
 volume.velocity_scale = 1.0
 volume.render.clipping = 0.0
-obj = bpy.data.objects.new("cache", volume)
-scene.collection.objects.link(obj)
-half = -0.5 * float(voxel)
-obj.location = (half, half, half)
-mat = bpy.data.materials.new("absorb")
-mat.use_nodes = True
-nodes = mat.node_tree.nodes
-nodes.clear()
-out = nodes.new("ShaderNodeOutputMaterial")
-absorb = nodes.new("ShaderNodeVolumeAbsorption")
-absorb.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-attr = nodes.new("ShaderNodeAttribute")
-attr.attribute_name = "density"
-scale = nodes.new("ShaderNodeMath")
-scale.operation = "MULTIPLY"
-scale.inputs[1].default_value = float(sigma)
-mat.node_tree.links.new(attr.outputs["Fac"], scale.inputs[0])
-mat.node_tree.links.new(scale.outputs["Value"], absorb.inputs["Density"])
-mat.node_tree.links.new(absorb.outputs["Volume"], out.inputs["Volume"])
-volume.materials.append(mat)
-
-cam_data = bpy.data.cameras.new("shot")
-cam = bpy.data.objects.new("shot", cam_data)
-scene.collection.objects.link(cam)
-scene.camera = cam
+cam, cam_data = scene_camera(scene)
 cam.location = [float(v) for v in t.split(",")]
 cam.rotation_mode = "XYZ"
 cam.rotation_euler = [math.radians(float(v)) for v in r.split(",")]

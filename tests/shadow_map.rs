@@ -418,9 +418,11 @@ fn a_budget_that_stops_refinement_is_reported_with_the_error_to_expect() {
 
 /// `--threads N` holds for the whole render, not the pixel loop alone: the shadow bake,
 /// the multiple-scattering lattice and the pixel loop each see N worker threads
-/// (recorded by a progress sink as each stage starts), for N = 1, 3 and 8 on a 2-core
-/// machine alike; and the image is the same for all (8 threads sweep the lattice's
-/// directions in waves that cut across its groups of four, 3 in waves of three).
+/// (recorded by a progress sink as each stage starts), for N = 1, 2, 3 and 8 on a
+/// 2-core machine alike; and the image is the same for all (8 threads sweep the
+/// lattice's directions in waves that cut across its groups of four, 3 in waves of
+/// three, and each sweep's planes are split in as many runs of rows as there are
+/// threads).
 #[test]
 fn every_stage_keeps_to_the_thread_count() {
     struct Threads(std::sync::Mutex<Vec<(String, usize)>>);
@@ -431,7 +433,7 @@ fn every_stage_keeps_to_the_thread_count() {
         }
     }
     let mut frames = Vec::new();
-    for n in [1, 3, 8] {
+    for n in [1, 2, 3, 8] {
         let o = RenderOptions {
             output: Some(std::env::temp_dir().join("murk-unused.exr")),
             res: Some("32x18".into()),

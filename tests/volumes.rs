@@ -330,6 +330,56 @@ fn bad_volume_tables_are_refused_in_one_line() {
     }
 }
 
+/// Bad `[[volume.keys]]`: one line naming the scene file and the problem, exit 2.
+#[test]
+fn bad_volume_keys_are_refused_naming_the_scene_file() {
+    let dir = scratch("bad-keys");
+    let key = |frame: &str, rest: &str| format!("[[volume.keys]]\nframe = {frame}\n{rest}");
+    for (i, (keys, want)) in [
+        (
+            key("2", "") + &key("1", ""),
+            "frame 1 does not follow frame 2",
+        ),
+        (key("1", "") + &key("1", ""), "does not follow"),
+        (key("nan", ""), "not a finite number"),
+        (key("1", "translate = [0, inf, 0]\n"), "not a finite number"),
+        (key("1", "scale = 0\n"), "flattens"),
+        (
+            key("1", "scale = [1, 1, 1]\n") + &key("2", "scale = [1, -1, 1]\n"),
+            "changes sign",
+        ),
+        (key("1", "shear = 1\n"), "unknown key `shear`"),
+        (
+            "matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n".to_string()
+                + &key("1", ""),
+            "matrix",
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let name = format!("keys{i}.toml");
+        let scene = dir.join(&name);
+        let text = format!("[[volume]]\nfile = \"{}\"\n{keys}", slab());
+        fs::write(&scene, &text).unwrap();
+        let out = dir.join(format!("keys{i}.exr"));
+        let r = murk(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--shutter",
+            "-0.25,0.25",
+            "--quiet",
+        ]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{text}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{text}: {err}");
+        assert!(err.contains(want) && err.contains(&name), "{text}: {err}");
+        assert!(!out.exists());
+    }
+}
+
 /// A frame pattern in a volume's `file` is replaced frame by frame, as the input's is:
 /// two frames of a pattern volume over a static one, each with the alpha of both.
 #[test]

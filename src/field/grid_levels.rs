@@ -103,37 +103,33 @@ impl VoxelGrid {
                 continue;
             }
             let u = (e & !CHILD) as usize;
-            for (off, &e) in self.upper_slots[u * UPPER_SLOTS..(u + 1) * UPPER_SLOTS]
-                .iter()
-                .enumerate()
-            {
-                if !tile_ok(e) {
-                    return None;
-                }
-                if e & CHILD == 0 {
-                    continue;
-                }
-                let lower_base = base + slot(off, 5, 7);
-                let l = (e & !CHILD) as usize;
-                for (off, &e) in self.lower_slots[l * LOWER_SLOTS..(l + 1) * LOWER_SLOTS]
-                    .iter()
-                    .enumerate()
-                {
-                    if !tile_ok(e) {
-                        return None;
-                    }
-                    if e & CHILD == 0 {
-                        continue;
-                    }
-                    let leaf = (e & !CHILD) as usize;
+            let upper = &self.upper_slots[u * UPPER_SLOTS..(u + 1) * UPPER_SLOTS];
+            for (upper_off, l) in self.child_slots(upper)? {
+                let lower_base = base + slot(upper_off, 5, 7);
+                let lower = &self.lower_slots[l * LOWER_SLOTS..(l + 1) * LOWER_SLOTS];
+                for (lower_off, leaf) in self.child_slots(lower)? {
                     out.push((
-                        lower_base + slot(off, 4, 3),
+                        lower_base + slot(lower_off, 4, 3),
                         &self.leaf_values[leaf * LEAF_VOXELS..(leaf + 1) * LEAF_VOXELS],
                     ));
                 }
             }
         }
         Some(out)
+    }
+
+    /// A node's children as (slot offset, child index), or `None` where one of its slots
+    /// holds a tile that is not the background.
+    fn child_slots(&self, slots: &[u32]) -> Option<Vec<(usize, usize)>> {
+        let mut children = Vec::new();
+        for (off, &e) in slots.iter().enumerate() {
+            if e & CHILD != 0 {
+                children.push((off, (e & !CHILD) as usize));
+            } else if self.tile_values[e as usize] != 0.0 {
+                return None;
+            }
+        }
+        Some(children)
     }
 
     /// The world size of one voxel along its shortest axis.

@@ -11,6 +11,7 @@
 //!   samples as precisely as one at 0). Voxel values sit at integer local-index points.
 
 pub mod advect;
+pub mod advect_shared;
 pub mod albedo_mix;
 pub mod color3;
 pub mod floor;

@@ -129,3 +129,62 @@ impl CellCache {
         None
     }
 }
+
+/// A field bounded as it could be anywhere within `pad` (local index units, per axis) of
+/// where it is: its value ranges, cells' ranges and bounds are the field's over the box
+/// grown by `pad`, its values its own. What bounds a volume that moves up to that far
+/// within the shutter, at every time at once (the path tracer's majorants).
+pub struct Grown {
+    inner: std::sync::Arc<dyn Field>,
+    pad: DVec3,
+}
+
+impl Grown {
+    pub fn new(inner: std::sync::Arc<dyn Field>, pad: DVec3) -> Self {
+        Grown { inner, pad }
+    }
+
+    fn grown(&self, b: &IndexBox) -> IndexBox {
+        if b.is_empty() {
+            return *b;
+        }
+        let p = self.pad.as_vec3();
+        IndexBox::new(b.min - p, b.max + p)
+    }
+}
+
+impl Field for Grown {
+    fn value_at_index(&self, p: DVec3) -> f32 {
+        self.inner.value_at_index(p)
+    }
+
+    fn transform(&self) -> &super::IndexToWorld {
+        self.inner.transform()
+    }
+
+    fn active_bounds(&self) -> IndexBox {
+        self.grown(&self.inner.active_bounds())
+    }
+
+    fn cell_at(&self, ijk: IVec3) -> Cell {
+        let c = self.inner.cell_at(ijk);
+        let min = c.origin.as_vec3();
+        let cell = IndexBox::new(min, min + Vec3::splat(c.size as f32));
+        Cell {
+            range: self.inner.range_over(&self.grown(&cell)),
+            ..c
+        }
+    }
+
+    fn range_over(&self, b: &IndexBox) -> ValueRange {
+        self.inner.range_over(&self.grown(b))
+    }
+
+    fn tight_range_over(&self, b: &IndexBox) -> ValueRange {
+        self.inner.tight_range_over(&self.grown(b))
+    }
+
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of_val(self)
+    }
+}

@@ -34,19 +34,18 @@
 //! with albedo ≤ 1.
 
 use super::deep::DeepTrace;
-use super::medium::{ColorTint, Emission, Medium};
-use super::motion::{Motion, MovedFields};
+use super::medium::Emission;
+use super::motion::MovedFields;
 use super::optics::{one_minus_exp, phi};
-use super::phase::{HenyeyGreenstein, PhaseFunction};
 use super::sampled_means::sampled_integrals;
 use crate::accel::{IndexRay, Spans};
-use crate::field::Field;
 use crate::field::advect::RayFlow;
 use glam::DVec3;
 
 pub use super::march_settings::{
     DEFAULT_STEP, DEFAULT_TERMINATION, MarchSettings, REFERENCE_STEP, THIN_STEP_DEPTH,
 };
+pub use super::volume::{TimedVolume, Volume};
 
 /// How a light reaches a point: unshadowed irradiance and propagation direction, and
 /// the density integral `∫ρ ds` (world units) from the point toward the light.
@@ -109,66 +108,6 @@ fn alpha_of(tau: DVec3) -> f64 {
         (one_minus_exp(tau.y), one_minus_exp(tau.z))
     };
     ((x + y + z) / 3.0).clamp(0.0, 1.0)
-}
-
-/// The parts of a scene the integral needs.
-pub struct Volume<'a> {
-    pub density: &'a dyn Field,
-    pub medium: Medium,
-    /// The angular distribution of scattering ([`Volume::of`]: Henyey–Greenstein with
-    /// the medium's `g`).
-    pub phase: std::sync::Arc<dyn PhaseFunction>,
-    pub emission: Option<Emission<'a>>,
-    /// Tints scattering per voxel.
-    pub color: Option<ColorTint<'a>>,
-    /// Fields whose non-zero cells must be visited even where density is zero (emission
-    /// and temperature grids on the density's lattice).
-    pub traversal: &'a dyn Field,
-    /// Each segment's mean density from two-point Gauss–Legendre over the segment (two
-    /// samples), not from the exact integral voxel by voxel: a second-order error that
-    /// the step's error takes in, for a march whose steps are several voxels long
-    /// (`--max-error` on a coarse density level). Off: opacity does not depend on the step.
-    pub sampled_means: bool,
-    /// Several volumes summed in `density`: each one's alpha is a layer of its own.
-    pub mattes: Option<super::Mattes<'a>>,
-    /// How the volume moves during the shutter: a ray with a time marches the fields as
-    /// they are then (`None`: still).
-    pub motion: Option<Motion<'a>>,
-}
-
-impl<'a> Volume<'a> {
-    /// A density field in `medium`, scattering by Henyey–Greenstein with the medium's
-    /// `g`, with no emission and no colour, traversed where the density is not zero.
-    pub fn of(density: &'a dyn Field, medium: Medium) -> Self {
-        Volume {
-            density,
-            medium,
-            phase: std::sync::Arc::new(HenyeyGreenstein::new(medium.g)),
-            emission: None,
-            color: None,
-            traversal: density,
-            sampled_means: false,
-            mattes: None,
-            motion: None,
-        }
-    }
-}
-
-impl Volume<'_> {
-    /// This volume with its fields as `fields` moved them (and no motion left).
-    pub fn moved<'b>(&'b self, fields: &'b MovedFields<'b>) -> Volume<'b> {
-        Volume {
-            density: &fields.density,
-            medium: self.medium,
-            phase: self.phase.clone(),
-            emission: self.emission.as_ref().map(|e| fields.emission(e)),
-            color: fields.color(),
-            traversal: fields.traversal(),
-            sampled_means: self.sampled_means,
-            mattes: self.mattes,
-            motion: None,
-        }
-    }
 }
 
 /// Per-thread buffers, so the per-ray loop does not allocate.

@@ -25,9 +25,12 @@ mod sampled_means;
 pub mod scatter_passes;
 pub mod scattering;
 pub mod single;
+mod volume;
 
 pub use integrator::{CameraSample, Integrator, SampleRng};
-pub use march::{Illumination, MarchSettings, RayResult, Scratch, Volume, WorldRay, march};
+pub use march::{
+    Illumination, MarchSettings, RayResult, Scratch, TimedVolume, Volume, WorldRay, march,
+};
 pub use mattes::Mattes;
 pub use medium::{ColorTint, Companion, Emission, Medium};
 pub use scattering::ScatteringMode;

@@ -92,8 +92,9 @@ struct GroupBuffers<const C: usize> {
     acc_g: Vec<[[f32; 3]; C]>,
 }
 
-/// One direction's source and radiance over the lattice.
-type SweptBuffers<const C: usize> = (Vec<[f32; C]>, Vec<[f32; C]>);
+/// One direction's source and radiance over the lattice, and the sweep's plane-ordered
+/// radiance (see [`sweep`]).
+type SweptBuffers<const C: usize> = (Vec<[f32; C]>, Vec<[f32; C]>, Vec<[f32; C]>);
 
 /// Nodes per task when a wave's radiances are added to their groups' sums.
 const ADD_CHUNK: usize = 4096;
@@ -197,16 +198,21 @@ pub(super) fn solve<const C: usize>(
             }
         };
         // Directions are swept in waves of one per thread, each into its own buffer,
-        // then added to their groups' sums node by node in direction order: every
-        // thread is busy whatever the number of directions, and each sum is the same
-        // for any number of threads.
+        // then added to their groups' sums node by node in direction order: each sum is
+        // the same for any number of threads. Each sweep's planes are split over the
+        // threads too, so a thread whose direction is done takes rows of the others'
+        // (directions differ in cost, and a wave can be shorter than the threads).
         let n = wave.min(dirs.len());
         while swept.len() < n {
-            swept.push((vec![[0f32; C]; grid.len], vec![[0f32; C]; grid.len]));
+            swept.push((
+                vec![[0f32; C]; grid.len],
+                vec![[0f32; C]; grid.len],
+                vec![[0f32; C]; grid.len],
+            ));
         }
         for buf in &mut buffers[..n_groups] {
-            buf.acc.iter_mut().for_each(|v| *v = [0.0; C]);
-            buf.acc_g.iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
+            buf.acc.par_iter_mut().for_each(|v| *v = [0.0; C]);
+            buf.acc_g.par_iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
         }
         for k0 in (0..dirs.len()).step_by(n) {
             let k1 = (k0 + n).min(dirs.len());
@@ -214,9 +220,10 @@ pub(super) fn solve<const C: usize>(
                 .par_iter_mut()
                 .zip(&dirs[k0..k1])
                 .enumerate()
-                .for_each(|(i, ((s, radiance), d))| {
+                .for_each(|(i, ((s, radiance, planes), d))| {
                     fill_source(k0 + i, s);
-                    sweep(grid, rho, s, *d, c.sigma_t, albedo, c.h, radiance);
+                    let (sigma, h) = (c.sigma_t, c.h);
+                    sweep(grid, rho, s, *d, sigma, albedo, h, radiance, planes, wave);
                 });
             let swept = &swept[..k1 - k0];
             for (g, buf) in buffers[..n_groups].iter_mut().enumerate() {
@@ -297,10 +304,15 @@ pub(super) fn solve<const C: usize>(
             });
         out.orders += 1;
         if first {
-            out.j1.copy_from_slice(&last);
+            out.j1.par_iter_mut().zip(&last).for_each(|(o, l)| *o = *l);
         } else {
-            add(&mut out.j, &last);
-            add_flux(&mut out.g, &last_g, [1.0; C]);
+            out.j.par_iter_mut().zip(&last).for_each(|(s, v)| {
+                add(std::slice::from_mut(s), std::slice::from_ref(v));
+            });
+            let g = out.g.par_iter_mut().zip(&last_g);
+            g.for_each(|(s, v)| {
+                add_flux(std::slice::from_mut(s), std::slice::from_ref(v), [1.0; C]);
+            });
         }
         let w = weight(&last);
         let mut converged = true;
@@ -318,12 +330,16 @@ pub(super) fn solve<const C: usize>(
         }
         // The next order scatters this one (ρ·J at each node, tinted by the colour grid
         // there: each scattering event carries its tint).
-        for (n, (o, j)) in rho_j.iter_mut().zip(&last).enumerate() {
-            let t = src.tint.map_or([1.0; C], |t| t[n]);
-            for ch in 0..C {
-                o[ch] = j[ch] * rho[n] * t[ch];
-            }
-        }
+        rho_j
+            .par_iter_mut()
+            .zip(&last)
+            .enumerate()
+            .for_each(|(n, (o, j))| {
+                let t = src.tint.map_or([1.0; C], |t| t[n]);
+                for ch in 0..C {
+                    o[ch] = j[ch] * rho[n] * t[ch];
+                }
+            });
     }
     out.ratio = ratio.iter().fold(0.0, |m, r| r.max(m));
     if it.diffusion {
@@ -363,7 +379,10 @@ pub(super) fn solve<const C: usize>(
         // Each node's tail blends two geometric extrapolations of its last order: with
         // the global ratio, and with the node's own ratio (never above the global one).
         // Its flux is the last order's, scaled alike.
-        for (n, (v, b)) in last.iter().zip(&before).enumerate() {
+        let (j, g) = (&mut out.j, &mut out.g);
+        let nodes = j.par_iter_mut().zip(g.par_iter_mut());
+        let orders = last.par_iter().zip(&before).zip(&last_g);
+        nodes.zip(orders).for_each(|((j, g), ((v, b), last_g))| {
             let mut factor = [0f32; C];
             for ch in 0..C {
                 let r = ratio[ch];
@@ -377,17 +396,17 @@ pub(super) fn solve<const C: usize>(
                 };
                 factor[ch] = ((1.0 - TAIL_OWN_WEIGHT) * r / (1.0 - r)
                     + TAIL_OWN_WEIGHT * own / (1.0 - own)) as f32;
-                out.j[n][ch] += v[ch] * factor[ch];
+                j[ch] += v[ch] * factor[ch];
             }
             add_flux(
-                std::slice::from_mut(&mut out.g[n]),
-                std::slice::from_ref(&last_g[n]),
+                std::slice::from_mut(g),
+                std::slice::from_ref(last_g),
                 factor,
             );
-        }
+        });
     }
     // |⟨L·d⟩| ≤ ⟨L⟩ for any radiance: the lattice's and Fick's estimates are held to it.
-    for (gs, j) in out.g.iter_mut().zip(&out.j) {
+    out.g.par_iter_mut().zip(&out.j).for_each(|(gs, j)| {
         for (g, j) in gs.iter_mut().zip(j) {
             let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
             if len > *j && len > 0.0 {
@@ -395,7 +414,7 @@ pub(super) fn solve<const C: usize>(
                 g.iter_mut().for_each(|v| *v *= s);
             }
         }
-    }
+    });
     out
 }
 

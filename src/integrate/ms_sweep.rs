@@ -1,8 +1,16 @@
 //! One direction's upwind sweep through the multiple-scattering lattice of
 //! [`super::ms_lattice`]: short characteristics from each node back to the plane of nodes
 //! behind it, bilinear there, with a source linear along the step.
+//!
+//! A node reads only the plane behind it, so a plane's rows are independent of each
+//! other: each plane is split into `pieces` runs of rows done at once (the lattice has
+//! 20–32 directions; on more threads than that, or where directions' sweeps differ in
+//! cost, the threads left over take rows of the sweeps still running). Every node is
+//! computed the same way whatever the split, so the result is the same to the bit for
+//! any number of pieces or threads.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Node indexing: x fastest.
 pub(super) struct Grid {
@@ -25,6 +33,10 @@ impl Grid {
     }
 }
 
+/// Fewest nodes of a plane one piece of it is given (below this a task costs more to
+/// hand out than to do).
+const MIN_PIECE_NODES: usize = 512;
+
 /// One direction's upwind sweep: `radiance[n]` = L(node n, d) given the source `ρ·J`
 /// per node (`rho_j`), for `C` channels at once (a chromatic medium's, or a colour
 /// grid's: the lattice's geometry and densities are read once for all of them).
@@ -34,6 +46,12 @@ impl Grid {
 /// four nodes around it are in range everywhere but on the plane's edge rows, and the
 /// loop over a row's interior needs no bounds checks (the lattice's cost is these
 /// sweeps: `orders × directions × nodes` of them).
+///
+/// The radiance is swept plane by plane in `planes` (`grid.len` long; its contents on
+/// entry do not matter), each plane contiguous, so a plane's runs of rows can be handed
+/// to threads as slices; then put in node order in `radiance`. Along z the two orders
+/// are the same and `planes` is not used. Each plane is split into at most `pieces`
+/// runs of rows (1: the sweep on the calling thread alone).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn sweep<const C: usize>(
     grid: &Grid,
@@ -44,118 +62,247 @@ pub(super) fn sweep<const C: usize>(
     albedo: [f64; C],
     h: f64,
     radiance: &mut [[f32; C]],
+    planes: &mut [[f32; C]],
+    pieces: usize,
 ) {
-    let da = d.abs();
-    let a = if da.x >= da.y && da.x >= da.z {
-        0
-    } else if da.y >= da.z {
-        1
-    } else {
-        2
-    };
-    // The row axis b is the other axis with the smaller stride, so a row's nodes are
-    // near each other in memory.
-    let (b, cax) = if a == 0 { (1, 2) } else { (0, 3 - a) };
-    let dv = d.to_array();
-    let step = h / da[a]; // world length of the characteristic
-    // Upstream point, in nodes, relative to the node along b and c (|o| ≤ 1).
-    let ob = -step * dv[b] / h;
-    let oc = -step * dv[cax] / h;
-    let (fb, fc) = (ob.floor(), oc.floor());
-    let (wb, wc) = (ob - fb, oc - fc);
-    let (fb, fc) = (fb as isize, fc as isize);
-    let w = [
-        ((1.0 - wb) * (1.0 - wc)) as f32,
-        (wb * (1.0 - wc)) as f32,
-        ((1.0 - wb) * wc) as f32,
-        (wb * wc) as f32,
-    ];
-    let st = grid.stride;
-    let dims = grid.dims;
-    let (nb, nc) = (dims[b] as isize, dims[cax] as isize);
-    let forward = dv[a] > 0.0;
-    let node = Node {
-        sigma_step: sigma_t.map(|s| (s * step) as f32),
-        albedo: albedo.map(|a| a as f32),
-    };
-    let zero = [0f32; C];
-    // Rows (along b) whose four upstream nodes are all in range: ib + fb ≥ 0 and
-    // ib + fb + 1 < nb.
-    let ib_lo = (-fb).clamp(0, nb) as usize;
-    let ib_hi = (nb - 1 - fb).clamp(ib_lo as isize, nb) as usize;
-    for ia_step in 0..dims[a] {
-        let ia = if forward {
-            ia_step
-        } else {
-            dims[a] - 1 - ia_step
-        };
-        let up_a = if forward {
-            ia as isize - 1
-        } else {
-            ia as isize + 1
-        };
-        let plane = ia * st[a];
-        if up_a < 0 || up_a as usize >= dims[a] {
-            // The first plane: nothing comes in from outside the lattice.
-            for ic in 0..dims[cax] {
-                for ib in 0..dims[b] {
-                    let n = plane + ib * st[b] + ic * st[cax];
-                    radiance[n] = node.radiance(&zero, 0.0, &zero, rho[n], &rho_j[n]);
-                }
+    let s = Setup::new(grid, d, sigma_t, albedo, h);
+    if s.a == 2 {
+        s.run(rho, rho_j, radiance, pieces);
+        return;
+    }
+    s.run(rho, rho_j, planes, pieces);
+    // Back to node order, a row of x at a time (x's stride in `planes`: 1 along y,
+    // a plane along x).
+    let [nx, ny, _] = grid.dims;
+    let pl = s.plane_len();
+    let (sx, sy, sz) = if s.a == 1 { (1, pl, nx) } else { (pl, 1, ny) };
+    let planes = &*planes;
+    radiance
+        .par_chunks_mut(nx)
+        .enumerate()
+        .with_min_len((MIN_PIECE_NODES / nx.max(1)).max(1))
+        .for_each(|(r, row)| {
+            let at = (r % ny) * sy + (r / ny) * sz;
+            for (x, v) in row.iter_mut().enumerate() {
+                *v = planes[at + x * sx];
             }
-            continue;
+        });
+}
+
+/// A sweep's geometry, worked out once.
+struct Setup<const C: usize> {
+    /// The dominant axis, the row axis and the third.
+    a: usize,
+    b: usize,
+    cax: usize,
+    /// Bilinear weights at the foot, and its offset (in nodes) from the node along b, c.
+    w: [f32; 4],
+    fb: isize,
+    fc: isize,
+    forward: bool,
+    node: Node<C>,
+    stride: [usize; 3],
+    dims: [usize; 3],
+    /// Rows (along b) whose four upstream nodes are all in range.
+    ib_lo: usize,
+    ib_hi: usize,
+}
+
+impl<const C: usize> Setup<C> {
+    fn new(grid: &Grid, d: DVec3, sigma_t: [f64; C], albedo: [f64; C], h: f64) -> Self {
+        let da = d.abs();
+        let a = if da.x >= da.y && da.x >= da.z {
+            0
+        } else if da.y >= da.z {
+            1
+        } else {
+            2
+        };
+        // The row axis b is the other axis with the smaller stride, so a row's nodes are
+        // near each other in memory.
+        let (b, cax) = if a == 0 { (1, 2) } else { (0, 3 - a) };
+        let dv = d.to_array();
+        let step = h / da[a]; // world length of the characteristic
+        // Upstream point, in nodes, relative to the node along b and c (|o| ≤ 1).
+        let ob = -step * dv[b] / h;
+        let oc = -step * dv[cax] / h;
+        let (fb, fc) = (ob.floor(), oc.floor());
+        let (wb, wc) = (ob - fb, oc - fc);
+        let (fb, fc) = (fb as isize, fc as isize);
+        let w = [
+            ((1.0 - wb) * (1.0 - wc)) as f32,
+            (wb * (1.0 - wc)) as f32,
+            ((1.0 - wb) * wc) as f32,
+            (wb * wc) as f32,
+        ];
+        let dims = grid.dims;
+        let nb = dims[b] as isize;
+        // ib + fb ≥ 0 and ib + fb + 1 < nb.
+        let ib_lo = (-fb).clamp(0, nb) as usize;
+        let ib_hi = (nb - 1 - fb).clamp(ib_lo as isize, nb) as usize;
+        Setup {
+            a,
+            b,
+            cax,
+            w,
+            fb,
+            fc,
+            forward: dv[a] > 0.0,
+            node: Node {
+                sigma_step: sigma_t.map(|s| (s * step) as f32),
+                albedo: albedo.map(|a| a as f32),
+            },
+            stride: grid.stride,
+            dims,
+            ib_lo,
+            ib_hi,
         }
-        let up_plane = up_a as usize * st[a];
-        for ic in 0..dims[cax] {
-            let jc = ic as isize + fc;
-            let row = plane + ic * st[cax];
-            // The upstream values at the foot, with bounds checks.
-            let checked = |ib: usize, radiance: &[[f32; C]]| -> ([f32; C], f32, [f32; C]) {
-                let (mut l, mut r, mut rj) = ([0f32; C], 0.0f32, [0f32; C]);
-                for (k, wk) in w.iter().enumerate() {
-                    let (jb, jc) = (ib as isize + fb + (k & 1) as isize, jc + (k >> 1) as isize);
-                    if *wk == 0.0 || jb < 0 || jc < 0 || jb >= nb || jc >= nc {
-                        continue;
-                    }
-                    let m = up_plane + jb as usize * st[b] + jc as usize * st[cax];
-                    r += wk * rho[m];
-                    for ch in 0..C {
-                        l[ch] += wk * radiance[m][ch];
-                        rj[ch] += wk * rho_j[m][ch];
-                    }
-                }
-                (l, r, rj)
+    }
+
+    /// Nodes of a plane; in `run`'s buffer node (ia, ib, ic) is at
+    /// `ia·plane_len + ic·nb + ib`.
+    fn plane_len(&self) -> usize {
+        self.dims[self.b] * self.dims[self.cax]
+    }
+
+    /// The sweep, plane after plane, into `out` in plane order.
+    fn run(&self, rho: &[f32], rho_j: &[[f32; C]], out: &mut [[f32; C]], pieces: usize) {
+        let (na, nb, nc) = (self.dims[self.a], self.dims[self.b], self.dims[self.cax]);
+        let pl = nb * nc;
+        if pl == 0 {
+            return;
+        }
+        // Rows per piece: the plane in at most `pieces` runs of at least
+        // MIN_PIECE_NODES nodes.
+        let rows = nc
+            .div_ceil(pieces.max(1))
+            .max(MIN_PIECE_NODES.div_ceil(nb))
+            .max(1);
+        for ia_step in 0..na {
+            let ia = if self.forward {
+                ia_step
+            } else {
+                na - 1 - ia_step
             };
-            if jc < 0 || jc + 1 >= nc {
-                for ib in 0..dims[b] {
-                    let n = row + ib * st[b];
-                    let (l, r, rj) = checked(ib, radiance);
-                    radiance[n] = node.radiance(&l, r, &rj, rho[n], &rho_j[n]);
+            let up = if self.forward {
+                ia.checked_sub(1)
+            } else {
+                Some(ia + 1).filter(|u| *u < na)
+            };
+            let (cur, prev): (&mut [[f32; C]], &[[f32; C]]) = match up {
+                None => (&mut out[ia * pl..(ia + 1) * pl], &[]),
+                Some(u) if u < ia => {
+                    let (done, rest) = out.split_at_mut(ia * pl);
+                    (&mut rest[..pl], &done[u * pl..(u + 1) * pl])
                 }
-                continue;
+                Some(u) => {
+                    let (rest, done) = out.split_at_mut(u * pl);
+                    (&mut rest[ia * pl..(ia + 1) * pl], &done[..pl])
+                }
+            };
+            let piece = |(p, chunk): (usize, &mut [[f32; C]])| {
+                for (r, row) in chunk.chunks_mut(nb).enumerate() {
+                    self.row(rho, rho_j, ia, up, p * rows + r, prev, row);
+                }
+            };
+            if rows >= nc {
+                piece((0, cur));
+            } else {
+                cur.par_chunks_mut(rows * nb).enumerate().for_each(piece);
             }
-            for ib in (0..ib_lo).chain(ib_hi..dims[b]) {
-                let n = row + ib * st[b];
-                let (l, r, rj) = checked(ib, radiance);
-                radiance[n] = node.radiance(&l, r, &rj, rho[n], &rho_j[n]);
-            }
-            // The row's interior: the four upstream nodes m, m + sb, m + sc, m + sb + sc.
-            let (sb, sc) = (st[b], st[cax]);
-            let up_row = up_plane + jc as usize * sc;
-            for ib in ib_lo..ib_hi {
+        }
+    }
+
+    /// Row `ic` of plane `ia` into `out` (`nb` nodes), from the plane `up` behind it,
+    /// whose radiance is `prev` (none for the first plane: nothing comes in from
+    /// outside the lattice).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn row(
+        &self,
+        rho: &[f32],
+        rho_j: &[[f32; C]],
+        ia: usize,
+        up: Option<usize>,
+        ic: usize,
+        prev: &[[f32; C]],
+        out: &mut [[f32; C]],
+    ) {
+        let (st, node, w) = (&self.stride, &self.node, &self.w);
+        let (sb, sc) = (st[self.b], st[self.cax]);
+        let (nb, nc) = (self.dims[self.b], self.dims[self.cax]);
+        let row = ia * st[self.a] + ic * sc;
+        let Some(up_a) = up else {
+            let zero = [0f32; C];
+            for (ib, o) in out.iter_mut().enumerate() {
                 let n = row + ib * sb;
-                let m = up_row + (ib as isize + fb) as usize * sb;
-                let taps = [m, m + sb, m + sc, m + sb + sc];
-                let (mut l, mut r, mut rj) = ([0f32; C], 0.0f32, [0f32; C]);
-                for (t, wk) in taps.iter().zip(&w) {
-                    r += wk * rho[*t];
-                    for ch in 0..C {
-                        l[ch] += wk * radiance[*t][ch];
-                        rj[ch] += wk * rho_j[*t][ch];
-                    }
-                }
-                radiance[n] = node.radiance(&l, r, &rj, rho[n], &rho_j[n]);
+                *o = node.radiance(&zero, 0.0, &zero, rho[n], &rho_j[n]);
             }
+            return;
+        };
+        let up_plane = up_a * st[self.a];
+        let jc = ic as isize + self.fc;
+        let (nbi, nci) = (nb as isize, nc as isize);
+        // The upstream values at the foot, with bounds checks.
+        let checked = |ib: usize| -> ([f32; C], f32, [f32; C]) {
+            let (mut l, mut r, mut rj) = ([0f32; C], 0.0f32, [0f32; C]);
+            for (k, wk) in w.iter().enumerate() {
+                let (jb, jc) = (
+                    ib as isize + self.fb + (k & 1) as isize,
+                    jc + (k >> 1) as isize,
+                );
+                if *wk == 0.0 || jb < 0 || jc < 0 || jb >= nbi || jc >= nci {
+                    continue;
+                }
+                let (jb, jc) = (jb as usize, jc as usize);
+                let m = up_plane + jb * sb + jc * sc;
+                let p = jc * nb + jb;
+                r += wk * rho[m];
+                for ch in 0..C {
+                    l[ch] += wk * prev[p][ch];
+                    rj[ch] += wk * rho_j[m][ch];
+                }
+            }
+            (l, r, rj)
+        };
+        if jc < 0 || jc + 1 >= nci {
+            for (ib, o) in out.iter_mut().enumerate() {
+                let n = row + ib * sb;
+                let (l, r, rj) = checked(ib);
+                *o = node.radiance(&l, r, &rj, rho[n], &rho_j[n]);
+            }
+            return;
+        }
+        for ib in (0..self.ib_lo).chain(self.ib_hi..nb) {
+            let n = row + ib * sb;
+            let (l, r, rj) = checked(ib);
+            out[ib] = node.radiance(&l, r, &rj, rho[n], &rho_j[n]);
+        }
+        // The row's interior: the four upstream nodes m, m + sb, m + sc, m + sb + sc
+        // (in `prev`, p, p + 1, p + nb, p + nb + 1).
+        let jc = jc as usize;
+        let up_row = up_plane + jc * sc;
+        let prev_row = jc * nb;
+        for (ib, o) in out.iter_mut().enumerate().take(self.ib_hi).skip(self.ib_lo) {
+            let n = row + ib * sb;
+            let jb = (ib as isize + self.fb) as usize;
+            let m = up_row + jb * sb;
+            let p = prev_row + jb;
+            let taps = [
+                (m, p),
+                (m + sb, p + 1),
+                (m + sc, p + nb),
+                (m + sb + sc, p + nb + 1),
+            ];
+            let (mut l, mut r, mut rj) = ([0f32; C], 0.0f32, [0f32; C]);
+            for ((t, q), wk) in taps.iter().zip(w) {
+                r += wk * rho[*t];
+                for ch in 0..C {
+                    l[ch] += wk * prev[*q][ch];
+                    rj[ch] += wk * rho_j[*t][ch];
+                }
+            }
+            *o = node.radiance(&l, r, &rj, rho[n], &rho_j[n]);
         }
     }
 }
@@ -211,216 +358,5 @@ impl<const C: usize> Node<C> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The sweep as first written (f64, every tap bounds-checked): the reference the
-    /// fast one is held to.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn sweep_checked(
-        grid: &Grid,
-        rho: &[f32],
-        rho_j: &[f32],
-        d: DVec3,
-        sigma_t: f64,
-        albedo: f64,
-        h: f64,
-        radiance: &mut [f32],
-    ) {
-        let da = d.abs();
-        let a = if da.x >= da.y && da.x >= da.z {
-            0
-        } else if da.y >= da.z {
-            1
-        } else {
-            2
-        };
-        let (b, cax) = ((a + 1) % 3, (a + 2) % 3);
-        let dv = d.to_array();
-        let step = h / da[a]; // world length of the characteristic
-        // Upstream point, in nodes, relative to the node along b and c.
-        let ob = -step * dv[b] / h;
-        let oc = -step * dv[cax] / h;
-        let (fb, fc) = (ob.floor(), oc.floor());
-        let (wb, wc) = (ob - fb, oc - fc);
-        let (fb, fc) = (fb as isize, fc as isize);
-        let weights = [
-            (0isize, 0isize, (1.0 - wb) * (1.0 - wc)),
-            (1, 0, wb * (1.0 - wc)),
-            (0, 1, (1.0 - wb) * wc),
-            (1, 1, wb * wc),
-        ];
-        let st = grid.stride;
-        let dims = grid.dims;
-        let forward = dv[a] > 0.0;
-        let sigma_step = sigma_t * step;
-        for ia_step in 0..dims[a] {
-            let ia = if forward {
-                ia_step
-            } else {
-                dims[a] - 1 - ia_step
-            };
-            let up_a = if forward {
-                ia as isize - 1
-            } else {
-                ia as isize + 1
-            };
-            let has_up = up_a >= 0 && (up_a as usize) < dims[a];
-            for ic in 0..dims[cax] {
-                for ib in 0..dims[b] {
-                    let n = ia * st[a] + ib * st[b] + ic * st[cax];
-                    let (mut l_up, mut r_up, mut rj_up) = (0.0f64, 0.0f64, 0.0f64);
-                    if has_up {
-                        for &(db, dc, w) in &weights {
-                            if w == 0.0 {
-                                continue;
-                            }
-                            let jb = ib as isize + fb + db;
-                            let jc = ic as isize + fc + dc;
-                            if jb < 0
-                                || jc < 0
-                                || jb as usize >= dims[b]
-                                || jc as usize >= dims[cax]
-                            {
-                                continue;
-                            }
-                            let m =
-                                up_a as usize * st[a] + jb as usize * st[b] + jc as usize * st[cax];
-                            l_up += w * radiance[m] as f64;
-                            r_up += w * rho[m] as f64;
-                            rj_up += w * rho_j[m] as f64;
-                        }
-                    }
-                    let r_here = rho[n] as f64;
-                    let rho_mean = 0.5 * (r_here + r_up);
-                    if rho_mean <= 0.0 {
-                        radiance[n] = l_up as f32;
-                        continue;
-                    }
-                    let tau = sigma_step * rho_mean;
-                    let j_here = if r_here > 0.0 {
-                        rho_j[n] as f64 / r_here
-                    } else {
-                        0.0
-                    };
-                    let j_up = if r_up > 0.0 { rj_up / r_up } else { j_here };
-                    let j_here = if r_here > 0.0 { j_here } else { j_up };
-                    let e = (-tau).exp();
-                    // P = (1 − e^{−τ} − τ·e^{−τ})/τ, by its series where τ is small.
-                    let p = if tau < 1e-3 {
-                        tau * (0.5 - tau / 3.0)
-                    } else {
-                        (1.0 - e - tau * e) / tau
-                    };
-                    let one_minus = if tau < 1e-3 {
-                        tau * (1.0 - 0.5 * tau)
-                    } else {
-                        1.0 - e
-                    };
-                    let l = l_up * e + albedo * (j_here * (one_minus - p) + j_up * p);
-                    radiance[n] = l.max(0.0) as f32;
-                }
-            }
-        }
-    }
-
-    /// A lumpy medium with a source that is zero in places (edges, holes), on a lattice
-    /// whose sides differ, so every axis can be the dominant one and both directions.
-    fn lattice() -> (Grid, Vec<f32>, Vec<f32>) {
-        let g = Grid::new([7, 9, 6]);
-        let mut rho = vec![0f32; g.len];
-        let mut rj = vec![0f32; g.len];
-        for n in 0..g.len {
-            let [i, j, k] = g.coords(n);
-            let v = ((i * 7 + j * 3 + k * 5) % 11) as f32 / 10.0;
-            if (i + j + k) % 4 != 0 && i > 0 && j > 0 {
-                rho[n] = 0.2 + 2.0 * v;
-                rj[n] = if (i * j) % 3 == 0 {
-                    0.0
-                } else {
-                    rho[n] * (1.0 + v)
-                };
-            }
-        }
-        (g, rho, rj)
-    }
-
-    #[test]
-    fn the_fast_sweep_equals_the_checked_one_in_every_direction() {
-        let (g, rho, rj) = lattice();
-        for (t, d) in [
-            DVec3::new(1.0, 0.0, 0.0),
-            DVec3::new(0.0, -1.0, 0.0),
-            DVec3::new(0.3, 0.2, -0.9),
-            DVec3::new(-0.7, 0.69, 0.1),
-            DVec3::new(0.5, -0.5, 0.5),
-            DVec3::new(-0.2, -0.95, -0.3),
-            DVec3::new(0.6, 0.1, 0.79),
-        ]
-        .iter()
-        .enumerate()
-        {
-            let d = d.normalize();
-            let (mut fast, mut slow) = (vec![0f32; g.len], vec![0f32; g.len]);
-            // From light (τ of a step ≪ 1, the series) to thick (τ ≫ 1).
-            for sigma in [0.001, 0.5, 30.0] {
-                let rj1: Vec<[f32; 1]> = rj.iter().map(|v| [*v]).collect();
-                let mut fast1 = vec![[0f32; 1]; g.len];
-                sweep(&g, &rho, &rj1, d, [sigma], [0.9], 0.7, &mut fast1);
-                fast.iter_mut().zip(&fast1).for_each(|(f, v)| *f = v[0]);
-                sweep_checked(&g, &rho, &rj, d, sigma, 0.9, 0.7, &mut slow);
-                let scale = slow.iter().fold(0f32, |m, v| m.max(*v));
-                assert!(scale > 0.0, "direction {t}: nothing swept");
-                for (n, (a, b)) in fast.iter().zip(&slow).enumerate() {
-                    assert!(
-                        (a - b).abs() <= 2e-5 * scale,
-                        "direction {t}, σ {sigma}, node {:?}: {a} against {b}",
-                        g.coords(n)
-                    );
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn three_channels_swept_together_are_each_swept_alone() {
-        let (g, rho, rj) = lattice();
-        let d = DVec3::new(-0.4, 0.3, 0.87).normalize();
-        let (sigma, albedo) = ([0.2, 3.0, 40.0], [0.99, 0.5, 0.9]);
-        // Each channel's source a different multiple of the lumpy one.
-        let rj3: Vec<[f32; 3]> = rj.iter().map(|v| [*v, 2.0 * v, 0.5 * v]).collect();
-        let mut l3 = vec![[0f32; 3]; g.len];
-        sweep(&g, &rho, &rj3, d, sigma, albedo, 0.7, &mut l3);
-        for ch in 0..3 {
-            let rj1: Vec<[f32; 1]> = rj3.iter().map(|v| [v[ch]]).collect();
-            let mut l1 = vec![[0f32; 1]; g.len];
-            sweep(&g, &rho, &rj1, d, [sigma[ch]], [albedo[ch]], 0.7, &mut l1);
-            for (a, b) in l3.iter().zip(&l1) {
-                assert_eq!(a[ch], b[0], "channel {ch}");
-            }
-            assert!(l1.iter().any(|v| v[0] > 0.0), "channel {ch}: nothing swept");
-        }
-    }
-
-    #[test]
-    fn an_axis_sweep_through_a_uniform_medium_is_the_closed_form() {
-        // Along +x through a uniform medium with a uniform J: L = ω·J·(1 − e^{−σρ·(x + h/2)}),
-        // x the distance from the first plane (whose step back into the empty outside
-        // holds density on its half, the mean of the two ends).
-        let g = Grid::new([12, 3, 3]);
-        let rho = vec![2.0f32; g.len];
-        let rj = vec![[2.0 * 1.5; 1]; g.len];
-        let mut l = vec![[0f32; 1]; g.len];
-        let (sigma, albedo, h) = (0.4, 0.8, 0.5);
-        sweep(&g, &rho, &rj, DVec3::X, [sigma], [albedo], h, &mut l);
-        for (n, [got]) in l.iter().enumerate() {
-            let x = (g.coords(n)[0] as f64 + 0.5) * h;
-            let want = albedo * 1.5 * (1.0 - (-sigma * 2.0 * x).exp());
-            assert!(
-                (*got as f64 - want).abs() < 1e-5,
-                "node {:?}: {got} against {want}",
-                g.coords(n)
-            );
-        }
-    }
-}
+#[path = "ms_sweep_tests.rs"]
+mod tests;

@@ -207,7 +207,7 @@ impl<'a> PathTracer<'a> {
     /// `--spp n`. The scattered light still uses every sample.
     /// Not for a moving volume: a pixel's first samples hold the shutter's first times.
     pub fn with_opacity_samples(mut self, n: u32, spp: u32) -> Self {
-        let moves = self.volume.motion.is_some();
+        let moves = self.volume.motion.is_some() || self.volume.keyed.is_some();
         self.opacity_samples = (n >= 1 && n < spp && !moves).then(|| OpacitySamples {
             n,
             weight: spp as f64 / n as f64,

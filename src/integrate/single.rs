@@ -100,6 +100,7 @@ impl Integrator for SingleScattering<'_> {
         self.passes.deep_aovs()
     }
 
+    /// A camera sample through the volume as it is at the sample's time.
     fn sample(
         &self,
         camera: &CameraSample,
@@ -107,9 +108,31 @@ impl Integrator for SingleScattering<'_> {
         scratch: &mut Scratch,
         acc: &mut [f64],
     ) -> u64 {
+        let Some(keyed) = self.volume.keyed else {
+            return self.sample_in(self.volume, camera, rng, scratch, acc);
+        };
+        let mut samples = 0;
+        keyed.at_time(self.volume, camera.ray.time, &mut |v| {
+            samples = self.sample_in(v, camera, rng, scratch, acc);
+        });
+        samples
+    }
+}
+
+impl SingleScattering<'_> {
+    /// [`Integrator::sample`] through `volume` (this one's, or it as it is at the
+    /// sample's time).
+    fn sample_in(
+        &self,
+        volume: &Volume,
+        camera: &CameraSample,
+        rng: &mut SampleRng,
+        scratch: &mut Scratch,
+        acc: &mut [f64],
+    ) -> u64 {
         let mut ray = camera.ray;
         let u = rng.uniform();
-        let sigma_t = self.volume.medium.sigma_t();
+        let sigma_t = volume.medium.sigma_t();
         let hit = self.ground.and_then(|(g, lights)| {
             let (t, n) = g.hit(ray.origin, ray.dir)?;
             Some((
@@ -124,8 +147,8 @@ impl Integrator for SingleScattering<'_> {
         if let Some((_, t, _)) = visible {
             ray.t_max = t;
         }
-        let r = march(self.volume, self.lights, &ray, &self.settings, u, scratch);
-        if let Some(m) = self.volume.mattes.filter(|_| self.passes.has_mattes()) {
+        let r = march(volume, self.lights, &ray, &self.settings, u, scratch);
+        if let Some(m) = volume.mattes.filter(|_| self.passes.has_mattes()) {
             let alphas = m.alphas(
                 sigma_t,
                 ray.origin,

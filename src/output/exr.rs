@@ -4,12 +4,17 @@ use std::fmt;
 use std::path::Path;
 use std::str::FromStr;
 
+use exr::block::UncompressedBlock;
+use exr::block::writer::ChunksWriter;
+use exr::image::write::layers::{LayersWriter, WritableLayers};
 use exr::meta::attribute::{AttributeValue, Chromaticities, IntegerBounds, LineOrder, Text};
 use exr::meta::header::standard_names;
 use exr::prelude::{
     AnyChannel, AnyChannels, Blocks, Encoding, FlatSamples, Image, ImageAttributes, Layer,
     LayerAttributes, SmallVec, Vec2, WritableImage, f16,
 };
+
+use rayon::prelude::*;
 
 use super::OutputError;
 use super::frame::{Frame, PixelRect, is_depth_channel};
@@ -292,39 +297,46 @@ pub fn write_exr(
         }
     };
     let wide = overflowing_layers(frame, opts);
-    let mut nan_count = 0;
-    let mut channels = Vec::with_capacity(frame.channels().len());
-    for channel in frame.channels() {
-        let depth = is_depth_channel(channel.name());
-        let fill = if depth { opts.z_empty } else { 0.0 };
-        nan_count += channel.data().iter().filter(|v| v.is_nan()).count();
-        let cropped = channel
-            .data()
-            .chunks_exact(w)
-            .skip(window.y)
-            .take(window.height)
-            .flat_map(|row| row.iter().skip(window.x).take(window.width))
-            .map(|&v| if v.is_nan() { fill } else { v })
-            // Colour is never infinite in the file (depth's +inf means "no depth").
-            .map(|v| {
-                if depth {
-                    if v == f32::INFINITY { opts.z_empty } else { v }
+    // The channels converted side by side (each its own copy of the frame's samples).
+    let converted: Vec<(AnyChannel<FlatSamples>, usize)> = frame
+        .channels()
+        .par_iter()
+        .map(|channel| {
+            let depth = is_depth_channel(channel.name());
+            let fill = if depth { opts.z_empty } else { 0.0 };
+            let nans = channel.data().iter().filter(|v| v.is_nan()).count();
+            let cropped = channel
+                .data()
+                .chunks_exact(w)
+                .skip(window.y)
+                .take(window.height)
+                .flat_map(|row| row.iter().skip(window.x).take(window.width))
+                .map(|&v| if v.is_nan() { fill } else { v })
+                // Colour is never infinite in the file (depth's +inf means "no depth").
+                .map(|v| {
+                    if depth {
+                        if v == f32::INFINITY { opts.z_empty } else { v }
+                    } else {
+                        v.clamp(f32::MIN, f32::MAX)
+                    }
+                });
+            let samples =
+                if channel.always_float() || opts.float || wide.contains(&layer_of(channel.name()))
+                {
+                    FlatSamples::F32(cropped.collect())
                 } else {
-                    v.clamp(f32::MIN, f32::MAX)
-                }
-            });
-        let samples =
-            if channel.always_float() || opts.float || wide.contains(&layer_of(channel.name())) {
-                FlatSamples::F32(cropped.collect())
-            } else {
-                FlatSamples::F16(cropped.map(f16::from_f32).collect())
+                    FlatSamples::F16(cropped.map(f16::from_f32).collect())
+                };
+            // pLinear is a hint for lossy compressors; like Nuke, mark nothing linear.
+            let channel = AnyChannel {
+                quantize_linearly: false,
+                ..AnyChannel::new(text(channel.name()), samples)
             };
-        // pLinear is a hint for lossy compressors; like Nuke, mark nothing linear.
-        channels.push(AnyChannel {
-            quantize_linearly: false,
-            ..AnyChannel::new(text(channel.name()), samples)
-        });
-    }
+            (channel, nans)
+        })
+        .collect();
+    let nan_count: usize = converted.iter().map(|(_, n)| n).sum();
+    let channels: Vec<AnyChannel<FlatSamples>> = converted.into_iter().map(|(c, _)| c).collect();
 
     let mut layer_attributes = LayerAttributes {
         layer_position: {
@@ -382,17 +394,51 @@ pub fn write_exr(
     let image = Image::new(image_attributes, layer);
 
     write_atomically(path, |temp| {
-        image
-            .write()
-            .to_file(temp)
-            .map_err(|source| OutputError::Exr {
-                path: path.to_owned(),
-                source,
-            })
+        let exr_error = |source| OutputError::Exr {
+            path: path.to_owned(),
+            source,
+        };
+        let file = std::fs::File::create(temp).map_err(|e| exr_error(e.into()))?;
+        write_image(&image, std::io::BufWriter::new(file)).map_err(exr_error)
     })?;
     Ok(ExrWriteSummary {
         data_window: window,
         nan_count,
+    })
+}
+
+/// Scanline blocks handed to the threads at a time: the file's chunks are written in
+/// order, each batch's once all of it is compressed.
+const WRITE_BATCH: usize = 256;
+
+/// Writes `image` as the `exr` crate's own writer does, byte for byte, but with its
+/// blocks read out of the image and compressed on the current rayon pool (the render's
+/// `--threads`), where the crate's writer builds a pool of every core for each file
+/// (a `--threads 1` render compressed on all of them) and reads the blocks out on one.
+fn write_image(
+    image: &Image<Layer<AnyChannels<FlatSamples>>>,
+    write: impl std::io::Write + std::io::Seek,
+) -> exr::error::UnitResult {
+    let headers = image.write().infer_meta_data();
+    let layers = image.layer_data.create_writer(&headers);
+    exr::block::write(write, headers, true, |meta, chunks| {
+        let order: Vec<_> = meta.enumerate_ordered_header_block_indices().collect();
+        for batch in order.chunks(WRITE_BATCH) {
+            let compressed: Vec<exr::error::Result<exr::block::chunk::Chunk>> = batch
+                .par_iter()
+                .map(|(_, index)| {
+                    UncompressedBlock {
+                        index: *index,
+                        data: layers.extract_uncompressed_block(&meta.headers, *index),
+                    }
+                    .compress_to_chunk(&meta.headers)
+                })
+                .collect();
+            for ((at, _), chunk) in batch.iter().zip(compressed) {
+                chunks.write_chunk(*at, chunk?)?;
+            }
+        }
+        Ok(())
     })
 }
 
@@ -494,5 +540,59 @@ mod tests {
         let e = write_exr(p, &Frame::new(2, 2), &ExrOptions::default()).unwrap_err();
         assert!(e.to_string().contains("no channels"), "{e}");
         assert!(!p.exists());
+    }
+
+    /// The blocks compressed on the render's threads make the file the `exr` crate's own
+    /// writer makes, byte for byte, on one thread or several, over more scanlines than
+    /// one batch (half and float channels, ZIP1 and PIZ).
+    #[test]
+    fn the_threads_write_the_crate_writers_bytes() {
+        let (w, h) = (37, 2 * WRITE_BATCH + 9);
+        let wave = |k: usize| -> Vec<f32> {
+            (0..w * h)
+                .map(|i| ((i * (k + 3)) % 101) as f32 * 0.37 - 4.0)
+                .collect()
+        };
+        for compression in [ExrCompression::Zips, ExrCompression::Piz] {
+            let channels = vec![
+                AnyChannel::new(
+                    text("R"),
+                    FlatSamples::F16(wave(0).into_iter().map(f16::from_f32).collect()),
+                ),
+                AnyChannel::new(text("G"), FlatSamples::F32(wave(1))),
+                AnyChannel::new(text("Z"), FlatSamples::F32(wave(2))),
+            ];
+            let encoding = Encoding {
+                compression: compression.to_exr(),
+                blocks: Blocks::ScanLines,
+                line_order: LineOrder::Increasing,
+            };
+            let layer = Layer::new(
+                (w, h),
+                LayerAttributes::default(),
+                encoding,
+                AnyChannels::sort(SmallVec::from_vec(channels)),
+            );
+            let image = Image::new(
+                ImageAttributes::new(IntegerBounds::from_dimensions((w, h))),
+                layer,
+            );
+            let mut want = std::io::Cursor::new(Vec::new());
+            image.write().to_buffered(&mut want).unwrap();
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let mut got = std::io::Cursor::new(Vec::new());
+                pool.install(|| write_image(&image, &mut got)).unwrap();
+                assert!(
+                    got.get_ref() == want.get_ref(),
+                    "{compression}, {threads} threads: {} bytes against {}",
+                    got.get_ref().len(),
+                    want.get_ref().len()
+                );
+            }
+        }
     }
 }

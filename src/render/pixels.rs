@@ -288,13 +288,23 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
         .collect();
     let mut values = vec![0f32; w * (c1 - c0) * stride];
     let mut deep: Option<Vec<DeepPixel>> = job.deep.map(|_| vec![DeepPixel::default(); w * h]);
-    for (tile, out, tile_deep) in results {
+    // The tiles into the buffer, a band of a tile's height (a row of tiles) per task.
+    values
+        .par_chunks_mut((TILE * w * stride).max(1))
+        .zip(results.par_chunks(tiles_x.max(1)))
+        .for_each(|(band, row_of_tiles)| {
+            for (tile, out, _) in row_of_tiles {
+                let (x0, y0) = ((tile % tiles_x) * TILE, c0 + (tile / tiles_x) * TILE);
+                let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(c1));
+                for y in y0..y1 {
+                    let src = &out[(y - y0) * (x1 - x0) * stride..][..(x1 - x0) * stride];
+                    band[((y - y0) * w + x0) * stride..][..src.len()].copy_from_slice(src);
+                }
+            }
+        });
+    for (tile, _, tile_deep) in results {
         let (x0, y0) = ((tile % tiles_x) * TILE, c0 + (tile / tiles_x) * TILE);
         let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(c1));
-        for y in y0..y1 {
-            let src = &out[(y - y0) * (x1 - x0) * stride..][..(x1 - x0) * stride];
-            values[((y - c0) * w + x0) * stride..][..src.len()].copy_from_slice(src);
-        }
         if let Some(d) = deep.as_mut() {
             let mut px = tile_deep.into_iter();
             for y in y0..y1 {
@@ -365,18 +375,23 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
             PassKind::Depth => vec![vec![f32::INFINITY; n]],
         })
         .collect();
-    for y in r0..r1 {
-        for x in 0..w {
-            let px = &values[((y - c0) * w + x) * stride..][..stride];
-            let i = y * w + x;
-            for (p, pass_planes) in planes.iter_mut().enumerate() {
-                let at = layout.offset(p);
-                for (c, plane) in pass_planes.iter_mut().enumerate() {
-                    plane[i] = px[at + c];
-                }
-            }
-        }
+    // Each plane's rows from the pixels' slots, planes and rows side by side.
+    let mut targets: Vec<(usize, &mut Vec<f32>)> = Vec::new();
+    for (p, pass_planes) in planes.iter_mut().enumerate() {
+        let at = layout.offset(p);
+        targets.extend(pass_planes.iter_mut().enumerate().map(|(c, v)| (at + c, v)));
     }
+    targets.into_par_iter().for_each(|(slot, plane)| {
+        plane[r0 * w..r1 * w]
+            .par_chunks_mut(w.max(1))
+            .enumerate()
+            .for_each(|(r, row)| {
+                let src = &values[(r0 + r - c0) * w * stride..];
+                for (x, v) in row.iter_mut().enumerate() {
+                    *v = src[x * stride + slot];
+                }
+            });
+    });
     PixelPasses {
         width: w,
         height: h,

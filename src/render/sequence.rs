@@ -68,6 +68,9 @@ impl FramePaths {
             for v in &mut v.list {
                 v.file = FramePattern::new(&v.file).path(frame);
             }
+            if v.frame.is_some() {
+                v.at_frame(frame as f64);
+            }
         }
         p.outputs.path = self.output.path(frame);
         p.outputs.exr.input_file = Some(p.input.display().to_string());

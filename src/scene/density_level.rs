@@ -86,7 +86,7 @@ fn unsupported(scene: &Scene, plan: &RenderPlan) -> Option<&'static str> {
         || !f.emitters.is_empty()
     {
         Some("emission, temperature or colour grids")
-    } else if scene.motion.is_some() {
+    } else if scene.motion.is_some() || f.keyed.is_some() {
         Some("the volume moves during the shutter")
     } else if plan.shadows.cache.is_some() {
         Some("a shadow cache")

@@ -90,6 +90,11 @@ impl Scene {
             // A coarse level's steps span several of its voxels: two samples a step.
             sampled_means: self.density_level.as_ref().is_some_and(|l| l.level > 0),
             motion: self.motion.as_ref().map(|m| m.motion()),
+            keyed: self
+                .fields
+                .keyed
+                .as_deref()
+                .map(|k| k as &dyn crate::integrate::TimedVolume),
         }
     }
 }

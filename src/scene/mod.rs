@@ -29,6 +29,7 @@ pub mod source;
 pub mod transport;
 pub mod velocity;
 pub mod volumes;
+pub mod volumes_keyed;
 
 pub use options::RenderOptions;
 pub use plan::RenderPlan;

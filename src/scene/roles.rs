@@ -271,6 +271,8 @@ pub struct SceneFields {
     /// Several volumes: the summed density's members and their names, for the
     /// per-volume alpha layers; `None` for one input or one volume.
     pub parts: Option<VolumeParts>,
+    /// Several volumes whose keyed placements move within the shutter.
+    pub keyed: Option<Box<super::volumes_keyed::KeyedVolumes>>,
 }
 
 /// One glowing volume of several: its emission and temperature fields as placed, and
@@ -479,6 +481,7 @@ pub fn load_fields(
         up_from_data,
         emitters: Vec::new(),
         parts: None,
+        keyed: None,
     })
 }
 

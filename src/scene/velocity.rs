@@ -116,8 +116,8 @@ fn choose(
     }
 }
 
-/// [`load`] from the scene's one input (`None`: a scene of `[[volume]]` tables, which is
-/// not blurred yet: a note says so).
+/// [`load`] from the scene's one input (`None`: a scene of `[[volume]]` tables, whose
+/// volumes are moved each by its own velocity).
 pub fn load_for(
     plan: &RenderPlan,
     source: Option<&dyn FieldSource>,
@@ -125,12 +125,7 @@ pub fn load_for(
     report: &mut SceneReport,
 ) -> Result<Option<SceneMotion>, SceneError> {
     let Some(source) = source else {
-        if plan.motion.shutter.is_some() {
-            report.notes.push(
-                "--shutter: [[volume]] scenes are not blurred from velocity yet: they render sharp"
-                    .into(),
-            );
-        }
+        // Each volume's own velocity moves it (`scene::volumes_keyed`).
         return Ok(None);
     };
     load(source, plan, density, report)

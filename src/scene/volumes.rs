@@ -10,10 +10,14 @@ use super::conventions::{TemperatureMapping, Tool, UpAxis};
 use super::plan::{GridChoice, GridRoles, RenderPlan, VolumePlan, VolumesPlan};
 use super::report::SceneReport;
 use super::roles::{Emitter, SceneFields, VolumeParts, load_fields};
-use crate::field::albedo_mix::{AlbedoMix, PlacedColor};
+use super::volumes_keyed::{KeyedEmitter, KeyedMember, KeyedVolumes, tint};
+use crate::field::advect::VelocityField;
+use crate::field::advect_shared::SharedFlow;
+use crate::field::albedo_mix::PlacedColor;
+use crate::field::padded_cells::CellCache;
 use crate::field::sum::FieldSum;
 use crate::field::{ColorField, Field};
-use glam::{DMat4, DVec3};
+use glam::DMat4;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -24,6 +28,8 @@ struct Decoded {
     temperature: Option<Arc<dyn Field>>,
     color: Option<Arc<dyn ColorField>>,
     mapping: Option<TemperatureMapping>,
+    /// With a shutter: the file's velocity, and how many of its time units a frame is.
+    flow: Option<(SharedFlow, f64)>,
 }
 
 /// What decides what a file gives: the file, its grids and how it glows.
@@ -53,6 +59,28 @@ fn placed(
                 .map_err(|e| e.to_string())
         })
         .transpose()
+}
+
+/// The velocity of a volume's file (`None` without a shutter or a velocity grid; the
+/// scene's note says what moves).
+fn velocity_of(
+    source: &dyn super::source::FieldSource,
+    plan: &RenderPlan,
+    density: &dyn Field,
+    report: &mut SceneReport,
+) -> Result<Option<(SharedFlow, f64)>, SceneError> {
+    let notes = report.notes.len();
+    let Some(m) = super::velocity::load(source, plan, density, report)? else {
+        report.notes.truncate(notes);
+        return Ok(None);
+    };
+    let reach = m.velocity.max_speed() * (m.per_frame * m.frames).abs();
+    let flow = SharedFlow {
+        velocity: Arc::new(m.velocity),
+        reach,
+        cells: Arc::new(CellCache::default()),
+    };
+    Ok(Some((flow, m.per_frame)))
 }
 
 /// An error about a volume's file, saying which volume (a grid asked for that it lacks,
@@ -94,6 +122,9 @@ pub fn load_volumes(
     let mut members = Vec::with_capacity(volumes.list.len());
     let mut colors: Vec<Option<Arc<dyn ColorField>>> = Vec::with_capacity(volumes.list.len());
     let mut glowing = Vec::new();
+    // Which decoded file each volume is, and each glowing one's fields unplaced.
+    let mut chosen = Vec::with_capacity(volumes.list.len());
+    let mut keyed_emitters = Vec::new();
     for v in &volumes.list {
         let at = |e: String| SceneError::input(&v.file, format!("[[volume]] \"{}\": {e}", v.name));
         let key = key_of(v, scatters);
@@ -109,6 +140,8 @@ pub fn load_volumes(
                 one.production.temperature_explicit = v.temperature_explicit;
                 let fields = load_fields(source.as_ref(), &one, scatters, report)
                     .map_err(|e| in_volume(e, v))?;
+                let flow = velocity_of(source.as_ref(), &one, fields.density.as_ref(), report)
+                    .map_err(|e| in_volume(e, v))?;
                 emission_found |= fields.emission_found;
                 if first.is_none() {
                     first = Some((fields.tool, fields.up_from_data));
@@ -121,11 +154,13 @@ pub fn load_volumes(
                         temperature: fields.temperature.map(Arc::from),
                         color: fields.color.map(Arc::from),
                         mapping: fields.temperature_mapping,
+                        flow,
                     },
                 ));
                 loaded.len() - 1
             }
         };
+        chosen.push(i);
         let d = &loaded[i].1;
         members.push((d.density.clone(), v.placement, v.weight));
         colors.push(match &d.color {
@@ -141,6 +176,11 @@ pub fn load_volumes(
                 plan.temperature_scale = m.scale;
                 plan.temperature_offset = m.offset;
             }
+            keyed_emitters.push(KeyedEmitter {
+                member: chosen.len() - 1,
+                emission: d.emission.clone(),
+                temperature: d.temperature.clone(),
+            });
             glowing.push(Glowing {
                 volume: v,
                 emission: d.emission.clone(),
@@ -171,7 +211,37 @@ pub fn load_volumes(
         loaded.len(),
         if loaded.len() == 1 { "" } else { "s" }
     ));
-    let color = tint(&sum, volumes, colors);
+    let keyed = match plan.motion.shutter {
+        Some(shutter) => {
+            let members = volumes
+                .list
+                .iter()
+                .zip(&chosen)
+                .map(|(v, &i)| {
+                    let d = &loaded[i].1;
+                    KeyedMember {
+                        density: d.density.clone(),
+                        weight: v.weight,
+                        placement: v.placement,
+                        keys: v.keys.clone(),
+                        color: d.color.clone(),
+                        albedo: v.albedo,
+                        flow: d.flow.clone(),
+                    }
+                })
+                .collect();
+            KeyedVolumes::new(volumes, shutter, members, keyed_emitters, frame).map(Box::new)
+        }
+        _ => None,
+    };
+    if let Some((open, close)) = plan.motion.shutter {
+        report.notes.push(match &keyed {
+            Some(_) => format!("--shutter {open},{close}: the volumes that move while it is open (by their keys or velocity grids) blur; the shadow maps are those of the frame"),
+            None => format!("--shutter {open},{close}: no volume moves while it is open (no velocity grid, no keys that move then): they render sharp"),
+        });
+    }
+    let albedo = volumes.list.iter().map(|v| v.albedo).collect();
+    let color = tint(&sum, volumes.tinted, albedo, colors);
     let (tool, up_from_data) =
         first.ok_or_else(|| SceneError::input(&plan.input, "no [[volume]] to render"))?;
     let parts = (volumes.list.len() > 1).then(|| VolumeParts {
@@ -189,43 +259,6 @@ pub fn load_volumes(
         up_from_data,
         emitters,
         parts,
+        keyed,
     })
-}
-
-/// The scattering tint: the albedos' mix where they differ (the plan's medium then
-/// scatters its whole extinction), each volume's colour grid on its own share; one
-/// untinted volume's colour grid as it is.
-fn tint(
-    sum: &FieldSum,
-    volumes: &VolumesPlan,
-    mut colors: Vec<Option<Arc<dyn ColorField>>>,
-) -> Option<Box<dyn ColorField>> {
-    let coloured = colors.iter().any(Option::is_some);
-    if !volumes.tinted && !coloured {
-        return None;
-    }
-    if !volumes.tinted && colors.len() == 1 {
-        return colors
-            .pop()
-            .flatten()
-            .map(|c| Box::new(Shared(c)) as Box<dyn ColorField>);
-    }
-    let albedo = volumes
-        .list
-        .iter()
-        .map(|v| if volumes.tinted { v.albedo } else { DVec3::ONE })
-        .collect();
-    AlbedoMix::with_colors(sum.clone(), albedo, colors).map(|m| Box::new(m) as Box<dyn ColorField>)
-}
-
-/// A shared colour field as a boxed one.
-struct Shared(Arc<dyn ColorField>);
-
-impl ColorField for Shared {
-    fn transform(&self) -> &crate::field::IndexToWorld {
-        self.0.transform()
-    }
-    fn color_at_index(&self, p: DVec3) -> glam::Vec3 {
-        self.0.color_at_index(p)
-    }
 }

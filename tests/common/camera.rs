@@ -93,19 +93,7 @@ pub fn samples(exr: &Path) -> Vec<(String, Vec<u32>)> {
         .collect()
 }
 
+/// The alpha channel of a one-part EXR.
 pub fn alpha_of(exr: &Path) -> Vec<f32> {
-    use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
-    let img = read_all_flat_layers_from_file(exr).unwrap();
-    let layer = &img.layer_data[0];
-    let ch = layer
-        .channel_data
-        .list
-        .iter()
-        .find(|c| c.name.to_string() == "A")
-        .unwrap_or_else(|| panic!("{}: no A", exr.display()));
-    match &ch.sample_data {
-        FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
-        FlatSamples::F32(v) => v.clone(),
-        FlatSamples::U32(v) => v.iter().map(|u| *u as f32).collect(),
-    }
+    super::volumes::channel(exr, "A")
 }

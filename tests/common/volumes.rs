@@ -66,6 +66,11 @@ pub fn channel_names(path: &Path) -> Vec<String> {
 
 /// Every value of channel `name` of a one-part EXR.
 pub fn channel(path: &Path, name: &str) -> Vec<f32> {
+    channel_with_width(path, name).1
+}
+
+/// The image's width, and every value of its channel `name`, row-major, of a one-part EXR.
+pub fn channel_with_width(path: &Path, name: &str) -> (usize, Vec<f32>) {
     let image = read_all_flat_layers_from_file(path).unwrap();
     let layer = &image.layer_data[0];
     let c = layer
@@ -74,9 +79,10 @@ pub fn channel(path: &Path, name: &str) -> Vec<f32> {
         .iter()
         .find(|c| c.name.to_string() == name)
         .unwrap_or_else(|| panic!("{}: no channel {name}", path.display()));
-    match &c.sample_data {
+    let values = match &c.sample_data {
         FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
         FlatSamples::F32(v) => v.clone(),
         FlatSamples::U32(_) => panic!("u32 channel"),
-    }
+    };
+    (layer.size.width(), values)
 }

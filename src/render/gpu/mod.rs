@@ -58,6 +58,9 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
     if scene.motion.is_some() {
         return Some("motion blur from a velocity grid (--shutter)".into());
     }
+    if scene.fields.keyed.is_some() {
+        return Some("volumes whose keyed placements move while the shutter is open".into());
+    }
     if scene.camera_motion.is_some() {
         return Some("a camera moving while the shutter is open (--shutter)".into());
     }

@@ -28,6 +28,11 @@ pub struct VolumeTable {
     /// last row 0,0,0,1); instead of translate/rotate/scale.
     #[serde(default)]
     pub matrix: Option<[[f64; 4]; 4]>,
+    /// `[[volume.keys]]`: the placement keyed at frames (`frame = N` and any of
+    /// translate, rotate, scale; the others the table's), interpolated between keys and
+    /// held before the first and after the last.
+    #[serde(default)]
+    pub keys: Vec<VolumeKey>,
     /// As the scene's `density_grid`, for this volume.
     #[serde(default)]
     pub density_grid: Option<String>,
@@ -66,6 +71,19 @@ pub struct VolumeTable {
     pub blackbody_intensity: Option<f64>,
 }
 
+/// One `[[volume.keys]]`: the volume's placement at a frame.
+#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeKey {
+    pub frame: f64,
+    #[serde(default)]
+    pub translate: Option<[f64; 3]>,
+    #[serde(default)]
+    pub rotate: Option<[f64; 3]>,
+    #[serde(default)]
+    pub scale: Option<Scale>,
+}
+
 /// A uniform or per-axis scale.
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
 #[serde(untagged)]
@@ -75,4 +93,4 @@ pub enum Scale {
 }
 
 /// The `[[volume]]` row of docs/scene-file.md.
-pub const VOLUME_ROW: &str = "| `[[volume]]` | `file`, `name`, `translate`, `rotate`, `scale`, `matrix`, `density_grid`, `sigma_a`, `sigma_s`, `density_scale`, `emission_grid`, `temperature_grid`, `color_grid`, `emission_color`, `emission_intensity`, `temperature_scale`, `temperature_offset`, `blackbody_intensity` | a volume placed in the world (scene files only, instead of `input`): `name` (letters, digits, `_`, `-`; default `volume1`, `volume2`, … in order) names its alpha layer `volume_<name>.A` (written with two or more volumes); `file` relative to the scene file, read once however often it is listed with the same grids and emission; `translate = [x, y, z]`, `rotate = [x, y, z]` (degrees about the world axes, in that order), `scale = s` or `[x, y, z]` (applied scale, rotate, translate) or `matrix` (four rows, translation in the last column); the grid, medium and emission keys as the scene's, for this volume (unset: the scene's). Where volumes overlap their coefficients and emission add. |\n";
+pub const VOLUME_ROW: &str = "| `[[volume]]` | `file`, `name`, `translate`, `rotate`, `scale`, `matrix`, `[[volume.keys]]` with `frame`, `density_grid`, `sigma_a`, `sigma_s`, `density_scale`, `emission_grid`, `temperature_grid`, `color_grid`, `emission_color`, `emission_intensity`, `temperature_scale`, `temperature_offset`, `blackbody_intensity` | a volume placed in the world (scene files only, instead of `input`): `name` (letters, digits, `_`, `-`; default `volume1`, `volume2`, … in order) names its alpha layer `volume_<name>.A` (written with two or more volumes); `file` relative to the scene file, read once however often it is listed with the same grids and emission; `translate = [x, y, z]`, `rotate = [x, y, z]` (degrees about the world axes, in that order), `scale = s` or `[x, y, z]` (applied scale, rotate, translate) or `matrix` (four rows, translation in the last column); `[[volume.keys]]` with `frame = N` and any of `translate`, `rotate`, `scale` key the placement per frame (the others the table's; frames increasing; between keys translation and scale linear, rotation along the shortest arc; held outside the keys), so that with `shutter` the volume blurs along its motion; the grid, medium and emission keys as the scene's, for this volume (unset: the scene's). Where volumes overlap their coefficients and emission add. |\n";

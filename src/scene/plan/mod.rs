@@ -14,6 +14,7 @@ mod outputs;
 mod quality;
 mod shot;
 mod values;
+mod volume_keys;
 mod volumes;
 
 pub use camera::{CameraPlan, CameraRequest};
@@ -25,6 +26,7 @@ pub use motion::{MAX_SHUTTER_FRAMES, MotionPlan};
 pub use outputs::{DeepPlan, OutputPlan, ProductionPlan};
 pub use quality::{MarchPlan, SamplingPlan};
 pub use shot::{ShotCameraAt, ShotPlan};
+pub use volume_keys::{PlacementKey, PlacementKeys};
 pub use volumes::{VolumePlan, VolumesPlan};
 
 use super::PlanError;

@@ -9,10 +9,11 @@
 //! (`field::sum::AlbedoMix`), which gives σs(x) = Σ σs,ᵢ·sᵢ·ρᵢ(x) exactly.
 
 use super::look::{EmissionPlan, GridChoice, GridRoles, medium};
+use super::volume_keys::{PlacementKeys, rotation, scale_of};
 use crate::integrate::Medium;
 use crate::scene::options::RenderOptions;
-use crate::scene::options::volume::{Scale, VolumeTable};
-use glam::{DMat4, DQuat, DVec3, EulerRot};
+use crate::scene::options::volume::VolumeTable;
+use glam::{DMat4, DVec3};
 use std::path::PathBuf;
 
 /// Volumes a scene may place at most: each cell query of the summed density visits every
@@ -37,6 +38,9 @@ pub struct VolumePlan {
     pub weight: f64,
     /// σs/σt per channel (0 where σt is 0).
     pub albedo: DVec3,
+    /// The placement keyed at frames (`[[volume.keys]]`): `placement` is its value at
+    /// the volumes' frame.
+    pub keys: Option<PlacementKeys>,
 }
 
 /// The volumes and the medium of their sum.
@@ -45,6 +49,23 @@ pub struct VolumesPlan {
     pub list: Vec<VolumePlan>,
     /// The volumes' albedos differ: scattering is tinted per point.
     pub tinted: bool,
+    /// The frame the keyed placements are taken at: the sequence's frame, else the
+    /// earliest key (`None`: nothing is keyed).
+    pub frame: Option<f64>,
+}
+
+impl VolumesPlan {
+    /// Every keyed volume placed as at `frame`.
+    pub fn at_frame(&mut self, frame: f64) {
+        let mut keyed = false;
+        for v in &mut self.list {
+            if let Some(k) = &v.keys {
+                v.placement = k.at(frame);
+                keyed = true;
+            }
+        }
+        self.frame = keyed.then_some(frame);
+    }
 }
 
 /// The placement a table asks for: `matrix`, or translate · rotate · scale.
@@ -65,14 +86,8 @@ fn placement(v: &VolumeTable, name: &str) -> Result<DMat4, String> {
             DMat4::from_cols_array_2d(&rows).transpose()
         }
         None => {
-            let scale = match v.scale {
-                None => DVec3::ONE,
-                Some(Scale::Uniform(s)) => DVec3::splat(s),
-                Some(Scale::Axes(a)) => DVec3::from_array(a),
-            };
-            let r =
-                DVec3::from_array(v.rotate.unwrap_or([0.0; 3])) * (std::f64::consts::PI / 180.0);
-            let rotation = DQuat::from_euler(EulerRot::ZYX, r.z, r.y, r.x);
+            let scale = scale_of(v.scale);
+            let rotation = rotation(v.rotate.unwrap_or([0.0; 3]));
             let t = DVec3::from_array(v.translate.unwrap_or([0.0; 3]));
             DMat4::from_scale_rotation_translation(scale, rotation, t)
         }
@@ -152,6 +167,7 @@ pub(super) fn volumes(
         let m = medium(&own).map_err(at)?;
         let emission = EmissionPlan::from_options(&own).map_err(at)?;
         let placement = placement(v, &name)?;
+        let keys = PlacementKeys::of_table(v, &name)?;
         let grids = GridRoles::from_options(&own);
         if grids.density == GridChoice::Off {
             return Err(at("a volume needs a density grid".into()));
@@ -166,6 +182,7 @@ pub(super) fn volumes(
                 || own.temperature_offset.is_some(),
             weight: 0.0,
             albedo: DVec3::ZERO,
+            keys,
         });
         media.push(m);
     }
@@ -177,13 +194,7 @@ pub(super) fn volumes(
             density_scale: 1.0,
             g: base.g,
         };
-        return Ok(Some((
-            VolumesPlan {
-                list,
-                tinted: false,
-            },
-            none,
-        )));
+        return Ok(Some((keyed(list, false), none)));
     };
     let s = first.sigma_a + first.sigma_s;
     let albedo_of = |m: &Medium| {
@@ -222,7 +233,24 @@ pub(super) fn volumes(
             g: base.g,
         }
     };
-    Ok(Some((VolumesPlan { list, tinted }, summed)))
+    Ok(Some((keyed(list, tinted), summed)))
+}
+
+/// The volumes placed as at the earliest key (as they are if none is keyed).
+fn keyed(list: Vec<VolumePlan>, tinted: bool) -> VolumesPlan {
+    let first = list
+        .iter()
+        .filter_map(|v| v.keys.as_ref().map(PlacementKeys::first_frame))
+        .reduce(f64::min);
+    let mut plan = VolumesPlan {
+        list,
+        tinted,
+        frame: None,
+    };
+    if let Some(f) = first {
+        plan.at_frame(f);
+    }
+    plan
 }
 
 #[cfg(test)]
