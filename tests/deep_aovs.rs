@@ -5,50 +5,16 @@
 //! reads and flattens them; bad lists are refused in one line.
 
 mod common;
-use common::deep::{Deep, flat_channels, read_deep};
+use common::deep::{Deep, fixture, flat_channels, flatten_channel, read_deep, render_deep};
 use common::frames::{MURK, refused, scratch};
 use common::tools;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn fixture(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("fixtures")
-        .join(name)
-        .display()
-        .to_string()
-}
-
 /// Renders `input` with `args` and `--deep-aovs all`: the flat EXR and the deep one.
 fn render(dir: &Path, input: &str, args: &[&str]) -> (PathBuf, PathBuf) {
-    let (flat, deep) = (dir.join("flat.exr"), dir.join("deep.exr"));
-    let out = Command::new(MURK)
-        .args(["render", input, "-o"])
-        .arg(&flat)
-        .arg("--deep")
-        .arg(&deep)
-        .args(["--deep-aovs", "all", "--quiet"])
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "murk render {input} {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    (flat, deep)
-}
-
-/// Pixel `i`'s channel `name` flattened front to back ("over" with the samples' A).
-fn flatten_channel(d: &Deep, i: usize, name: &str) -> f64 {
-    let (v, a) = (d.channel(i, name), d.channel(i, "A"));
-    let (mut sum, mut t) = (0.0f64, 1.0f64);
-    for s in 0..a.len() {
-        sum += t * v[s] as f64;
-        t *= 1.0 - a[s] as f64;
-    }
-    sum
+    render_deep(dir, input, &["--deep-aovs", "all"], args)
 }
 
 /// The flat file's layers (`name.R` …) other than the beauty's.

@@ -4,7 +4,7 @@
 //! Bad input refused in one line.
 
 mod common;
-use common::deep::flat_channels;
+use common::deep::{SLAB_VIEW, flat_channels};
 use common::frames::{MURK, refused, scratch};
 use common::tools;
 use std::path::Path;
@@ -49,29 +49,6 @@ fn deepen(flat: &Path, deep: &Path, compression: &str) {
     );
 }
 
-const SLAB_VIEW: [&str; 20] = [
-    "render",
-    "fixtures/slab.vdb",
-    "--res",
-    "16x16",
-    "--camera",
-    "ortho",
-    "--eye",
-    "0,0,5",
-    "--look-at",
-    "0,0,0",
-    "--up",
-    "0,1,0",
-    "--ortho-width",
-    "1",
-    "--no-lights",
-    "--sigma-a",
-    "3",
-    "--sigma-s",
-    "0",
-    "--float",
-];
-
 #[test]
 fn a_deep_holdout_cuts_where_it_turns_opaque() {
     need!(tools::OIIOTOOL);
@@ -91,7 +68,8 @@ fn a_deep_holdout_cuts_where_it_turns_opaque() {
         let deep = dir.join(format!("card_{compression}.exr"));
         deepen(&flat, &deep, compression);
         let out = dir.join(format!("cut_{compression}.exr"));
-        let mut args = SLAB_VIEW.to_vec();
+        let mut args = vec!["render", "fixtures/slab.vdb"];
+        args.extend_from_slice(&SLAB_VIEW);
         args.extend(["-o", out.to_str().unwrap(), "--quiet", "--holdout-deep"]);
         args.push(deep.to_str().unwrap());
         let o = Command::new(MURK)

@@ -3,38 +3,15 @@
 //! split at any depth gives its closed form. Bad input refused in one line.
 
 mod common;
-use common::deep::{Deep, flat_channels, flatten, read_deep};
+use common::deep::{Deep, SLAB_VIEW, fixture, flat_channels, flatten, read_deep, render_deep};
 use common::frames::{MURK, every_fixture, refused, scratch};
 use common::tools;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn fixture(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("fixtures")
-        .join(name)
-        .display()
-        .to_string()
-}
-
 /// Renders `input` with `args` into `dir`: the flat EXR (float) and the deep one.
 fn render(dir: &Path, input: &str, args: &[&str]) -> (PathBuf, PathBuf) {
-    let (flat, deep) = (dir.join("flat.exr"), dir.join("deep.exr"));
-    let out = Command::new(MURK)
-        .args(["render", input, "-o"])
-        .arg(&flat)
-        .arg("--deep")
-        .arg(&deep)
-        .args(["--float", "--quiet"])
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "murk render {input} {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    (flat, deep)
+    render_deep(dir, input, &["--float"], args)
 }
 
 /// Every pixel's samples sorted, `Z ≤ ZBack`, not overlapping, alpha in [0, 1].
@@ -111,9 +88,10 @@ fn the_default_file_flattens_to_the_default_flat_file_on_every_fixture() {
     // flatten to (no drift along the ray), then a few are moved (each change moving the
     // opacity in front of a depth by at most a quarter of the tolerance) so the pixel
     // lands on the flat file's stored value: flattened, the deep pixel is the flat file's
-    // within 1e-4 on most fixtures (within 1e-6 on most pixels), not within a half-float
-    // rounding (2.4e-4 at 0.5) of each. Where no move within the limit lands a pixel it
-    // stays within a rounding: 1.2e-4 to 1.7e-4 on the mixed-cell and graded meshes.
+    // within 1e-4 on every fixture (within 1e-6 on most pixels), not within a half-float
+    // rounding (2.4e-4 at 0.5) of each. A pixel of a few large samples (a mesh's cells)
+    // whose opacity lands with colour a step further off is kept: the mixed-cell and
+    // graded meshes were 1.2e-4 to 1.7e-4 off when such landings were undone.
     let fixtures = every_fixture();
     assert!(fixtures.len() >= 25, "{fixtures:?}");
     let mut report: Vec<(String, f64)> = Vec::new();
@@ -166,7 +144,7 @@ fn the_default_file_flattens_to_the_default_flat_file_on_every_fixture() {
         text.join(", ")
     );
     assert!(
-        report.iter().all(|(_, w)| *w <= 2.0),
+        report.iter().all(|(_, w)| *w <= 1.0),
         "flattened differs from the flat file by (in 1e-4 + 1e-6 |value|): {}",
         text.join(", ")
     );
@@ -393,27 +371,6 @@ fn depth_image(
         .to_file(path)
         .unwrap();
 }
-
-const SLAB_VIEW: [&str; 18] = [
-    "--res",
-    "16x16",
-    "--camera",
-    "ortho",
-    "--eye",
-    "0,0,5",
-    "--look-at",
-    "0,0,0",
-    "--up",
-    "0,1,0",
-    "--ortho-width",
-    "1",
-    "--no-lights",
-    "--sigma-a",
-    "3",
-    "--sigma-s",
-    "0",
-    "--float",
-];
 
 #[test]
 fn a_holdout_cuts_the_slab_where_its_closed_form_says() {

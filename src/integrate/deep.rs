@@ -125,13 +125,18 @@ impl DeepTrace {
 
     /// The trace with ray parameters turned into depths (`t × rate`).
     pub fn to_depth(&self, rate: f64) -> Vec<DeepPoint> {
-        self.points
-            .iter()
-            .map(|p| DeepPoint {
-                depth: p.depth * rate,
-                ..*p
-            })
-            .collect()
+        let mut out = Vec::with_capacity(self.points.len());
+        self.to_depth_into(rate, &mut out);
+        out
+    }
+
+    /// [`DeepTrace::to_depth`] into `out` (cleared first), reusing its room.
+    pub fn to_depth_into(&self, rate: f64, out: &mut Vec<DeepPoint>) {
+        out.clear();
+        out.extend(self.points.iter().map(|p| DeepPoint {
+            depth: p.depth * rate,
+            ..*p
+        }));
     }
 }
 
@@ -185,18 +190,20 @@ fn ln_t(alpha: f64) -> f64 {
 }
 
 impl Cone {
-    fn new(s: DeepPoint) -> Self {
+    /// The cone from `s`, whose `ln T` is `ln_t_s`.
+    fn new(s: DeepPoint, ln_t_s: f64) -> Self {
         Cone {
             s,
-            ln_t: ln_t(s.alpha),
+            ln_t: ln_t_s,
             slope: (f64::NEG_INFINITY, f64::INFINITY),
             color: [(f64::NEG_INFINITY, f64::INFINITY); 3],
             closed: false,
         }
     }
 
-    /// Narrows the cone by point `k`, dropped inside the merged sample.
-    fn drop_point(&mut self, k: &DeepPoint, tol: f64, ctol: f64) {
+    /// Narrows the cone by point `k` (its `ln T` is `ln_t_k`), dropped inside the merged
+    /// sample.
+    fn drop_point(&mut self, k: &DeepPoint, ln_t_k: f64, tol: f64, ctol: f64) {
         let dz = k.depth - self.s.depth;
         if !(dz > 0.0) {
             self.closed = true;
@@ -209,14 +216,14 @@ impl Cone {
         } else {
             (t - tol).ln()
         };
-        let hi = (t + tol).min(1.0).ln();
+        let hi = if t + tol >= 1.0 { 0.0 } else { (t + tol).ln() };
         let mut smin = (lo - self.ln_t) / dz;
         let mut smax = (hi - self.ln_t) / dz;
         // Depth: the merged sample reaches ln T_k at s + (ΔL / slope); within
         // DEPTH_FRACTION × dz of k, where k's opacity differs from the front's by more
         // than the tolerance (where it does not, no depth sees the merged opacity off by
         // more than the tolerance, wherever it is placed).
-        let dl = ln_t(k.alpha) - self.ln_t;
+        let dl = ln_t_k - self.ln_t;
         if dl.is_finite() && k.alpha - self.s.alpha > tol {
             let near = dz * (1.0 - DEPTH_FRACTION);
             let far = dz * (1.0 + DEPTH_FRACTION);
@@ -227,24 +234,31 @@ impl Cone {
         }
         self.slope = (self.slope.0.max(smin), self.slope.1.min(smax));
         let da = k.alpha - self.s.alpha;
-        for c in 0..3 {
-            let dc = k.color[c] - self.s.color[c];
+        let dcs = k.color - self.s.color;
+        // A grey change (a grey medium under white light): one channel's bounds serve all.
+        let channels = if is_grey(dcs) { 1 } else { 3 };
+        for c in 0..channels {
+            let dc = dcs[c];
             if da > 0.0 {
                 let (a, b) = ((dc - ctol) / da, (dc + ctol) / da);
-                self.color[c] = (self.color[c].0.max(a), self.color[c].1.min(b));
+                let narrowed = if channels == 1 { 0..3 } else { c..c + 1 };
+                for bound in &mut self.color[narrowed] {
+                    *bound = (bound.0.max(a), bound.1.min(b));
+                }
             } else if dc.abs() > ctol {
                 self.closed = true;
             }
         }
     }
 
-    /// Whether the merged sample from `s` to `j` keeps every dropped point in tolerance.
-    fn fits(&self, j: &DeepPoint) -> bool {
+    /// Whether the merged sample from `s` to `j` (its `ln T` is `ln_t_j`) keeps every
+    /// dropped point in tolerance.
+    fn fits(&self, j: &DeepPoint, ln_t_j: f64) -> bool {
         let dz = j.depth - self.s.depth;
         if self.closed || !(dz > 0.0) {
             return false;
         }
-        let slope = (ln_t(j.alpha) - self.ln_t) / dz;
+        let slope = (ln_t_j - self.ln_t) / dz;
         let slope_ok = if slope == f64::NEG_INFINITY {
             self.slope.0 == f64::NEG_INFINITY
         } else {
@@ -260,11 +274,22 @@ impl Cone {
             return self.color.iter().all(|(lo, hi)| lo <= hi)
                 && (0..3).all(|c| (j.color[c] - self.s.color[c]).abs() == 0.0);
         }
+        let dcs = j.color - self.s.color;
+        if is_grey(dcs) {
+            let sc = dcs.x / da;
+            return self.color.iter().all(|(lo, hi)| sc >= *lo && sc <= *hi);
+        }
         (0..3).all(|c| {
-            let sc = (j.color[c] - self.s.color[c]) / da;
+            let sc = dcs[c] / da;
             sc >= self.color[c].0 && sc <= self.color[c].1
         })
     }
+}
+
+/// All three channels the same.
+#[inline]
+fn is_grey(v: DVec3) -> bool {
+    v.x == v.y && v.y == v.z
 }
 
 fn simplify_run(run: &[DeepPoint], tol: f64, color_scale: f64, out: &mut Vec<DeepPoint>) {
@@ -273,17 +298,21 @@ fn simplify_run(run: &[DeepPoint], tol: f64, color_scale: f64, out: &mut Vec<Dee
     };
     let ctol = tol * color_scale;
     out.push(*first);
-    let mut cone = Cone::new(*first);
+    // One logarithm a point: its ln T serves its test, its narrowing and its cone.
+    let mut ln_before = ln_t(first.alpha);
+    let mut cone = Cone::new(*first, ln_before);
     let mut s = 0;
     for j in 1..run.len() {
-        if j > s + 1 && !cone.fits(&run[j]) {
+        let ln_j = ln_t(run[j].alpha);
+        if j > s + 1 && !cone.fits(&run[j], ln_j) {
             s = j - 1;
             out.push(run[s]);
-            cone = Cone::new(run[s]);
+            cone = Cone::new(run[s], ln_before);
         }
         if j + 1 < run.len() {
-            cone.drop_point(&run[j], tol, ctol);
+            cone.drop_point(&run[j], ln_j, tol, ctol);
         }
+        ln_before = ln_j;
     }
     if run.len() > 1 {
         out.push(run[run.len() - 1]);

@@ -257,13 +257,17 @@ fn per_channel(grey: bool, f: impl Fn(usize) -> f64) -> DVec3 {
     }
 }
 
-/// Adds the segment `[a, b]` to the ray's deep record: opacity and colour so far.
-#[cold]
+/// Adds the segment `[a, b]` to the ray's deep record: opacity and colour so far. The
+/// opacity is `1 − T` from the transmittance the march keeps (`t_now`), without another
+/// exponential: it differs from `1 − e^{−τ}` by a rounding of 1 (1e-16), and the
+/// record's last point is given the ray's own opacity when the march ends
+/// ([`finish_deep`]).
+#[inline(never)]
 fn record_deep(
     scratch: &mut Scratch,
     n_lights: usize,
     out: &RayResult,
-    tau: DVec3,
+    t_now: DVec3,
     a: f64,
     b: f64,
 ) {
@@ -271,12 +275,20 @@ fn record_deep(
     for v in &scratch.per_light[..n_lights] {
         color += *v;
     }
-    let alpha = alpha_of(tau);
+    let alpha = (1.0 - t_now.element_sum() / 3.0).clamp(0.0, 1.0);
     if let Some(tr) = scratch.deep.as_mut() {
         let (a0, c0) = tr.last();
         let added = tr.segment(a, b, a0, c0, alpha, color);
         let now = tr.aovs_now(added);
         super::deep_aovs::put(now, out.emission, scratch.indirect, &scratch.per_light);
+    }
+}
+
+/// The deep record's last point gets the ray's opacity as the flat pixel has it (from
+/// the optical depth `tau`), so the record ends exactly where the ray does.
+fn finish_deep(scratch: &mut Scratch, tau: DVec3) {
+    if let Some(last) = scratch.deep.as_mut().and_then(|tr| tr.points.last_mut()) {
+        last.alpha = alpha_of(tau);
     }
 }
 
@@ -496,7 +508,7 @@ fn march_still(
                     tau = DVec3::INFINITY;
                 }
                 if scratch.deep.is_some() {
-                    record_deep(scratch, n_lights, &out, tau, a, b);
+                    record_deep(scratch, n_lights, &out, t_now, a, b);
                 }
                 if stop {
                     break 'spans;
@@ -507,6 +519,9 @@ fn march_still(
     }
     out.transmittance = t_now;
     out.optical_depth = tau;
+    if scratch.deep.is_some() {
+        finish_deep(scratch, tau);
+    }
     for v in &scratch.per_light[..n_lights] {
         out.scatter += *v;
     }

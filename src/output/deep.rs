@@ -182,8 +182,12 @@ fn box2i((x, y): (i64, i64), (w, h): (usize, usize)) -> Vec<u8> {
 fn zip(raw: &[u8]) -> std::io::Result<Option<Vec<u8>>> {
     let half = raw.len().div_ceil(2);
     let mut t = vec![0u8; raw.len()];
-    for (i, &b) in raw.iter().enumerate() {
-        t[if i % 2 == 0 { i / 2 } else { half + i / 2 }] = b;
+    let (even, odd) = t.split_at_mut(half);
+    for ((pair, e), k) in raw.chunks(2).zip(even).zip(0..) {
+        *e = pair[0];
+        if let (Some(&b), Some(o)) = (pair.get(1), odd.get_mut(k)) {
+            *o = b;
+        }
     }
     let mut prev = t.first().copied().unwrap_or(0);
     for v in t.iter_mut().skip(1) {

@@ -530,28 +530,8 @@ fn render_frame<I: Integrator>(
     st.samples = passes.samples;
     st.samples_per_second = passes.samples as f64 / render_seconds.max(1e-9);
     let deep = passes.deep.take().map(|pixels| {
-        let mut image = DeepImage {
-            width: passes.width,
-            height: passes.height,
-            aov_layers: aovs.iter().map(|a| a.layer.clone()).collect(),
-            ..DeepImage::default()
-        };
-        for px in pixels {
-            image.pixels.push(
-                px.samples
-                    .iter()
-                    .map(|s| crate::output::DeepSample {
-                        z: s.z,
-                        z_back: s.z_back,
-                        rgba: [s.rgb[0], s.rgb[1], s.rgb[2], s.alpha],
-                    })
-                    .collect(),
-            );
-            if !aovs.is_empty() {
-                image.aovs.push(px.aovs);
-            }
-        }
-        image
+        let layers = aovs.iter().map(|a| a.layer.clone()).collect();
+        pixels::deep_image(pixels, passes.width, passes.height, layers)
     });
     Ok((channels::assemble(&passes)?, render_seconds, deep))
 }

@@ -7,6 +7,7 @@ use crate::integrate::integrator::{
     CameraSample, Integrator, SampleRng, shutter_time, unit_random,
 };
 use crate::integrate::pass::{PassKind, PassLayout};
+use crate::output::{DeepImage, DeepSample};
 use crate::scene::camera::{Camera, CameraFrame};
 use crate::scene::camera_motion::CameraMotion;
 use crate::scene::progress::Progress;
@@ -210,10 +211,12 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                         scratch: &mut I::Scratch,
                         acc: &mut [f64],
                         px: &mut [f32],
-                        deep: &mut DeepPixel|
+                        deep: &mut DeepPixel,
+                        curves: &mut Vec<Vec<DeepPoint>>|
      -> u64 {
         acc.fill(0.0);
-        let mut curves: Vec<Vec<DeepPoint>> = Vec::new();
+        // The rays' deep curves, in buffers a thread keeps from pixel to pixel.
+        let mut n_curves = 0;
         let mut aov_rows: Vec<Vec<f64>> = Vec::new();
         let mut aov_width = 0;
         let mut n_samples = 0;
@@ -230,7 +233,11 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
             if job.deep.is_some()
                 && let Some(trace) = job.integrator.deep_trace(scratch)
             {
-                curves.push(trace.to_depth(sample.depth_rate));
+                if curves.len() == n_curves {
+                    curves.push(Vec::new());
+                }
+                trace.to_depth_into(sample.depth_rate, &mut curves[n_curves]);
+                n_curves += 1;
                 if !job.deep_aovs.is_empty() {
                     aov_rows.push(trace.aovs.clone());
                     aov_width = trace.aov_width;
@@ -244,7 +251,7 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                 width: aov_width,
                 wanted: job.deep_aovs,
             });
-            pixel_samples(&curves, tolerance, aovs, deep);
+            pixel_samples(&curves[..n_curves], tolerance, aovs, deep);
         }
         finish_pixel(px, acc, count as usize, alpha_at, depth_at);
         n_samples
@@ -256,8 +263,8 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
     let results: Vec<(usize, Vec<f32>, Vec<DeepPixel>)> = (0..tiles)
         .into_par_iter()
         .map_init(
-            || (job.integrator.scratch(), vec![0f64; stride]),
-            |(scratch, acc), tile| {
+            || (job.integrator.scratch(), vec![0f64; stride], Vec::new()),
+            |(scratch, acc, curves), tile| {
                 let (x0, y0) = ((tile % tiles_x) * TILE, c0 + (tile / tiles_x) * TILE);
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(c1));
                 let n = (x1 - x0) * (y1 - y0);
@@ -270,7 +277,7 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                         let i = (y - y0) * (x1 - x0) + (x - x0);
                         let px = &mut out[i * stride..][..stride];
                         let d = deep.get_mut(i).unwrap_or(&mut none);
-                        tile_samples += render_pixel(x, y, 0, scratch, acc, px, d);
+                        tile_samples += render_pixel(x, y, 0, scratch, acc, px, d, curves);
                     }
                 }
                 samples.fetch_add(tile_samples, Ordering::Relaxed);
@@ -329,8 +336,8 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
             .par_chunks(TILE * TILE / 4)
             .enumerate()
             .map_init(
-                || (job.integrator.scratch(), vec![0f64; stride]),
-                |(scratch, acc), (chunk, pixels)| {
+                || (job.integrator.scratch(), vec![0f64; stride], Vec::new()),
+                |(scratch, acc, curves), (chunk, pixels)| {
                     let mut out = vec![0f32; pixels.len() * stride];
                     let mut deep = vec![DeepPixel::default(); pixels.len()];
                     let mut chunk_samples = 0;
@@ -339,7 +346,8 @@ pub fn render_pixels<I: Integrator>(job: &PixelJob<I>, progress: &dyn Progress) 
                         .zip(out.chunks_mut(stride))
                         .zip(deep.iter_mut())
                     {
-                        chunk_samples += render_pixel(x, y, job.antialias, scratch, acc, px, d);
+                        chunk_samples +=
+                            render_pixel(x, y, job.antialias, scratch, acc, px, d, curves);
                     }
                     samples.fetch_add(chunk_samples, Ordering::Relaxed);
                     (chunk, out, deep)
@@ -418,6 +426,44 @@ pub(crate) fn finish_pixel(
         } else {
             f32::INFINITY
         };
+    }
+}
+
+/// The deep image of a render's pixels (rows top to bottom), with the layers
+/// `aov_layers` where the pixels carry AOV values.
+pub fn deep_image(
+    pixels: Vec<DeepPixel>,
+    width: usize,
+    height: usize,
+    aov_layers: Vec<String>,
+) -> DeepImage {
+    // Half a million pixels' lists: on every thread.
+    let (samples, values): (Vec<_>, Vec<_>) = pixels
+        .into_par_iter()
+        .map(|px| {
+            let samples: Vec<DeepSample> = px
+                .samples
+                .iter()
+                .map(|s| DeepSample {
+                    z: s.z,
+                    z_back: s.z_back,
+                    rgba: [s.rgb[0], s.rgb[1], s.rgb[2], s.alpha],
+                })
+                .collect();
+            (samples, px.aovs)
+        })
+        .unzip();
+    let aovs = if aov_layers.is_empty() {
+        Vec::new()
+    } else {
+        values
+    };
+    DeepImage {
+        width,
+        height,
+        pixels: samples,
+        aov_layers,
+        aovs,
     }
 }
 

@@ -1,11 +1,13 @@
 //! A minimal reader of single-part deep scanline EXRs (as the OpenEXR file layout gives
 //! them; NONE and ZIPS compression), for the deep tests, and the
-//! flat channels of an EXR through the `exr` crate. Half and float channels.
+//! flat channels of an EXR through the `exr` crate. Half and float channels. And the
+//! deep tests' render: a fixture into a flat file and a deep one.
 
 use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
 use std::collections::BTreeMap;
 use std::io::Read;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::Command;
 
 /// A deep image as read: per pixel, per channel name, the samples.
 pub struct Deep {
@@ -175,3 +177,68 @@ pub fn flatten(d: &Deep, i: usize) -> [f64; 4] {
     out[3] = 1.0 - t;
     out
 }
+
+/// Pixel `i`'s channel `name` flattened front to back ("over" with the samples' A).
+pub fn flatten_channel(d: &Deep, i: usize, name: &str) -> f64 {
+    let (v, a) = (d.channel(i, name), d.channel(i, "A"));
+    let (mut sum, mut t) = (0.0f64, 1.0f64);
+    for s in 0..a.len() {
+        sum += t * v[s] as f64;
+        t *= 1.0 - a[s] as f64;
+    }
+    sum
+}
+
+/// `fixtures/NAME` of this checkout.
+pub fn fixture(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+/// Renders `input` with `--quiet`, `flags` then `args` into `dir`: the flat EXR
+/// (`flat.exr`) and the deep one (`deep.exr`). A failed render fails the test.
+pub fn render_deep(dir: &Path, input: &str, flags: &[&str], args: &[&str]) -> (PathBuf, PathBuf) {
+    let (flat, deep) = (dir.join("flat.exr"), dir.join("deep.exr"));
+    let out = Command::new(super::frames::MURK)
+        .args(["render", input, "-o"])
+        .arg(&flat)
+        .arg("--deep")
+        .arg(&deep)
+        .arg("--quiet")
+        .args(flags)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "murk render {input} {flags:?} {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (flat, deep)
+}
+
+/// The slab fixture (run from the checkout's root) seen from above, orthographic, absorbing
+/// only: inside it α(d) = 1 − e^{−3 (d − 4.025)}. 16×16, float.
+pub const SLAB_VIEW: [&str; 18] = [
+    "--res",
+    "16x16",
+    "--camera",
+    "ortho",
+    "--eye",
+    "0,0,5",
+    "--look-at",
+    "0,0,0",
+    "--up",
+    "0,1,0",
+    "--ortho-width",
+    "1",
+    "--no-lights",
+    "--sigma-a",
+    "3",
+    "--sigma-s",
+    "0",
+    "--float",
+];
