@@ -184,6 +184,49 @@ fn ln_t(alpha: f64) -> f64 {
     (1.0 - alpha).max(0.0).ln()
 }
 
+/// `ln(t − tol)` and `ln(t + tol)` (the latter at most 0) from `ln_t = ln t`. Where
+/// `tol ≤ t/4`, without a logarithm: `ln(1 ± x) = 2 atanh(±x/(2 ± x))`, its series to the
+/// ninth power (the first term left out is under 1e-10 of the bound), every term of one
+/// sign, so the bounds come out a little inside the true ones, never outside.
+#[inline]
+fn ln_bounds(t: f64, ln_t: f64, tol: f64) -> (f64, f64) {
+    let hi_exact = || if t + tol >= 1.0 { 0.0 } else { (t + tol).ln() };
+    if !(4.0 * tol <= t) || !ln_t.is_finite() {
+        let lo = if t - tol <= 0.0 {
+            f64::NEG_INFINITY
+        } else {
+            (t - tol).ln()
+        };
+        return (lo, hi_exact());
+    }
+    // u± = ±tol/(2t ± tol), over one division.
+    let (p, m) = (2.0 * t + tol, 2.0 * t - tol);
+    let r = tol / (p * m);
+    let (u_hi, u_lo) = (m * r, -p * r);
+    let atanh2 = |u: f64| {
+        let u2 = u * u;
+        let poly = (((u2 * (1.0 / 9.0) + 1.0 / 7.0) * u2 + 1.0 / 5.0) * u2 + 1.0 / 3.0) * u2 + 1.0;
+        2.0 * u * poly
+    };
+    let hi = if t + tol >= 1.0 {
+        0.0
+    } else {
+        (ln_t + atanh2(u_hi)).min(0.0)
+    };
+    (ln_t + atanh2(u_lo), hi)
+}
+
+/// A point `k` seen from a cone's front `s`: depth and opacity past it (and their
+/// reciprocals), colour past it, `ln T` past it.
+struct Past {
+    dz: f64,
+    inv_dz: f64,
+    da: f64,
+    inv_da: f64,
+    dc: DVec3,
+    dl: f64,
+}
+
 impl Cone {
     /// The cone from `s`, whose `ln T` is `ln_t_s`.
     fn new(s: DeepPoint, ln_t_s: f64) -> Self {
@@ -196,46 +239,52 @@ impl Cone {
         }
     }
 
-    /// Narrows the cone by point `k` (its `ln T` is `ln_t_k`), dropped inside the merged
-    /// sample.
-    fn drop_point(&mut self, k: &DeepPoint, ln_t_k: f64, tol: f64, ctol: f64) {
+    /// Point `k` (its `ln T` is `ln_t_k`) from the front: the one division of depth and
+    /// of opacity that [`Cone::fits`] and [`Cone::drop_point`] share.
+    #[inline]
+    fn past(&self, k: &DeepPoint, ln_t_k: f64) -> Past {
         let dz = k.depth - self.s.depth;
-        if !(dz > 0.0) {
+        let da = k.alpha - self.s.alpha;
+        Past {
+            dz,
+            inv_dz: 1.0 / dz,
+            da,
+            inv_da: 1.0 / da,
+            dc: k.color - self.s.color,
+            dl: ln_t_k - self.ln_t,
+        }
+    }
+
+    /// Narrows the cone by point `k` (seen from the front as `p`), dropped inside the
+    /// merged sample.
+    #[inline]
+    fn drop_point(&mut self, k: &DeepPoint, ln_t_k: f64, p: &Past, tol: f64, ctol: f64) {
+        if !(p.dz > 0.0) {
             self.closed = true;
             return;
         }
-        let t = 1.0 - k.alpha;
         // Opacity: T at k within tol.
-        let lo = if t - tol <= 0.0 {
-            f64::NEG_INFINITY
-        } else {
-            (t - tol).ln()
-        };
-        let hi = if t + tol >= 1.0 { 0.0 } else { (t + tol).ln() };
-        let mut smin = (lo - self.ln_t) / dz;
-        let mut smax = (hi - self.ln_t) / dz;
+        let (lo, hi) = ln_bounds(1.0 - k.alpha, ln_t_k, tol);
+        let mut smin = (lo - self.ln_t) * p.inv_dz;
+        let mut smax = (hi - self.ln_t) * p.inv_dz;
         // Depth: the merged sample reaches ln T_k at s + (ΔL / slope); within
         // DEPTH_FRACTION × dz of k, where k's opacity differs from the front's by more
         // than the tolerance (where it does not, no depth sees the merged opacity off by
         // more than the tolerance, wherever it is placed).
-        let dl = ln_t_k - self.ln_t;
-        if dl.is_finite() && k.alpha - self.s.alpha > tol {
-            let near = dz * (1.0 - DEPTH_FRACTION);
-            let far = dz * (1.0 + DEPTH_FRACTION);
-            smax = smax.min(dl / far);
-            if near > 0.0 {
-                smin = smin.max(dl / near);
+        if p.dl.is_finite() && p.da > tol {
+            let per_dz = p.dl * p.inv_dz;
+            smax = smax.min(per_dz * (1.0 / (1.0 + DEPTH_FRACTION)));
+            if DEPTH_FRACTION < 1.0 {
+                smin = smin.max(per_dz * (1.0 / (1.0 - DEPTH_FRACTION)));
             }
         }
         self.slope = (self.slope.0.max(smin), self.slope.1.min(smax));
-        let da = k.alpha - self.s.alpha;
-        let dcs = k.color - self.s.color;
         // A grey change (a grey medium under white light): one channel's bounds serve all.
-        let channels = if is_grey(dcs) { 1 } else { 3 };
+        let channels = if is_grey(p.dc) { 1 } else { 3 };
         for c in 0..channels {
-            let dc = dcs[c];
-            if da > 0.0 {
-                let (a, b) = ((dc - ctol) / da, (dc + ctol) / da);
+            let dc = p.dc[c];
+            if p.da > 0.0 {
+                let (a, b) = ((dc - ctol) * p.inv_da, (dc + ctol) * p.inv_da);
                 let narrowed = if channels == 1 { 0..3 } else { c..c + 1 };
                 for bound in &mut self.color[narrowed] {
                     *bound = (bound.0.max(a), bound.1.min(b));
@@ -246,14 +295,14 @@ impl Cone {
         }
     }
 
-    /// Whether the merged sample from `s` to `j` (its `ln T` is `ln_t_j`) keeps every
+    /// Whether the merged sample from `s` to `j` (seen from the front as `p`) keeps every
     /// dropped point in tolerance.
-    fn fits(&self, j: &DeepPoint, ln_t_j: f64) -> bool {
-        let dz = j.depth - self.s.depth;
-        if self.closed || !(dz > 0.0) {
+    #[inline]
+    fn fits(&self, j: &DeepPoint, p: &Past) -> bool {
+        if self.closed || !(p.dz > 0.0) {
             return false;
         }
-        let slope = (ln_t_j - self.ln_t) / dz;
+        let slope = p.dl * p.inv_dz;
         let slope_ok = if slope == f64::NEG_INFINITY {
             self.slope.0 == f64::NEG_INFINITY
         } else {
@@ -262,20 +311,18 @@ impl Cone {
         if !slope_ok {
             return false;
         }
-        let da = j.alpha - self.s.alpha;
-        if !(da > 0.0) {
+        if !(p.da > 0.0) {
             // No opacity: every dropped point's colour was within tolerance (else the
             // cone is closed); the end's must be too.
             return self.color.iter().all(|(lo, hi)| lo <= hi)
                 && (0..3).all(|c| (j.color[c] - self.s.color[c]).abs() == 0.0);
         }
-        let dcs = j.color - self.s.color;
-        if is_grey(dcs) {
-            let sc = dcs.x / da;
+        if is_grey(p.dc) {
+            let sc = p.dc.x * p.inv_da;
             return self.color.iter().all(|(lo, hi)| sc >= *lo && sc <= *hi);
         }
         (0..3).all(|c| {
-            let sc = dcs[c] / da;
+            let sc = p.dc[c] * p.inv_da;
             sc >= self.color[c].0 && sc <= self.color[c].1
         })
     }
@@ -299,13 +346,15 @@ fn simplify_run(run: &[DeepPoint], tol: f64, color_scale: f64, out: &mut Vec<Dee
     let mut s = 0;
     for j in 1..run.len() {
         let ln_j = ln_t(run[j].alpha);
-        if j > s + 1 && !cone.fits(&run[j], ln_j) {
+        let mut past = cone.past(&run[j], ln_j);
+        if j > s + 1 && !cone.fits(&run[j], &past) {
             s = j - 1;
             out.push(run[s]);
             cone = Cone::new(run[s], ln_before);
+            past = cone.past(&run[j], ln_j);
         }
         if j + 1 < run.len() {
-            cone.drop_point(&run[j], ln_j, tol, ctol);
+            cone.drop_point(&run[j], ln_j, &past, tol, ctol);
         }
         ln_before = ln_j;
     }
