@@ -158,7 +158,9 @@ pub const DEPTH_FRACTION: f64 = 0.5;
 /// Greedy from the front, O(points): each dropped point narrows the range of slopes
 /// (of `ln T` against depth, and of colour against opacity) the merged sample may have.
 pub fn simplify(curve: &[DeepPoint], tolerance: f64, color_scale: f64) -> Vec<DeepPoint> {
-    let mut out = Vec::new();
+    // Room for what a ray through a cloud keeps (a few more than the samples it makes),
+    // so the list is not grown point by point.
+    let mut out = Vec::with_capacity(curve.len().min(32));
     let mut start = 0;
     for end in 1..=curve.len() {
         if end == curve.len() || curve[end].starts_run {

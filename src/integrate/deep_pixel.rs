@@ -102,6 +102,7 @@ fn samples_with(
     out: &mut Vec<DeepSample>,
     mut aovs: Option<(&mut AovWalk, &mut Vec<f32>)>,
 ) {
+    out.reserve(curve.len().saturating_sub(1));
     for w in curve.windows(2) {
         let (p, q) = (w[0], w[1]);
         if q.starts_run {
