@@ -451,6 +451,34 @@ mod tests {
     }
 
     #[test]
+    fn the_bracket_is_the_two_half_floats_about_a_value() {
+        for v in [
+            0.0,
+            1e-7,
+            -3e-6,
+            0.1,
+            0.333_333,
+            1.0,
+            -1.0,
+            2.0 - 1e-9,
+            1000.5,
+            65504.0,
+        ] {
+            let [a, b] = bracket(v);
+            let (lo, hi) = (a.min(b) as f64, a.max(b) as f64);
+            assert!(
+                lo <= v && v <= hi && lo < hi || v == 65504.0,
+                "{v}: {a} {b}"
+            );
+            // Adjacent: nothing half between them.
+            let mid = to_half(0.5 * (lo + hi)) as f64;
+            assert!(mid == lo || mid == hi, "{v}: {a} {b}");
+            // The nearest first.
+            assert!((a as f64 - v).abs() <= (b as f64 - v).abs(), "{v}: {a} {b}");
+        }
+    }
+
+    #[test]
     fn rounded_colour_does_not_drift_along_the_ray() {
         // 200 thin samples of alpha 0.0123…: rounded one by one, each alpha's rounding
         // (2.4e-4 relative) would add up along the ray.
@@ -547,6 +575,11 @@ mod tests {
             off(&flatten(&out)) < 1e-6,
             "{:?} against {target:?}",
             flatten(&out)
+        );
+        // A grey pixel stays grey.
+        assert!(
+            out.iter()
+                .all(|s| s.rgba[0] == s.rgba[1] && s.rgba[1] == s.rgba[2])
         );
         // Half floats still, and the opacity in front of every sample within a quarter of
         // the tolerance of what it was.
