@@ -71,7 +71,12 @@ impl Gpu {
         }))
         .map_err(|e| format!("{name}: cannot open the device ({e})"))?;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let source = [include_str!("march.wgsl"), include_str!("dsm.wgsl")].join("\n");
+        let source = [
+            include_str!("march.wgsl"),
+            include_str!("dsm.wgsl"),
+            include_str!("lattice.wgsl"),
+        ]
+        .join("\n");
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("march"),
             source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -105,6 +110,7 @@ impl Gpu {
             let source = [
                 include_str!("march.wgsl"),
                 include_str!("dsm.wgsl"),
+                include_str!("lattice.wgsl"),
                 include_str!("columns.wgsl"),
             ]
             .join("\n");

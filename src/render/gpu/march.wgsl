@@ -3,7 +3,9 @@
 // every level), segments of at most `step` voxels restarted in every cell (the first
 // shortened by the sample's jitter, longer where the cell is optically thin), each
 // segment's density from its exact integral (voxel by voxel, two-point Gauss–Legendre),
-// τ toward each light from its deep shadow map at the segment ends, early termination.
+// τ toward each light from its deep shadow map at the segment ends, early termination;
+// under `--scattering fast` each segment also gathers the lattice's multiple scattering
+// (lattice.wgsl).
 
 struct Params {
     offset: vec4<i32>,       // global index = local index + offset
@@ -30,9 +32,11 @@ struct Params {
     background: f32,
     scatters: u32,
     dsm_chunk: u32,          // words of each of dsm0, dsm1, dsm2
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
+    lattice_base: u32,       // in `meta_`: the fast mode's lattice (lattice.wgsl)
+    multiple: u32,           // 1: the lattice's multiple scattering is gathered
+    g_mean: f32,             // the phase function's mean cosine
+    lattice_lo: vec4<f32>,   // the lattice's first node (world), w: 1 / cell side
+    lattice_dims: vec4<u32>, // nodes per axis, w: nodes per light
 };
 
 struct Sample {
@@ -397,7 +401,8 @@ fn incident(l: u32, x: vec3<f32>, irr: ptr<function, vec3<f32>>) -> vec3<f32> {
 
 // Results of one sample at results[i * stride]: optical depth (rgb) and 1 where the
 // march terminated, transmittance (rgb) and the half-opacity t (−1: none), the density
-// samples taken and 0, 0, 0, then per light its scattered radiance (rgb) and 0.
+// samples taken and the multiply scattered radiance of all lights (rgb), then per light
+// its scattered radiance (rgb, every order) and 0.
 @compute @workgroup_size(64)
 fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x + id.y * 65535u * 64u;
@@ -418,6 +423,7 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     var terminated = false;
     var n = 0u;
     var per_light: array<vec3<f32>, 8>;
+    var indirect = vec3<f32>(0.0);
     var light_tau: array<vec3<f32>, 8>;
     var light_tau_ok: array<bool, 8>;
     for (var l = 0u; l < MAX_LIGHTS; l++) {
@@ -505,6 +511,14 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
                             exp_source_weight(st.y, tau0.y, tau1.y, ds),
                             exp_source_weight(st.z, tau0.z, tau1.z, ds));
                         per_light[l] += t_now * P.sigma_s.xyz * rho * ph * irr * weight;
+                        if (P.multiple != 0u) {
+                            // Multiply scattered light toward the camera, constant over
+                            // the segment: the segment's own weight.
+                            let w = ds * vec3<f32>(phi(st.x * ds), phi(st.y * ds), phi(st.z * ds));
+                            let ms = t_now * P.sigma_s.xyz * rho * multiple_toward(l, xw, -wd, travel) * w;
+                            per_light[l] += ms;
+                            indirect += ms;
+                        }
                     }
                     last_end = b;
                 }
@@ -539,6 +553,9 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     results[out + 6u] = t_now.z;
     results[out + 7u] = half_t;
     results[out + 8u] = f32(n);
+    results[out + 9u] = indirect.x;
+    results[out + 10u] = indirect.y;
+    results[out + 11u] = indirect.z;
     for (var l = 0u; l < n_lights; l++) {
         let o = out + 12u + 4u * l;
         results[o] = per_light[l].x;
