@@ -1,7 +1,8 @@
 //! What the march reads on the GPU, as flat arrays: the density grid's nodes with each
 //! slot's cell range (`tree`, `vals`), every light's deep shadow map (`dsm`), the lights,
 //! a phase table and the fast mode's multiple-scattering lattice (`meta`), and the
-//! uniform parameters, in the layouts march.wgsl, dsm.wgsl and lattice.wgsl read.
+//! uniform parameters, in the layouts grid.wgsl, march.wgsl, dsm.wgsl and lattice.wgsl
+//! read.
 
 use crate::field::VoxelGrid;
 use crate::field::grid_nodes::GridNodes;
@@ -20,13 +21,13 @@ use glam::DVec3;
 pub const SAMPLE_FLOATS: usize = 16;
 /// Floats of a result before the per-light radiance (4 a light).
 pub const RESULT_BASE: usize = 12;
-/// Where the sample count sits in the parameters (see `Params` in march.wgsl).
+/// Where the sample count sits in the parameters (see `Params` in grid.wgsl).
 pub const N_SAMPLES_AT: usize = 32;
 /// Where the shadow maps' part size sits in the parameters.
 const DSM_CHUNK_AT: usize = 44;
 /// Words of the parameters.
 const PARAM_WORDS: usize = 56;
-/// Where the grid's parts begin in the parameters (`upper_base` in march.wgsl).
+/// Where the grid's parts begin in the parameters (`upper_base` in grid.wgsl).
 const GRID_BASES_AT: usize = 36;
 /// Where the grid's background value sits in the parameters.
 const BACKGROUND_AT: usize = 42;
@@ -129,7 +130,7 @@ pub struct GridArrays {
     pub tree: Vec<u32>,
     pub vals: Vec<f32>,
     /// Words of the parameters that say where the parts begin, in the order of `Params`
-    /// in march.wgsl from `upper_base` to `lower_cells`.
+    /// in grid.wgsl from `upper_base` to `lower_cells`.
     bases: [u32; 6],
 }
 
@@ -178,7 +179,7 @@ pub fn grid_params(grid: &VoxelGrid, n: &GridNodes, arrays: &GridArrays) -> Vec<
 }
 
 /// Appends the lattice's moments (every light's nodes in turn) to `meta`; returns the
-/// parameters from `lattice_base` to `lattice_dims` in march.wgsl (all 0 but for
+/// parameters from `lattice_base` to `lattice_dims` in grid.wgsl (all 0 but for
 /// `lattice_base` without a lattice: nothing is gathered).
 fn lattice_words(s: &SceneParts, meta: &mut Vec<f32>) -> Result<[u32; 11], String> {
     let base = meta.len() as u32;
