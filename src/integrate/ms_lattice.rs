@@ -479,16 +479,14 @@ impl MsLattice {
     }
 
     /// What [`MsLattice::toward`] reads, for the GPU: the first node's world position,
-    /// 1/cell side, node counts, the phase's mean cosine, and per light the nodes' moments
-    /// (x fastest; see `values`).
-    pub fn parts(&self) -> (DVec3, f64, [usize; 3], f64, &[Vec<[f32; MOMENTS]>]) {
-        (
-            self.origin,
-            self.inv_h,
-            self.dims,
-            self.g_mean,
-            &self.values,
-        )
+    /// 1/cell side, node counts and the phase's mean cosine; [`MsLattice::moments_of`].
+    pub fn geometry(&self) -> (DVec3, f64, [usize; 3], f64) {
+        (self.origin, self.inv_h, self.dims, self.g_mean)
+    }
+
+    /// Per light, the nodes' moments (x fastest; see `values`).
+    pub fn moments_of(&self) -> &[Vec<[f32; MOMENTS]>] {
+        &self.values
     }
 
     pub fn memory_bytes(&self) -> usize {

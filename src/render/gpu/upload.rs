@@ -188,7 +188,7 @@ fn lattice_words(s: &SceneParts, meta: &mut Vec<f32>) -> Result<[u32; 11], Strin
     let Some(lattice) = s.lattice.filter(|_| s.scatters) else {
         return Ok(words);
     };
-    let (origin, inv_h, dims, g_mean, values) = lattice.parts();
+    let ((origin, inv_h, dims, g_mean), values) = (lattice.geometry(), lattice.moments_of());
     let nodes: usize = dims.iter().product();
     if values.len() != s.lights.len() || values.iter().any(|v| v.len() != nodes) || nodes == 0 {
         // An empty lattice (no light, nothing dense): nothing to gather.
