@@ -1,9 +1,10 @@
 //! Which device renders a frame under `--device`, and a frame's march on the GPU.
 
-use super::{RenderError, Result, channels, gpu, pixels};
-use crate::integrate::ScatteringMode;
+use super::{Extent, RenderError, Result, channels, gpu, pixels, render_frame};
+use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::single::SingleScattering;
-use crate::output::Frame;
+use crate::integrate::{Integrator, ScatteringMode};
+use crate::output::{DeepImage, Frame};
 use crate::render::stats::{RenderStats, Stage};
 use crate::scene::plan::Device;
 use crate::scene::progress::Progress;
@@ -14,18 +15,16 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// Builds the scene, its shadow bake's light columns marched on the GPU where the render
-/// may run there (`--device gpu|auto`, single scattering, no deep output) and a GPU opens;
+/// may run there (`--device gpu|auto`, single or fast scattering, no deep output) and a GPU opens;
 /// the GPU's marcher is returned for its times.
 pub(super) fn build_scene(
     plan: &RenderPlan,
     progress: &dyn Progress,
     reuse: &mut FrameReuse,
 ) -> Result<(Scene, Option<Arc<gpu::GpuColumns>>)> {
-    let may = plan.sampling.device != Device::Cpu
-        && plan.transport.mode == ScatteringMode::Single
-        && plan.outputs.deep.is_none();
+    let may = plan.transport.mode != ScatteringMode::Path && plan.outputs.deep.is_none();
     let columns = may
-        .then(gpu::Gpu::shared)
+        .then(|| gpu_for(plan.sampling.device))
         .and_then(|g| g.ok())
         .map(|g| Arc::new(gpu::GpuColumns::new(g)));
     reuse.columns = columns
@@ -57,6 +56,26 @@ pub(super) fn report_bake(columns: Option<&gpu::GpuColumns>, report: &mut SceneR
     }
 }
 
+/// The GPU `device` asks for: under `gpu` any adapter; under `auto` one that is not
+/// itself run on the CPU (lavapipe, SwiftShader, WARP), which renders slower than murk's
+/// own CPU path; none under `cpu`. Why not, where there is none.
+fn gpu_for(device: Device) -> std::result::Result<&'static gpu::Gpu, String> {
+    match device {
+        Device::Cpu => Err("--device cpu".into()),
+        Device::Gpu => gpu::Gpu::shared(),
+        Device::Auto => gpu::Gpu::shared().and_then(|g| {
+            if g.on_cpu {
+                Err(format!(
+                    "the only adapter, {}, runs on the CPU, slower than murk's own CPU path (--device gpu uses it)",
+                    g.name
+                ))
+            } else {
+                Ok(g)
+            }
+        }),
+    }
+}
+
 /// The GPU a render runs on under `--device gpu|auto`, or none (the CPU); and under
 /// `auto`, a note saying why the CPU renders. Under `gpu` a scene the GPU backend does not
 /// render, or no GPU, is an error naming what is missing.
@@ -73,7 +92,7 @@ pub(super) fn choose_device(
         None if plan.outputs.deep.is_some() => {
             Err("the GPU backend does not write deep samples (--deep) yet".into())
         }
-        None => gpu::Gpu::shared(),
+        None => gpu_for(device),
     };
     match opened {
         Ok(g) => Ok((Some(g), None)),
@@ -87,13 +106,55 @@ pub(super) fn choose_device(
     }
 }
 
+/// A frame's integrator on each device: on the GPU its single-scattering march, with
+/// the fast mode's lattice to gather in it; on the CPU the integrator itself.
+pub(super) struct Frontends<'a, I> {
+    pub gpu: (&'a SingleScattering<'a>, Option<&'a MsLattice>),
+    pub cpu: &'a I,
+}
+
+/// Renders the frame on the GPU `device.0` when there is one, else on the CPU; where the
+/// GPU fails under `--device auto`, on the CPU, with `device.1` the note saying why
+/// (and `device.0` none).
+pub(super) fn render_on<I: Integrator>(
+    device: (&mut Option<&'static gpu::Gpu>, &mut Option<String>),
+    on: Frontends<'_, I>,
+    scene: &Scene,
+    plan: &RenderPlan,
+    extent: &Extent,
+    progress: &dyn Progress,
+    st: &mut RenderStats,
+) -> Result<(Frame, f64, Option<DeepImage>)> {
+    let (gpu, note) = device;
+    let on_gpu = match gpu {
+        Some(g) => {
+            let (single, lattice) = on.gpu;
+            let rows = extent.rows.clone();
+            render_frame_gpu(g, single, lattice, scene, plan, rows, extent.holdout, st)?
+        }
+        None => Err(String::new()),
+    };
+    match on_gpu {
+        Ok((frame, seconds)) => Ok((frame, seconds, None)),
+        Err(why) => {
+            if gpu.take().is_some() {
+                // Under auto only: `gpu` turned the failure into an error.
+                *note = Some(format!("--device auto rendered on the CPU: {why}"));
+            }
+            render_frame(on.cpu, scene, plan, extent, progress, st)
+        }
+    }
+}
+
 /// [`render_frame`] with the march on `gpu`: the stages `gpu_upload` and `render` (rays,
 /// march and readback) go in the stats. What failed on the GPU (a grid over its buffer
 /// limit, say) is an error under `--device gpu`, and the inner `Err` (the CPU renders
 /// instead) under `auto`.
-pub(super) fn render_frame_gpu(
+#[allow(clippy::too_many_arguments)]
+fn render_frame_gpu(
     gpu: &gpu::Gpu,
     integrator: &SingleScattering,
+    lattice: Option<&MsLattice>,
     scene: &Scene,
     plan: &RenderPlan,
     rows: std::ops::Range<usize>,
@@ -115,7 +176,7 @@ pub(super) fn render_frame_gpu(
         camera_motion: None,
         overscan: plan.camera.overscan,
     };
-    let (passes, times) = match gpu::render_pixels(gpu, scene, &job) {
+    let (passes, times) = match gpu::render_pixels(gpu, scene, lattice, &job) {
         Ok(done) => done,
         Err(why) if plan.sampling.device == Device::Auto => return Ok(Err(why)),
         Err(why) => return Err(RenderError::Device(format!("--device gpu: {why}"))),

@@ -15,7 +15,15 @@ pub struct Gpu {
     /// The adapter as it names itself, its device type and backend.
     pub name: String,
     pub limits: wgpu::Limits,
+    /// A device that runs on the CPU (Mesa's lavapipe, SwiftShader, WARP): `--device
+    /// auto` does not take it, as murk's own CPU path renders faster.
+    pub on_cpu: bool,
 }
+
+/// What the march and the column march share (WGSL has no include): the parameters,
+/// the grid's nodes and their lookups, rays and the voxel-cell walk; compiled before
+/// each one's own source.
+const GRID_WGSL: &str = include_str!("grid.wgsl");
 
 /// Storage buffers the march binds.
 const STORAGE_BUFFERS: u32 = 8;
@@ -71,7 +79,13 @@ impl Gpu {
         }))
         .map_err(|e| format!("{name}: cannot open the device ({e})"))?;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let source = [include_str!("march.wgsl"), include_str!("dsm.wgsl")].join("\n");
+        let source = [
+            GRID_WGSL,
+            include_str!("march.wgsl"),
+            include_str!("dsm.wgsl"),
+            include_str!("lattice.wgsl"),
+        ]
+        .join("\n");
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("march"),
             source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -94,20 +108,16 @@ impl Gpu {
             columns: std::sync::OnceLock::new(),
             name,
             limits,
+            on_cpu: info.device_type == wgpu::DeviceType::Cpu,
         })
     }
 
-    /// The shadow bake's column march (columns.wgsl, with the tree lookups of
-    /// march.wgsl), compiled on first use.
+    /// The shadow bake's column march (columns.wgsl, after grid.wgsl), compiled on
+    /// first use.
     pub(super) fn columns_pipeline(&self) -> Result<&wgpu::ComputePipeline, String> {
         let compiled = self.columns.get_or_init(|| {
             let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-            let source = [
-                include_str!("march.wgsl"),
-                include_str!("dsm.wgsl"),
-                include_str!("columns.wgsl"),
-            ]
-            .join("\n");
+            let source = [GRID_WGSL, include_str!("columns.wgsl")].join("\n");
             let module = self
                 .device
                 .create_shader_module(wgpu::ShaderModuleDescriptor {
