@@ -4,7 +4,7 @@
 //! every segment that holds anything, the ray's opacity so far (`A`, the same mean over
 //! the channels as the flat alpha) and premultiplied colour so far (`C`). Empty space
 //! between such segments is a gap. The pixel loop turns the traces of a pixel's rays
-//! into deep samples ([`pixel_samples`], in `integrate::deep_pixel`): the mean of the
+//! into deep samples (`integrate::deep_pixel`'s `pixel_samples`): the mean of the
 //! rays' curves, thinned by [`simplify`] (here), each kept interval one sample
 //! `(Z, ZBack, colour, alpha)` with `alpha = 1 − T₁/T₀` and `colour = (C₁ − C₀)/T₀`
 //! (`T = 1 − A`). Flattening the samples front to back with "over" gives back the
@@ -15,9 +15,6 @@ use glam::DVec3;
 
 pub use super::deep_aovs::{
     AOV_EMISSION, AOV_INDIRECT, AOV_LIGHTS, DeepAov, aov_width, select_aovs,
-};
-pub use super::deep_pixel::{
-    DeepPixel, DeepSample, PixelAovs, flatten, mean_curve, pixel_samples, samples_of,
 };
 
 /// One point of a ray's or a pixel's cumulative curves.
@@ -366,5 +363,31 @@ fn simplify_run(run: &[DeepPoint], tol: f64, color_scale: f64, out: &mut Vec<Dee
 }
 
 #[cfg(test)]
-#[path = "deep_tests.rs"]
-mod tests;
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_opacity_bounds_without_logarithms_are_the_logarithms_or_just_inside() {
+        for tol in [0.0, 0.002, 0.005, 0.01, 0.05] {
+            for k in 0..=2000 {
+                let t = k as f64 / 2000.0;
+                let (lo, hi) = ln_bounds(t, t.ln(), tol);
+                let lo_exact = if t - tol <= 0.0 {
+                    f64::NEG_INFINITY
+                } else {
+                    (t - tol).ln()
+                };
+                let hi_exact = if t + tol >= 1.0 { 0.0 } else { (t + tol).ln() };
+                let near = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-10;
+                assert!(
+                    near(lo, lo_exact) && lo >= lo_exact - 1e-15,
+                    "{t} {tol}: lo {lo} against {lo_exact}"
+                );
+                assert!(
+                    near(hi, hi_exact) && hi <= hi_exact + 1e-15,
+                    "{t} {tol}: hi {hi} against {hi_exact}"
+                );
+            }
+        }
+    }
+}

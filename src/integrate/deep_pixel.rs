@@ -5,7 +5,8 @@
 
 use glam::DVec3;
 
-use super::deep::{DeepAov, DeepPoint, simplify};
+use super::deep::{DeepPoint, simplify};
+use super::deep_aovs::DeepAov;
 
 /// One deep sample as written: camera-space depths and premultiplied colour and alpha.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -304,3 +305,7 @@ pub fn flatten(samples: &[DeepSample]) -> [f64; 4] {
     }
     [c.x, c.y, c.z, 1.0 - t]
 }
+
+#[cfg(test)]
+#[path = "deep_tests.rs"]
+mod tests;
