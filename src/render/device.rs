@@ -113,6 +113,7 @@ pub(super) fn render_frame_gpu(
         holdout,
         shutter: None,
         camera_motion: None,
+        centred: false,
         overscan: plan.camera.overscan,
     };
     let (passes, times) = match gpu::render_pixels(gpu, scene, &job) {

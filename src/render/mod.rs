@@ -484,6 +484,11 @@ fn render_frame<I: Integrator>(
         holdout: extent.holdout,
         shutter: plan.motion.shutter,
         camera_motion: scene.camera_motion.as_ref(),
+        centred: st
+            .error_budget
+            .as_ref()
+            .and_then(|b| b.shutter_noise.as_ref())
+            .is_some_and(|n| n.centred),
         overscan: plan.camera.overscan,
     };
     progress.start("rendering", job.tiles() as u64, "tiles");

@@ -42,6 +42,10 @@ fn render(dir: &Path, input: &str, out: &str, extra: &[&str]) -> serde_json::Val
     serde_json::from_str(&std::fs::read_to_string(dir.join(&stats)).unwrap()).unwrap()
 }
 
+fn spp_of(stats: &serde_json::Value) -> u64 {
+    stats["spp"].as_u64().unwrap()
+}
+
 /// ‖a − b‖ / ‖b‖ over the beauty's R, G and B.
 fn relative_error(a: &Path, b: &Path) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
@@ -55,10 +59,12 @@ fn relative_error(a: &Path, b: &Path) -> f64 {
 }
 
 /// The blurred box at `--max-error 0.03`: murk takes more than one sample a pixel for
-/// the shutter's noise, predicts an error within 0.03, and the image meets it against a
-/// reference of 512 samples a pixel at a fine step, no termination and a tight shadow
-/// map. Without the noise's term it keeps one sample a pixel and measures 0.065. At an
-/// explicit `--spp 2` the prediction and the measurement agree within 2×.
+/// the shutter's noise, predicts an error within 0.03, and the image meets it against
+/// the same pixel centres converged (`--max-error 0.002`: many times, a fine step, a
+/// tight map). Without the noise's term it keeps one sample a pixel and misses it
+/// (0.065). At an explicit `--spp 2` (samples jittered over the pixel) the prediction
+/// and the measurement against 512 samples a pixel at a fine step, no termination and a
+/// tight map agree within 2×.
 #[test]
 fn max_error_chooses_the_samples_that_meet_it_with_the_shutter_open() {
     need!(tools::PYOPENVDB);
@@ -88,7 +94,17 @@ fn max_error_chooses_the_samples_that_meet_it_with_the_shutter_open() {
         &[&shutter[..], &["--max-error", "0.03"]].concat(),
     );
     let budget = &stats["error_budget"];
-    let measured = relative_error(&dir.join("budget.exr"), &dir.join("reference.exr"));
+    // Against the same pixels converged: their centres at a fine step, no termination
+    // to speak of, a tight map and many times.
+    let fine = render(
+        &dir,
+        "moving.vdb",
+        "fine.exr",
+        &[&shutter[..], &["--max-error", "0.002"]].concat(),
+    );
+    let fine_noise = &fine["error_budget"]["shutter_noise"];
+    assert!(fine_noise["centred"] == true && fine["spp"].as_u64().unwrap() > 4 * spp_of(&stats));
+    let measured = relative_error(&dir.join("budget.exr"), &dir.join("fine.exr"));
     assert!(
         measured <= e,
         "measured {measured} at {} samples a pixel: {budget}",

@@ -51,6 +51,10 @@ pub struct NoiseReport {
     /// Samples a pixel: chosen, or `--spp` as given.
     pub spp: u32,
     pub spp_given: bool,
+    /// The samples are taken at each pixel's centre, spread over the shutter only (edges
+    /// antialiased as at one sample a pixel); false with `--spp` given (jittered over
+    /// the pixel as without `--max-error`).
+    pub centred: bool,
     /// The noise's share of the error, and the noise measured at `spp`.
     pub share: f64,
     pub error: f64,
@@ -85,6 +89,7 @@ pub fn choose_spp<I: Integrator>(
     NoiseReport {
         spp,
         spp_given: shutter.given_spp.is_some(),
+        centred: shutter.given_spp.is_none(),
         share,
         error,
         order,
@@ -183,6 +188,7 @@ fn pixel_means<I: Integrator>(
         holdout: None,
         shutter: Some(shutter.shutter),
         camera_motion: shutter.camera_motion,
+        centred: shutter.given_spp.is_none(),
         overscan: shutter.overscan,
     };
     let layout = integrator.passes().clone();
