@@ -4,23 +4,16 @@
 
 use super::cli::write_caches;
 use super::common::frames::{ok, scratch};
+use super::common::motion::BOX_CAMERA;
 use super::common::tools;
 use super::common::volumes::channel;
 use crate::need;
 use std::path::Path;
 
-/// The moving box of [`write_caches`] seen from the front, lit by the default sun and
+/// The moving box of [`write_caches`] seen from the front ([`BOX_CAMERA`]), lit by the default sun and
 /// scattering: its +x edge blurs into a ramp 0.5 wide at 24 units a second over a 180°
 /// shutter at 24 fps.
-const LIT_VIEW: [&str; 18] = [
-    "--camera",
-    "ortho",
-    "--eye",
-    "1.95,1,5",
-    "--look-at",
-    "1.95,1,0",
-    "--ortho-width",
-    "3.2",
+const LIT_LOOK: [&str; 10] = [
     "--res",
     "32x4",
     "--sigma-a",
@@ -36,7 +29,8 @@ const LIT_VIEW: [&str; 18] = [
 fn render(dir: &Path, input: &str, out: &str, extra: &[&str]) -> serde_json::Value {
     let stats = format!("{out}.json");
     let mut args = vec!["render", input, "-o", out, "--stats", &stats];
-    args.extend(LIT_VIEW);
+    args.extend(BOX_CAMERA);
+    args.extend(LIT_LOOK);
     args.extend(extra);
     ok(dir, &args);
     serde_json::from_str(&std::fs::read_to_string(dir.join(&stats)).unwrap()).unwrap()
