@@ -230,7 +230,7 @@ render_options! {
     /// refuses --shadows dsm|none and a non-zero --termination.
     reference: bool = (Quality, "", NoDefault, Render);
     /// Samples per pixel (1: the pixel centre).
-    spp: Option<u32> = (Quality, "N", Value("1"), Render);
+    spp: Option<u32> = (Quality, "N", Described("1; chosen by --max-error where something moves while --shutter is open"), Render);
     /// At one sample a pixel, silhouette pixels (alpha differs from a neighbour's by more
     /// than 0.1) are rendered again as N×N stratified samples (1: pixel centres only).
     antialias: Option<u32> = (Quality, "N", Value("4"), Render);
