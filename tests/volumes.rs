@@ -351,8 +351,15 @@ fn bad_volume_keys_are_refused_naming_the_scene_file() {
         (key("1", "shear = 1\n"), "unknown key `shear`"),
         (
             "matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n".to_string()
-                + &key("1", ""),
-            "matrix",
+                + &key("1", "translate = [1, 0, 0]\n"),
+            "keyed by `matrix`",
+        ),
+        (
+            key(
+                "1",
+                "matrix = [[1, 0.5, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n",
+            ),
+            "shears the volume",
         ),
     ]
     .into_iter()

@@ -43,6 +43,37 @@ pub fn oiio_info(path: &Path) -> String {
     )
 }
 
+/// Each `--compression` name murk writes and how exrheader names it.
+pub const COMPRESSIONS: [(&str, &str); 6] = [
+    ("none", "none"),
+    ("rle", "run-length encoding"),
+    ("zips", "zip, individual scanlines"),
+    ("zip", "zip, multi-scanline blocks"),
+    ("piz", "piz"),
+    ("dwaa", "dwa, small scanline blocks"),
+];
+
+/// Asserts that exrheader and oiiotool both read the file's compression as `name`
+/// (one of [`COMPRESSIONS`]).
+pub fn assert_compression_named(path: &Path, name: &str) {
+    let exrheader_name = COMPRESSIONS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .unwrap_or_else(|| panic!("no compression named {name}"))
+        .1;
+    let h = exrheader(path);
+    let line = format!("compression (type compression): {exrheader_name}");
+    assert!(
+        h.lines().any(|l| l == line),
+        "{name}: exrheader lacks `{line}`:\n{h}"
+    );
+    let info = oiio_info(path);
+    assert!(
+        info.contains(&format!("compression: \"{name}\"")),
+        "{name}: oiiotool says otherwise:\n{info}"
+    );
+}
+
 /// The channel list printed by exrheader: (name, type), in file order.
 pub fn exrheader_channels(header: &str) -> Vec<(String, String)> {
     header

@@ -61,3 +61,28 @@ fn a_keyed_volume_blurs_as_the_closed_form_says() {
     assert!(err.contains("no volume moves"), "{err}");
     assert_eq!(bits("vel-none.exr"), bits("plain.exr"));
 }
+
+/// A `[[volume]]` placed by `matrix` and keyed by matrices (the same motion along +x,
+/// as a pure translation each) blurs into the same closed-form ramp.
+#[test]
+fn a_volume_keyed_by_matrices_blurs_as_the_closed_form_says() {
+    need!(tools::PYOPENVDB);
+    let dir = scratch("motion-keyed-matrix");
+    write_caches(&dir, 24.0);
+    let at =
+        |x: i32| format!("matrix = [[1, 0, 0, {x}], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]");
+    let text = format!(
+        "[[volume]]\nfile = \"still.vdb\"\n{}\n[[volume.keys]]\nframe = 1\n{}\n[[volume.keys]]\nframe = 3\n{}\n",
+        at(0),
+        at(-1),
+        at(1)
+    );
+    std::fs::write(dir.join("matrix.toml"), text).unwrap();
+    render(
+        &dir,
+        "matrix.toml",
+        "matrix.exr",
+        &["--frames", "2", "--shutter", "-0.25,0.25"],
+    );
+    assert_ramp(&dir.join("matrix.exr"), 0.5);
+}

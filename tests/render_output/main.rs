@@ -11,7 +11,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 use common::tools;
-use common::{exrheader, exrheader_channels, oiio_info};
+use common::{COMPRESSIONS, assert_compression_named, exrheader, exrheader_channels, oiio_info};
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;

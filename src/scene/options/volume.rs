@@ -29,8 +29,8 @@ pub struct VolumeTable {
     #[serde(default)]
     pub matrix: Option<[[f64; 4]; 4]>,
     /// `[[volume.keys]]`: the placement keyed at frames (`frame = N` and any of
-    /// translate, rotate, scale; the others the table's), interpolated between keys and
-    /// held before the first and after the last.
+    /// translate, rotate, scale, the others the table's; or a `matrix`), interpolated
+    /// between keys and held before the first and after the last.
     #[serde(default)]
     pub keys: Vec<VolumeKey>,
     /// As the scene's `density_grid`, for this volume.
@@ -82,6 +82,10 @@ pub struct VolumeKey {
     pub rotate: Option<[f64; 3]>,
     #[serde(default)]
     pub scale: Option<Scale>,
+    /// The placement at this frame as a matrix (rows, as the table's `matrix`), instead
+    /// of translate/rotate/scale: keys of a volume placed by `matrix`.
+    #[serde(default)]
+    pub matrix: Option<[[f64; 4]; 4]>,
 }
 
 /// A uniform or per-axis scale.
@@ -93,4 +97,4 @@ pub enum Scale {
 }
 
 /// The `[[volume]]` row of docs/scene-file.md.
-pub const VOLUME_ROW: &str = "| `[[volume]]` | `file`, `name`, `translate`, `rotate`, `scale`, `matrix`, `[[volume.keys]]` with `frame`, `density_grid`, `sigma_a`, `sigma_s`, `density_scale`, `emission_grid`, `temperature_grid`, `color_grid`, `emission_color`, `emission_intensity`, `temperature_scale`, `temperature_offset`, `blackbody_intensity` | a volume placed in the world (scene files only, instead of `input`): `name` (letters, digits, `_`, `-`; default `volume1`, `volume2`, … in order) names its alpha layer `volume_<name>.A` (written with two or more volumes); `file` relative to the scene file, read once however often it is listed with the same grids and emission; `translate = [x, y, z]`, `rotate = [x, y, z]` (degrees about the world axes, in that order), `scale = s` or `[x, y, z]` (applied scale, rotate, translate) or `matrix` (four rows, translation in the last column); `[[volume.keys]]` with `frame = N` and any of `translate`, `rotate`, `scale` key the placement per frame (the others the table's; frames increasing; between keys translation and scale linear, rotation along the shortest arc; held outside the keys), so that with `shutter` the volume blurs along its motion; the grid, medium and emission keys as the scene's, for this volume (unset: the scene's). Where volumes overlap their coefficients and emission add. |\n";
+pub const VOLUME_ROW: &str = "| `[[volume]]` | `file`, `name`, `translate`, `rotate`, `scale`, `matrix`, `[[volume.keys]]` with `frame`, `density_grid`, `sigma_a`, `sigma_s`, `density_scale`, `emission_grid`, `temperature_grid`, `color_grid`, `emission_color`, `emission_intensity`, `temperature_scale`, `temperature_offset`, `blackbody_intensity` | a volume placed in the world (scene files only, instead of `input`): `name` (letters, digits, `_`, `-`; default `volume1`, `volume2`, … in order) names its alpha layer `volume_<name>.A` (written with two or more volumes); `file` relative to the scene file, read once however often it is listed with the same grids and emission; `translate = [x, y, z]`, `rotate = [x, y, z]` (degrees about the world axes, in that order), `scale = s` or `[x, y, z]` (applied scale, rotate, translate) or `matrix` (four rows, translation in the last column); `[[volume.keys]]` with `frame = N` and any of `translate`, `rotate`, `scale` (the others the table's), or a `matrix` (a volume placed by `matrix` is keyed by matrices, without shear), key the placement per frame (frames increasing; between keys translation and scale linear, rotation along the shortest arc; held outside the keys), so that with `shutter` the volume blurs along its motion; the grid, medium and emission keys as the scene's, for this volume (unset: the scene's). Where volumes overlap their coefficients and emission add. |\n";

@@ -1,5 +1,6 @@
 //! A `[[volume]]`'s placement keyed at frames (`[[volume.keys]]`), as the `[camera]`
-//! table keys the camera: each key's translate, rotate and scale over the table's, the
+//! table keys the camera: each key's translate, rotate and scale over the table's (or,
+//! for a volume placed by `matrix`, each key's matrix taken apart into those three), the
 //! placement between two keys translated and scaled linearly and turned along the
 //! shortest arc between the keys' rotations, held before the first key and after the last.
 
@@ -43,6 +44,46 @@ pub fn scale_of(s: Option<Scale>) -> DVec3 {
     }
 }
 
+/// The matrix given as four rows, the translation in the last column; one line saying
+/// what is wrong with it otherwise.
+pub fn matrix_from_rows(rows: [[f64; 4]; 4], at: &str) -> Result<DMat4, String> {
+    if rows[3] != [0.0, 0.0, 0.0, 1.0] {
+        return Err(format!(
+            "{at}: the matrix's last row must be [0, 0, 0, 1] (rows, the translation in the last column; a matrix written by rows of a row-vector convention is its transpose)"
+        ));
+    }
+    Ok(DMat4::from_cols_array_2d(&rows).transpose())
+}
+
+/// A keyed matrix as translate, rotate and scale, which keys interpolate; one line
+/// saying why not where it has a shear (which they cannot carry) or is singular.
+fn decomposed(m: DMat4, at: &str) -> Result<(DVec3, DQuat, DVec3), String> {
+    if !m.is_finite() {
+        return Err(format!("{at}: a value is not a finite number"));
+    }
+    if m.determinant().abs() < 1e-12 {
+        return Err(format!(
+            "{at}: the matrix is singular: it flattens the volume"
+        ));
+    }
+    let (scale, rotate, translate) = m.to_scale_rotation_translation();
+    let again = DMat4::from_scale_rotation_translation(scale, rotate, translate);
+    let size = m
+        .to_cols_array()
+        .iter()
+        .fold(1.0_f64, |a, v| a.max(v.abs()));
+    let off = (again - m)
+        .to_cols_array()
+        .iter()
+        .fold(0.0_f64, |a, v| a.max(v.abs()));
+    if !(off <= 1e-9 * size) {
+        return Err(format!(
+            "{at}: the matrix shears the volume; keys are interpolated as scale, rotation and translation, which cannot hold a shear"
+        ));
+    }
+    Ok((translate, rotate, scale))
+}
+
 impl PlacementKeys {
     /// The keys of table `v` (named `name`), `None` without any; one line saying what is
     /// wrong with them otherwise.
@@ -51,29 +92,47 @@ impl PlacementKeys {
             return Ok(None);
         }
         let at = format!("[[volume]] \"{name}\"");
-        if v.matrix.is_some() {
-            return Err(format!(
-                "{at}: [[volume.keys]] key translate, rotate and scale: a volume placed by `matrix` is not keyed"
-            ));
-        }
         let key = |k: &VolumeKey| -> Result<PlacementKey, String> {
             let frame = k.frame;
+            let key_at = format!("{at}: [[volume.keys]] at frame {frame}");
+            let moved = k.translate.is_some() || k.rotate.is_some() || k.scale.is_some();
+            let rows = match (k.matrix, v.matrix) {
+                (Some(_), _) if moved => {
+                    return Err(format!(
+                        "{key_at}: `matrix` replaces translate/rotate/scale; give one or the other"
+                    ));
+                }
+                (Some(rows), _) => Some(rows),
+                (None, Some(_)) if moved => {
+                    return Err(format!(
+                        "{key_at}: a volume placed by `matrix` is keyed by `matrix`, not translate/rotate/scale"
+                    ));
+                }
+                (None, table) => table,
+            };
+            if !frame.is_finite() {
+                return Err(format!("{key_at}: a value is not a finite number"));
+            }
+            if let Some(rows) = rows {
+                let (translate, rotate, scale) =
+                    decomposed(matrix_from_rows(rows, &key_at)?, &key_at)?;
+                return Ok(PlacementKey {
+                    frame,
+                    translate,
+                    rotate,
+                    scale,
+                });
+            }
             let translate = DVec3::from_array(k.translate.or(v.translate).unwrap_or([0.0; 3]));
             let degrees = k.rotate.or(v.rotate).unwrap_or([0.0; 3]);
             let scale = scale_of(k.scale.or(v.scale));
-            let finite = frame.is_finite()
-                && translate.is_finite()
-                && degrees.iter().all(|d| d.is_finite())
-                && scale.is_finite();
+            let finite =
+                translate.is_finite() && degrees.iter().all(|d| d.is_finite()) && scale.is_finite();
             if !finite {
-                return Err(format!(
-                    "{at}: [[volume.keys]] at frame {frame}: a value is not a finite number"
-                ));
+                return Err(format!("{key_at}: a value is not a finite number"));
             }
             if scale.abs().min_element() < 1e-9 {
-                return Err(format!(
-                    "{at}: [[volume.keys]] at frame {frame}: a scale of 0 flattens the volume"
-                ));
+                return Err(format!("{key_at}: a scale of 0 flattens the volume"));
             }
             Ok(PlacementKey {
                 frame,
@@ -200,6 +259,47 @@ mod tests {
         assert_eq!(k.sample_frames(0.0, 2.0, 2), vec![0.0, 0.5, 1.0, 1.5, 2.0]);
     }
 
+    /// Keys given as matrices move the volume as the same keys given as translate,
+    /// rotate and scale: each matrix is taken apart into those, a mirrored one included.
+    #[test]
+    fn matrix_keys_move_as_their_translate_rotate_and_scale() {
+        let rows = |t: [f64; 3], degrees: [f64; 3], s: [f64; 3]| {
+            let m = DMat4::from_scale_rotation_translation(
+                DVec3::from_array(s),
+                rotation(degrees),
+                DVec3::from_array(t),
+            );
+            format!("{:?}", m.transpose().to_cols_array_2d())
+        };
+        for s in [[2.0, 2.0, 2.0], [-1.0, 3.0, 0.5]] {
+            let (t0, r0, t1, r1) = (
+                [0.0, 1.0, 0.0],
+                [10.0, 0.0, 0.0],
+                [4.0, 0.0, 2.0],
+                [0.0, 90.0, 30.0],
+            );
+            let by_matrix = table(&format!(
+                "file = \"a\"\nmatrix = {}\n[[keys]]\nframe = 1\n[[keys]]\nframe = 3\nmatrix = {}\n",
+                rows(t0, r0, s),
+                rows(t1, r1, s)
+            ));
+            let by_parts = table(&format!(
+                "file = \"a\"\nscale = {s:?}\n[[keys]]\nframe = 1\ntranslate = {t0:?}\nrotate = {r0:?}\n[[keys]]\nframe = 3\ntranslate = {t1:?}\nrotate = {r1:?}\n"
+            ));
+            let a = PlacementKeys::of_table(&by_matrix, "v").unwrap().unwrap();
+            let b = PlacementKeys::of_table(&by_parts, "v").unwrap().unwrap();
+            for f in [0.0, 1.0, 1.5, 2.0, 2.75, 3.0, 9.0] {
+                for p in [DVec3::X, DVec3::new(0.3, -2.0, 1.0)] {
+                    let (pa, pb) = (a.at(f).transform_point3(p), b.at(f).transform_point3(p));
+                    assert!(
+                        (pa - pb).length() < 1e-9,
+                        "scale {s:?} frame {f}: {pa} != {pb}"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn bad_keys_are_refused_saying_why() {
         let e = |text: &str| PlacementKeys::of_table(&table(text), "v").unwrap_err();
@@ -221,7 +321,25 @@ mod tests {
             e("file = \"a\"\n[[keys]]\nframe = 1\nscale = 1\n[[keys]]\nframe = 2\nscale = -1\n")
                 .contains("changes sign")
         );
-        assert!(e("file = \"a\"\nmatrix = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\n[[keys]]\nframe = 1\n").contains("matrix"));
+        let m = "matrix = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]";
+        assert!(
+            e(&format!(
+                "file = \"a\"\n{m}\n[[keys]]\nframe = 1\ntranslate = [1, 0, 0]\n"
+            ))
+            .contains("keyed by `matrix`")
+        );
+        assert!(
+            e(&format!(
+                "file = \"a\"\n[[keys]]\nframe = 1\nscale = 2\n{m}\n"
+            ))
+            .contains("replaces translate/rotate/scale")
+        );
+        let shear = "matrix = [[1,0.5,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]";
+        assert!(e(&format!("file = \"a\"\n[[keys]]\nframe = 1\n{shear}\n")).contains("shears"));
+        let flat = "matrix = [[1,0,0,0],[0,0,0,0],[0,0,1,0],[0,0,0,1]]";
+        assert!(e(&format!("file = \"a\"\n[[keys]]\nframe = 1\n{flat}\n")).contains("singular"));
+        let row = "matrix = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[1,0,0,1]]";
+        assert!(e(&format!("file = \"a\"\n[[keys]]\nframe = 1\n{row}\n")).contains("last row"));
         assert!(
             toml::from_str::<VolumeTable>("file = \"a\"\n[[keys]]\nframe = 1\nshear = 2\n")
                 .is_err()

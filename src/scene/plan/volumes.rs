@@ -9,7 +9,7 @@
 //! (`field::sum::AlbedoMix`), which gives σs(x) = Σ σs,ᵢ·sᵢ·ρᵢ(x) exactly.
 
 use super::look::{EmissionPlan, GridChoice, GridRoles, medium};
-use super::volume_keys::{PlacementKeys, rotation, scale_of};
+use super::volume_keys::{PlacementKeys, matrix_from_rows, rotation, scale_of};
 use crate::integrate::Medium;
 use crate::scene::options::RenderOptions;
 use crate::scene::options::volume::VolumeTable;
@@ -78,12 +78,7 @@ fn placement(v: &VolumeTable, name: &str) -> Result<DMat4, String> {
                     "{at}: `matrix` replaces translate/rotate/scale; give one or the other"
                 ));
             }
-            if rows[3] != [0.0, 0.0, 0.0, 1.0] {
-                return Err(format!(
-                    "{at}: the matrix's last row must be [0, 0, 0, 1] (rows, the translation in the last column; a matrix written by rows of a row-vector convention is its transpose)"
-                ));
-            }
-            DMat4::from_cols_array_2d(&rows).transpose()
+            matrix_from_rows(rows, &at)?
         }
         None => {
             let scale = scale_of(v.scale);
