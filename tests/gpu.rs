@@ -1,5 +1,6 @@
-//! `--device gpu|auto`: the GPU backend against the CPU's image on fixtures, a closed
-//! form, determinism, and what it refuses. The GPU is Mesa's lavapipe (Vulkan on the
+//! `--device gpu|auto`: the GPU backend against the CPU's image on fixtures (single
+//! scattering, and fast with the CPU's lattice gathered on the GPU), a closed form,
+//! determinism, and what it refuses. The GPU is Mesa's lavapipe (Vulkan on the
 //! CPU), so these run on any machine that has it, and skip where it is missing. Images
 //! are small: lavapipe is slow on two cores.
 
@@ -89,8 +90,10 @@ fn rmse(a: &[f32], b: &[f32]) -> f64 {
 }
 
 /// The GPU's image of `input` against the CPU's: beauty, every scatter layer, alpha and
-/// Z within the tolerances. Returns the beauty's relative RMSE.
-fn gpu_matches_cpu(input: &str, o: &RenderOptions) -> f64 {
+/// Z within the tolerances. Returns the beauty's relative RMSE and, under fast, the
+/// CPU's `indirect` layer over its beauty (R): how much of the image the lattice's
+/// multiple scattering is (0 without it).
+fn gpu_matches_cpu(input: &str, o: &RenderOptions) -> (f64, f64) {
     let cpu = render(input, o, Device::Cpu);
     let gpu = render(input, o, Device::Gpu);
     assert_eq!(cpu.stats.device, "cpu");
@@ -152,14 +155,46 @@ fn gpu_matches_cpu(input: &str, o: &RenderOptions) -> f64 {
     );
     let mean: f64 = plane(&cpu, "R").iter().map(|v| *v as f64).sum::<f64>();
     assert!(mean > 0.0, "{input}: a black image proves nothing");
+    let mut indirect = 0.0;
+    if o.scattering == Some(ScatteringMode::Fast) {
+        // The lattice was solved once per light, on the CPU, for both; its light is in
+        // the `indirect` layer, compared above.
+        assert!(stage("multiple_scattering").is_some_and(|s| s > 0.0));
+        indirect = plane(&cpu, "indirect.R")
+            .iter()
+            .map(|v| *v as f64)
+            .sum::<f64>()
+            / mean;
+    }
+    (beauty, indirect)
+}
+
+/// [`gpu_matches_cpu`] under fast, where the lattice's light is more of the image than
+/// the tolerance (so a march that dropped it would miss the beauty as well as the
+/// `indirect` layer).
+fn gpu_gathers_the_cpus_lattice(input: &str, o: &RenderOptions) -> f64 {
+    let (beauty, indirect) = gpu_matches_cpu(input, &fast(o));
+    assert!(
+        indirect > 10.0 * RADIANCE_RMSE,
+        "{input}: the lattice's light is {indirect:e} of the image"
+    );
+    eprintln!("{input}, fast: radiance rel. RMSE {beauty:e}, indirect {indirect:.3} of it");
     beauty
+}
+
+/// `o` with the fast multiple-scattering approximation (the default render's).
+fn fast(o: &RenderOptions) -> RenderOptions {
+    RenderOptions {
+        scattering: Some(ScatteringMode::Fast),
+        ..o.clone()
+    }
 }
 
 #[test]
 fn the_gpu_renders_the_cpus_image_of_the_demo_cloud() {
     need!(tools::LAVAPIPE);
     use_lavapipe();
-    let e = gpu_matches_cpu("cloud.vdb", &options("40x24"));
+    let (e, _) = gpu_matches_cpu("cloud.vdb", &options("40x24"));
     eprintln!("cloud: radiance rel. RMSE {e:e}");
 }
 
@@ -190,6 +225,37 @@ fn the_gpu_looks_shadows_up_in_point_lights_cube_maps_and_anisotropic_media() {
     o.g = Some(0.9);
     o.light = vec!["sun:-0.2,0.1,-1:1,1,1:6".into()];
     gpu_matches_cpu("sphere.vdb", &o);
+}
+
+#[test]
+fn the_gpu_gathers_the_fast_lattice_as_the_cpu_does_on_the_demo_cloud() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    gpu_gathers_the_cpus_lattice("cloud.vdb", &options("40x24"));
+}
+
+#[test]
+fn the_gpu_gathers_the_fast_lattice_on_tiles_rotated_grids_and_several_lights() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    // tiles.vdb's lattice spans its 4096³ tile: its cells are coarser than the leaves
+    // that scatter, so little of its image is multiply scattered; equal all the same.
+    gpu_matches_cpu("tiles.vdb", &fast(&options("32x18")));
+    gpu_gathers_the_cpus_lattice("rotated.vdb", &options("32x18"));
+    // Two lights (a lattice and a layer each), a point light's cube map, a coloured
+    // medium; a forward-peaked phase function (the lattice's similarity and ḡ² lobe).
+    let mut o = options("32x18");
+    o.light = vec![
+        "sun:0.3,1,0.2:1,0.9,0.8:4".into(),
+        "point:2,2,3:0.6,0.8,1:30".into(),
+    ];
+    o.sigma_a = Some("0.1,0.2,0.4".into());
+    o.sigma_s = Some("3,2.5,2".into());
+    gpu_gathers_the_cpus_lattice("cloud.vdb", &o);
+    let mut o = options("32x18");
+    o.g = Some(0.9);
+    o.light = vec!["sun:-0.2,0.1,-1:1,1,1:6".into()];
+    gpu_gathers_the_cpus_lattice("sphere.vdb", &o);
 }
 
 #[test]
@@ -259,6 +325,7 @@ fn the_gpu_cuts_rays_at_a_holdout_as_its_closed_form_says() {
         assert!((r - whole).abs() < 1e-4, "row {y}: {r} against {whole}");
     }
     gpu_matches_cpu("slab.vdb", &o);
+    gpu_gathers_the_cpus_lattice("slab.vdb", &o);
 }
 
 #[test]
@@ -355,22 +422,36 @@ fn auto_falls_back_to_the_cpu_with_a_note_and_gpu_refuses_in_one_line() {
         ],
         "several volumes ([[volume]] tables)",
     );
-    // The default fast scattering runs on the CPU only.
+    // Path tracing runs on the CPU only.
     refused(
         &dir,
-        &args("gpu", "fast"),
-        "--device gpu: the GPU backend does not render --scattering fast",
+        &args("gpu", "path"),
+        "--device gpu: the GPU backend does not render --scattering path",
     );
-    let err = ok(&dir, &args("auto", "fast"));
+    let err = ok(&dir, &args("auto", "path"));
     let notes: Vec<&str> = err
         .lines()
         .filter(|l| l.contains("--device auto"))
         .collect();
     assert_eq!(notes.len(), 1, "{err}");
-    assert!(notes[0].contains("--scattering fast"), "{err}");
+    assert!(notes[0].contains("--scattering path"), "{err}");
     // A GPU scene under auto says nothing about the device.
     let err = ok(&dir, &args("auto", "single"));
     assert!(!err.contains("--device"), "{err}");
+    // The default render (fast scattering) of a density-only grid runs on the GPU under
+    // auto.
+    let err = ok(
+        &dir,
+        &[
+            "render", cloud, "-o", "d.exr", "--res", "16x9", "--device", "auto", "--stats",
+            "d.json",
+        ],
+    );
+    assert!(!err.contains("--device"), "{err}");
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("d.json")).unwrap()).unwrap();
+    let device = stats["device"].as_str().unwrap_or_default();
+    assert!(device.starts_with("gpu: llvmpipe"), "{device}");
     refused(
         &dir,
         &["render", cloud, "-o", "x.exr", "--device", "tpu"],

@@ -131,6 +131,12 @@ impl<'a> FastScattering<'a> {
         FastScattering { single }
     }
 
+    /// The single-scattering march it runs (its passes include `indirect`): what a
+    /// backend that gathers the lattice itself (the GPU's) records its samples with.
+    pub fn single(&self) -> &SingleScattering<'a> {
+        &self.single
+    }
+
     /// As [`SingleScattering::with_deep`].
     pub fn with_deep(self, on: bool) -> Self {
         FastScattering {

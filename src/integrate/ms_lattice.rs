@@ -83,7 +83,7 @@ const GROWN_DIRECTIONS: usize = 20;
 const PEAK_RESOLVED: f64 = 4.0;
 
 /// Floats per node and light: see [`MsLattice`]'s `values`.
-const MOMENTS: usize = 15;
+pub const MOMENTS: usize = 15;
 
 /// What the solve did, for the stats.
 #[derive(Clone, Debug, Default, serde::Serialize, PartialEq)]
@@ -476,6 +476,17 @@ impl MsLattice {
             }
         }
         Some(out)
+    }
+
+    /// What [`MsLattice::toward`] reads, for the GPU: the first node's world position,
+    /// 1/cell side, node counts and the phase's mean cosine; [`MsLattice::moments_of`].
+    pub fn geometry(&self) -> (DVec3, f64, [usize; 3], f64) {
+        (self.origin, self.inv_h, self.dims, self.g_mean)
+    }
+
+    /// Per light, the nodes' moments (x fastest; see `values`).
+    pub fn moments_of(&self) -> &[Vec<[f32; MOMENTS]>] {
+        &self.values
     }
 
     pub fn memory_bytes(&self) -> usize {

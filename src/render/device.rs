@@ -1,9 +1,10 @@
 //! Which device renders a frame under `--device`, and a frame's march on the GPU.
 
-use super::{RenderError, Result, channels, gpu, pixels};
-use crate::integrate::ScatteringMode;
+use super::{Extent, RenderError, Result, channels, gpu, pixels, render_frame};
+use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::single::SingleScattering;
-use crate::output::Frame;
+use crate::integrate::{Integrator, ScatteringMode};
+use crate::output::{DeepImage, Frame};
 use crate::render::stats::{RenderStats, Stage};
 use crate::scene::plan::Device;
 use crate::scene::progress::Progress;
@@ -14,7 +15,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// Builds the scene, its shadow bake's light columns marched on the GPU where the render
-/// may run there (`--device gpu|auto`, single scattering, no deep output) and a GPU opens;
+/// may run there (`--device gpu|auto`, single or fast scattering, no deep output) and a GPU opens;
 /// the GPU's marcher is returned for its times.
 pub(super) fn build_scene(
     plan: &RenderPlan,
@@ -22,7 +23,7 @@ pub(super) fn build_scene(
     reuse: &mut FrameReuse,
 ) -> Result<(Scene, Option<Arc<gpu::GpuColumns>>)> {
     let may = plan.sampling.device != Device::Cpu
-        && plan.transport.mode == ScatteringMode::Single
+        && plan.transport.mode != ScatteringMode::Path
         && plan.outputs.deep.is_none();
     let columns = may
         .then(gpu::Gpu::shared)
@@ -87,13 +88,55 @@ pub(super) fn choose_device(
     }
 }
 
+/// A frame's integrator on each device: on the GPU its single-scattering march, with
+/// the fast mode's lattice to gather in it; on the CPU the integrator itself.
+pub(super) struct Frontends<'a, I> {
+    pub gpu: (&'a SingleScattering<'a>, Option<&'a MsLattice>),
+    pub cpu: &'a I,
+}
+
+/// Renders the frame on the GPU `device.0` when there is one, else on the CPU; where the
+/// GPU fails under `--device auto`, on the CPU, with `device.1` the note saying why
+/// (and `device.0` none).
+pub(super) fn render_on<I: Integrator>(
+    device: (&mut Option<&'static gpu::Gpu>, &mut Option<String>),
+    on: Frontends<'_, I>,
+    scene: &Scene,
+    plan: &RenderPlan,
+    extent: &Extent,
+    progress: &dyn Progress,
+    st: &mut RenderStats,
+) -> Result<(Frame, f64, Option<DeepImage>)> {
+    let (gpu, note) = device;
+    let on_gpu = match gpu {
+        Some(g) => {
+            let (single, lattice) = on.gpu;
+            let rows = extent.rows.clone();
+            render_frame_gpu(g, single, lattice, scene, plan, rows, extent.holdout, st)?
+        }
+        None => Err(String::new()),
+    };
+    match on_gpu {
+        Ok((frame, seconds)) => Ok((frame, seconds, None)),
+        Err(why) => {
+            if gpu.take().is_some() {
+                // Under auto only: `gpu` turned the failure into an error.
+                *note = Some(format!("--device auto rendered on the CPU: {why}"));
+            }
+            render_frame(on.cpu, scene, plan, extent, progress, st)
+        }
+    }
+}
+
 /// [`render_frame`] with the march on `gpu`: the stages `gpu_upload` and `render` (rays,
 /// march and readback) go in the stats. What failed on the GPU (a grid over its buffer
 /// limit, say) is an error under `--device gpu`, and the inner `Err` (the CPU renders
 /// instead) under `auto`.
-pub(super) fn render_frame_gpu(
+#[allow(clippy::too_many_arguments)]
+fn render_frame_gpu(
     gpu: &gpu::Gpu,
     integrator: &SingleScattering,
+    lattice: Option<&MsLattice>,
     scene: &Scene,
     plan: &RenderPlan,
     rows: std::ops::Range<usize>,
@@ -116,7 +159,7 @@ pub(super) fn render_frame_gpu(
         centred: false,
         overscan: plan.camera.overscan,
     };
-    let (passes, times) = match gpu::render_pixels(gpu, scene, &job) {
+    let (passes, times) = match gpu::render_pixels(gpu, scene, lattice, &job) {
         Ok(done) => done,
         Err(why) if plan.sampling.device == Device::Auto => return Ok(Err(why)),
         Err(why) => return Err(RenderError::Device(format!("--device gpu: {why}"))),

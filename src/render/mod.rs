@@ -27,7 +27,7 @@ use crate::scene::Scene;
 use crate::scene::plan::ShadowMode;
 use crate::scene::reuse::FrameReuse;
 pub use bake_file::bake_shadow_file;
-use device::{build_scene, choose_device, render_frame_gpu, report_bake};
+use device::{Frontends, build_scene, choose_device, render_on, report_bake};
 pub use error::RenderError;
 use piece::Piece;
 use stats::{RenderStats, Stage};
@@ -256,23 +256,19 @@ fn render_image_frame_here(
             let integrator = make(error_budget::march_settings(plan, &scene, &mut st, make))
                 .with_deep(deep.is_some())
                 .with_deep_aovs(!extent.deep_aovs.is_empty());
-            let on_gpu = match &gpu {
-                Some(g) => {
-                    let rows = extent.rows.clone();
-                    render_frame_gpu(g, &integrator, &scene, plan, rows, extent.holdout, &mut st)?
-                }
-                None => Err(String::new()),
+            let on = Frontends {
+                gpu: (&integrator, None),
+                cpu: &integrator,
             };
-            match on_gpu {
-                Ok((frame, seconds)) => (frame, seconds, None),
-                Err(why) => {
-                    if gpu.take().is_some() {
-                        // Under auto only: `gpu` turned the failure into an error.
-                        device_note = Some(format!("--device auto rendered on the CPU: {why}"));
-                    }
-                    render_frame(&integrator, &scene, plan, &extent, progress, &mut st)?
-                }
-            }
+            render_on(
+                (&mut gpu, &mut device_note),
+                on,
+                &scene,
+                plan,
+                &extent,
+                progress,
+                &mut st,
+            )?
         }
         ScatteringMode::Path => {
             let names = scene.lights.iter().map(|l| l.name.clone()).collect();
@@ -335,7 +331,20 @@ fn render_image_frame_here(
             let integrator = make(error_budget::march_settings(plan, &scene, &mut st, make))
                 .with_deep(deep.is_some())
                 .with_deep_aovs(!extent.deep_aovs.is_empty());
-            render_frame(&integrator, &scene, plan, &extent, progress, &mut st)?
+            // On the GPU: the same march with the lattice gathered in it.
+            let on = Frontends {
+                gpu: (integrator.single(), lattice.as_ref()),
+                cpu: &integrator,
+            };
+            render_on(
+                (&mut gpu, &mut device_note),
+                on,
+                &scene,
+                plan,
+                &extent,
+                progress,
+                &mut st,
+            )?
         }
     };
     let mut exr = plan.outputs.exr.clone();

@@ -4,8 +4,8 @@
 // march starts; inside a voxel the trilinear reconstruction along the ray is a cubic,
 // and ∫ρ, ∫∇ρ·a, ∫∇ρ·b and ∫(aᵀ(∇∇ρ)b + ∇ρ·c) dt are integrated exactly with two
 // Gauss–Legendre nodes per piece, adding the gradient's jump at each face crossed; at
-// every sample depth the sums and the density there are written out. Uses the tree
-// lookups of march.wgsl.
+// every sample depth the sums and the density there are written out. Compiled after
+// grid.wgsl (the tree lookups and the cell walk the march uses too).
 
 struct Job {
     origin: vec4<f32>,  // xyz: the index point where the march starts (t = 0); w: first depth (bits)
@@ -22,36 +22,6 @@ struct Job {
 @group(0) @binding(10) var<storage, read> depths: array<f32>;
 @group(0) @binding(11) var<storage, read_write> column_out: array<f32>;
 @group(0) @binding(12) var<storage, read_write> column_done: array<u32>;
-
-// The eight corners of local cell c, corner k at (k>>2 & 1, k>>1 & 1, k & 1).
-fn cell_corners(c: vec3<i32>) -> array<f32, 8> {
-    let g = c + P.offset.xyz;
-    var v: array<f32, 8>;
-    if ((g.x & 7) != 7 && (g.y & 7) != 7 && (g.z & 7) != 7) {
-        let s = lookup(g);
-        if ((s & CHILD) == 0u) {
-            let x = vals[P.tile_base + s];
-            for (var k = 0; k < 8; k++) {
-                v[k] = x;
-            }
-        } else {
-            let base = (s & ~CHILD) * 512u + leaf_off(g);
-            v[0] = vals[base];
-            v[1] = vals[base + 1u];
-            v[2] = vals[base + 8u];
-            v[3] = vals[base + 9u];
-            v[4] = vals[base + 64u];
-            v[5] = vals[base + 65u];
-            v[6] = vals[base + 72u];
-            v[7] = vals[base + 73u];
-        }
-    } else {
-        for (var k = 0; k < 8; k++) {
-            v[k] = voxel(g + vec3<i32>((k >> 2u) & 1, (k >> 1u) & 1, k & 1));
-        }
-    }
-    return v;
-}
 
 // The trilinear density at local index point p.
 fn density_at(p: vec3<f32>) -> f32 {

@@ -17,6 +17,11 @@ pub struct Gpu {
     pub limits: wgpu::Limits,
 }
 
+/// What the march and the column march share (WGSL has no include): the parameters,
+/// the grid's nodes and their lookups, rays and the voxel-cell walk; compiled before
+/// each one's own source.
+const GRID_WGSL: &str = include_str!("grid.wgsl");
+
 /// Storage buffers the march binds.
 const STORAGE_BUFFERS: u32 = 8;
 /// Invocations per workgroup (`@workgroup_size` in march.wgsl).
@@ -71,7 +76,13 @@ impl Gpu {
         }))
         .map_err(|e| format!("{name}: cannot open the device ({e})"))?;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let source = [include_str!("march.wgsl"), include_str!("dsm.wgsl")].join("\n");
+        let source = [
+            GRID_WGSL,
+            include_str!("march.wgsl"),
+            include_str!("dsm.wgsl"),
+            include_str!("lattice.wgsl"),
+        ]
+        .join("\n");
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("march"),
             source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -97,17 +108,12 @@ impl Gpu {
         })
     }
 
-    /// The shadow bake's column march (columns.wgsl, with the tree lookups of
-    /// march.wgsl), compiled on first use.
+    /// The shadow bake's column march (columns.wgsl, after grid.wgsl), compiled on
+    /// first use.
     pub(super) fn columns_pipeline(&self) -> Result<&wgpu::ComputePipeline, String> {
         let compiled = self.columns.get_or_init(|| {
             let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-            let source = [
-                include_str!("march.wgsl"),
-                include_str!("dsm.wgsl"),
-                include_str!("columns.wgsl"),
-            ]
-            .join("\n");
+            let source = [GRID_WGSL, include_str!("columns.wgsl")].join("\n");
             let module = self
                 .device
                 .create_shader_module(wgpu::ShaderModuleDescriptor {

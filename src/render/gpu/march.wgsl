@@ -3,37 +3,9 @@
 // every level), segments of at most `step` voxels restarted in every cell (the first
 // shortened by the sample's jitter, longer where the cell is optically thin), each
 // segment's density from its exact integral (voxel by voxel, two-point Gauss–Legendre),
-// τ toward each light from its deep shadow map at the segment ends, early termination.
-
-struct Params {
-    offset: vec4<i32>,       // global index = local index + offset
-    root_min: vec4<i32>,
-    root_dims: vec4<i32>,
-    bounds_lo: vec4<f32>,    // active bounds, local index space
-    bounds_hi: vec4<f32>,
-    sigma_t: vec4<f32>,
-    sigma_s: vec4<f32>,
-    step_voxels: f32,
-    termination: f32,
-    thin_depth: f32,
-    n_lights: u32,
-    n_samples: u32,
-    stride: u32,
-    phase_n: u32,
-    phase_base: u32,
-    upper_base: u32,         // in `tree`
-    lower_base: u32,
-    tile_base: u32,          // in `vals`
-    root_cells: u32,         // in `vals`, two floats a cell
-    upper_cells: u32,
-    lower_cells: u32,
-    background: f32,
-    scatters: u32,
-    dsm_chunk: u32,          // words of each of dsm0, dsm1, dsm2
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
-};
+// τ toward each light from its deep shadow map at the segment ends, early termination;
+// under `--scattering fast` each segment also gathers the lattice's multiple scattering
+// (lattice.wgsl). Compiled after grid.wgsl (the parameters, tree lookups and cell walk).
 
 struct Sample {
     world_origin: vec4<f32>, // xyz, w: jitter
@@ -42,9 +14,6 @@ struct Sample {
     index_dir: vec4<f32>,
 };
 
-@group(0) @binding(0) var<uniform> P: Params;
-@group(0) @binding(1) var<storage, read> tree: array<u32>;
-@group(0) @binding(2) var<storage, read> vals: array<f32>;
 @group(0) @binding(3) var<storage, read> dsm0: array<u32>;
 @group(0) @binding(4) var<storage, read> meta_: array<f32>;
 @group(0) @binding(5) var<storage, read> samples: array<Sample>;
@@ -52,107 +21,10 @@ struct Sample {
 @group(0) @binding(7) var<storage, read> dsm1: array<u32>;
 @group(0) @binding(8) var<storage, read> dsm2: array<u32>;
 
-const CHILD: u32 = 0x80000000u;
-const BIG: f32 = 3.0e38;
-const GL2_HALF_OFFSET: f32 = 0.2886751345948129;
 const MAX_LIGHTS: u32 = 8u;
 const MAX_CELLS: u32 = 1048576u;
 
-// ---- the grid's tree ----
-
-fn root_entry(key: vec3<i32>) -> u32 {
-    let r = key - P.root_min.xyz;
-    let d = P.root_dims.xyz;
-    if (any(r < vec3<i32>(0)) || any(r >= d)) {
-        return 0xffffffffu;
-    }
-    return u32((r.x * d.y + r.y) * d.z + r.z);
-}
-
-fn upper_off(g: vec3<i32>) -> u32 {
-    return u32((((g.x >> 7u) & 31) << 10u) | (((g.y >> 7u) & 31) << 5u) | ((g.z >> 7u) & 31));
-}
-fn lower_off(g: vec3<i32>) -> u32 {
-    return u32((((g.x >> 3u) & 15) << 8u) | (((g.y >> 3u) & 15) << 4u) | ((g.z >> 3u) & 15));
-}
-fn leaf_off(g: vec3<i32>) -> u32 {
-    return u32(((g.x & 7) << 6u) | ((g.y & 7) << 3u) | (g.z & 7));
-}
-
-// The slot of global voxel g: a tile index, or CHILD | leaf index.
-fn lookup(g: vec3<i32>) -> u32 {
-    let ri = root_entry(g >> vec3<u32>(12u));
-    if (ri == 0xffffffffu) {
-        return 0u;
-    }
-    var e = tree[ri];
-    if ((e & CHILD) == 0u) {
-        return e;
-    }
-    e = tree[P.upper_base + (e & ~CHILD) * 32768u + upper_off(g)];
-    if ((e & CHILD) == 0u) {
-        return e;
-    }
-    return tree[P.lower_base + (e & ~CHILD) * 4096u + lower_off(g)];
-}
-
-fn voxel(g: vec3<i32>) -> f32 {
-    let s = lookup(g);
-    if ((s & CHILD) == 0u) {
-        return vals[P.tile_base + s];
-    }
-    return vals[(s & ~CHILD) * 512u + leaf_off(g)];
-}
-
-struct Cell {
-    origin: vec3<i32>,  // local
-    size: i32,
-    lo: f32,
-    hi: f32,
-};
-
-fn cell_range(at: u32) -> vec2<f32> {
-    return vec2<f32>(vals[at], vals[at + 1u]);
-}
-
-fn align(g: vec3<i32>, s: i32) -> vec3<i32> {
-    return g & vec3<i32>(~(s - 1));
-}
-
-// The coarsest cell holding local voxel ijk, with its value range (Field::cell_at).
-fn cell_at(ijk: vec3<i32>) -> Cell {
-    let g = ijk + P.offset.xyz;
-    let o = P.offset.xyz;
-    let ri = root_entry(g >> vec3<u32>(12u));
-    if (ri == 0xffffffffu) {
-        return Cell(align(g, 4096) - o, 4096, P.background, P.background);
-    }
-    let e = tree[ri];
-    if ((e & CHILD) == 0u) {
-        let r = cell_range(P.root_cells + 2u * ri);
-        return Cell(align(g, 4096) - o, 4096, r.x, r.y);
-    }
-    let ui = (e & ~CHILD) * 32768u + upper_off(g);
-    let e2 = tree[P.upper_base + ui];
-    if ((e2 & CHILD) == 0u) {
-        let r = cell_range(P.upper_cells + 2u * ui);
-        return Cell(align(g, 128) - o, 128, r.x, r.y);
-    }
-    let li = (e2 & ~CHILD) * 4096u + lower_off(g);
-    let r = cell_range(P.lower_cells + 2u * li);
-    return Cell(align(g, 8) - o, 8, r.x, r.y);
-}
-
-// ---- rays in index space ----
-
-struct Ray {
-    o: vec3<f32>,
-    d: vec3<f32>,
-};
-
-fn ray_at(r: Ray, t: f32) -> vec3<f32> {
-    return r.o + r.d * t;
-}
+// ---- rays against the grid's bounds and cells ----
 
 fn clip_to_bounds(r: Ray, t_min: f32, t_max: f32) -> vec2<f32> {
     var t0 = t_min;
@@ -221,86 +93,15 @@ fn cell_exit(r: Ray, origin: vec3<i32>, size: i32) -> f32 {
 
 // ---- exact density integrals: a walk over the voxel cells ----
 
-struct Walk {
-    cell: vec3<i32>,
-    next: vec3<f32>,
-    step: vec3<i32>,
-    inv: vec3<f32>,
-    loaded: vec3<i32>,
-    corners0: vec4<f32>,  // corners 0..3 (x = 0)
-    corners1: vec4<f32>,  // corners 4..7 (x = 1)
-    has: bool,
-};
-
-fn face_t(r: Ray, w: Walk, a: i32) -> f32 {
-    let d = r.d[a];
-    if (d > 0.0) {
-        return (f32(w.cell[a]) + 1.0 - r.o[a]) * w.inv[a];
-    }
-    if (d < 0.0) {
-        return (f32(w.cell[a]) - r.o[a]) * w.inv[a];
-    }
-    return BIG;
-}
-
-fn walk_start(r: Ray, t0: f32) -> Walk {
-    var w: Walk;
-    let p = ray_at(r, t0);
-    for (var a = 0; a < 3; a++) {
-        if (r.d[a] < 0.0) {
-            w.cell[a] = -i32(floor(-p[a])) - 1;
-        } else {
-            w.cell[a] = i32(floor(p[a]));
-        }
-    }
-    w.step = vec3<i32>(sign(r.d));
-    w.inv = 1.0 / r.d;
-    w.has = false;
-    for (var a = 0; a < 3; a++) {
-        w.next[a] = face_t(r, w, a);
-    }
-    return w;
-}
-
 fn load_corners(w: ptr<function, Walk>) {
     if ((*w).has && all((*w).loaded == (*w).cell)) {
         return;
     }
-    let g = (*w).cell + P.offset.xyz;
-    var v: array<f32, 8>;
-    let s = lookup(g);
-    if ((g.x & 7) != 7 && (g.y & 7) != 7 && (g.z & 7) != 7) {
-        if ((s & CHILD) == 0u) {
-            let c = vals[P.tile_base + s];
-            for (var k = 0; k < 8; k++) {
-                v[k] = c;
-            }
-        } else {
-            let base = (s & ~CHILD) * 512u + leaf_off(g);
-            v[0] = vals[base];
-            v[1] = vals[base + 1u];
-            v[2] = vals[base + 8u];
-            v[3] = vals[base + 9u];
-            v[4] = vals[base + 64u];
-            v[5] = vals[base + 65u];
-            v[6] = vals[base + 72u];
-            v[7] = vals[base + 73u];
-        }
-    } else {
-        for (var k = 0; k < 8; k++) {
-            v[k] = voxel(g + vec3<i32>((k >> 2u) & 1, (k >> 1u) & 1, k & 1));
-        }
-    }
+    let v = cell_corners((*w).cell);
     (*w).corners0 = vec4<f32>(v[0], v[1], v[2], v[3]);
     (*w).corners1 = vec4<f32>(v[4], v[5], v[6], v[7]);
     (*w).loaded = (*w).cell;
     (*w).has = true;
-}
-
-fn trilinear(c0: vec4<f32>, c1: vec4<f32>, t: vec3<f32>) -> f32 {
-    let a = mix(vec2<f32>(c0.x, c0.z), vec2<f32>(c0.y, c0.w), t.z); // (x0,y0) (x0,y1)
-    let b = mix(vec2<f32>(c1.x, c1.z), vec2<f32>(c1.y, c1.w), t.z);
-    return mix(mix(a.x, a.y, t.y), mix(b.x, b.y, t.y), t.x);
 }
 
 // ∫ρ dt over [a, b], continuing the walk (which is at or before a).
@@ -397,7 +198,8 @@ fn incident(l: u32, x: vec3<f32>, irr: ptr<function, vec3<f32>>) -> vec3<f32> {
 
 // Results of one sample at results[i * stride]: optical depth (rgb) and 1 where the
 // march terminated, transmittance (rgb) and the half-opacity t (−1: none), the density
-// samples taken and 0, 0, 0, then per light its scattered radiance (rgb) and 0.
+// samples taken and the multiply scattered radiance of all lights (rgb), then per light
+// its scattered radiance (rgb, every order) and 0.
 @compute @workgroup_size(64)
 fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x + id.y * 65535u * 64u;
@@ -418,6 +220,7 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     var terminated = false;
     var n = 0u;
     var per_light: array<vec3<f32>, 8>;
+    var indirect = vec3<f32>(0.0);
     var light_tau: array<vec3<f32>, 8>;
     var light_tau_ok: array<bool, 8>;
     for (var l = 0u; l < MAX_LIGHTS; l++) {
@@ -505,6 +308,14 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
                             exp_source_weight(st.y, tau0.y, tau1.y, ds),
                             exp_source_weight(st.z, tau0.z, tau1.z, ds));
                         per_light[l] += t_now * P.sigma_s.xyz * rho * ph * irr * weight;
+                        if (P.multiple != 0u) {
+                            // Multiply scattered light toward the camera, constant over
+                            // the segment: the segment's own weight.
+                            let w = ds * vec3<f32>(phi(st.x * ds), phi(st.y * ds), phi(st.z * ds));
+                            let ms = t_now * P.sigma_s.xyz * rho * multiple_toward(l, xw, -wd, travel) * w;
+                            per_light[l] += ms;
+                            indirect += ms;
+                        }
                     }
                     last_end = b;
                 }
@@ -539,6 +350,9 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     results[out + 6u] = t_now.z;
     results[out + 7u] = half_t;
     results[out + 8u] = f32(n);
+    results[out + 9u] = indirect.x;
+    results[out + 10u] = indirect.y;
+    results[out + 11u] = indirect.z;
     for (var l = 0u; l < n_lights; l++) {
         let o = out + 12u + 4u * l;
         results[o] = per_light[l].x;

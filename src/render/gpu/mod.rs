@@ -1,7 +1,9 @@
 //! The GPU backend (`--device gpu|auto`): single scattering marched on a GPU through
 //! wgpu (Vulkan, Metal, DX12) by WGSL compute shaders — the density grid's nodes and the
 //! lights' deep shadow maps uploaded as storage buffers, one invocation per camera
-//! sample — beside the CPU's pixel loop, with the same samples, rays and passes.
+//! sample — beside the CPU's pixel loop, with the same samples, rays and passes. Under
+//! `--scattering fast` the multiple-scattering lattice, solved on the CPU, is uploaded
+//! too and gathered in the same march, per segment, as the CPU's march does.
 //!
 //! What it renders is checked first ([`unsupported`]): a scene with anything else runs on
 //! the CPU under `--device auto` (with a note naming it) and is refused under `gpu`.
@@ -17,6 +19,7 @@ pub use context::Gpu;
 use super::pixels::{PixelJob, PixelPasses};
 use crate::field::grid_nodes::FlatGridError;
 use crate::integrate::ScatteringMode;
+use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::single::SingleScattering;
 use crate::scene::Scene;
 use crate::scene::lights::LightShadow;
@@ -26,9 +29,9 @@ use std::time::Instant;
 /// The first feature of the render that the GPU backend does not run, or `None` when
 /// it runs all of them.
 pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
-    if plan.transport.mode != ScatteringMode::Single {
+    if plan.transport.mode == ScatteringMode::Path {
         return Some(format!(
-            "--scattering {} (the GPU renders --scattering single)",
+            "--scattering {} (the GPU renders --scattering single and fast)",
             plan.transport.mode.name()
         ));
     }
@@ -98,10 +101,12 @@ pub struct GpuTimes {
     pub record: f64,
 }
 
-/// Renders the job's pixels on `gpu` (the scene passed [`unsupported`]).
+/// Renders the job's pixels on `gpu` (the scene passed [`unsupported`]), with the fast
+/// mode's multiple scattering from `lattice` where given (its lights the scene's).
 pub fn render_pixels(
     gpu: &Gpu,
     scene: &Scene,
+    lattice: Option<&MsLattice>,
     job: &PixelJob<SingleScattering>,
 ) -> Result<(PixelPasses, GpuTimes), String> {
     let t = Instant::now();
@@ -123,6 +128,7 @@ pub fn render_pixels(
         shadows: &lights.shadows,
         settings: job.integrator.settings(),
         scatters: scene.scatters && scene.medium.scatters(),
+        lattice,
     })?;
     let layout = t.elapsed().as_secs_f64();
     buffers.split_maps(gpu.max_binding());

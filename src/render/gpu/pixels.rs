@@ -1,8 +1,9 @@
 //! The pixel loop of [`crate::render::pixels`] with the march on the GPU: the same
 //! samples (centres, or `--spp` jittered ones, then the silhouette pixels again on the
 //! stratified grid), the same rays and jitter, generated here in f64; the GPU marches
-//! them in batches; each sample's result is written into the pixel's passes by
-//! [`SingleScattering::record`], as the CPU's are.
+//! them in batches; each sample's result (with the fast mode's multiply scattered part
+//! of it, `indirect`) is written into the pixel's passes by [`SingleScattering::record`],
+//! as the CPU's are.
 
 use super::GpuTimes;
 use super::context::{Gpu, Resident};
@@ -121,14 +122,7 @@ fn render_picks(
                     samples: r[8] as u64,
                 };
                 n_samples += ray.samples;
-                integrator.record(
-                    &ray,
-                    None,
-                    &per_light,
-                    DVec3::ZERO,
-                    depth_rates[i],
-                    &mut acc,
-                );
+                integrator.record(&ray, None, &per_light, v(9), depth_rates[i], &mut acc);
             }
             finish_pixel(px, &acc, starts[k + 1] - starts[k], alpha_at, depth_at);
             n_samples

@@ -1,10 +1,12 @@
 //! What the march reads on the GPU, as flat arrays: the density grid's nodes with each
-//! slot's cell range (`tree`, `vals`), every light's deep shadow map (`dsm`), the lights
-//! and a phase table (`meta`), and the uniform parameters, in the layouts march.wgsl and
-//! dsm.wgsl read.
+//! slot's cell range (`tree`, `vals`), every light's deep shadow map (`dsm`), the lights,
+//! a phase table and the fast mode's multiple-scattering lattice (`meta`), and the
+//! uniform parameters, in the layouts grid.wgsl, march.wgsl, dsm.wgsl and lattice.wgsl
+//! read.
 
 use crate::field::VoxelGrid;
 use crate::field::grid_nodes::GridNodes;
+use crate::integrate::ms_lattice::{MOMENTS, MsLattice};
 use crate::integrate::phase::PhaseFunction;
 use crate::integrate::{MarchSettings, Medium};
 use crate::scene::light::{Light, LightKind};
@@ -19,13 +21,13 @@ use glam::DVec3;
 pub const SAMPLE_FLOATS: usize = 16;
 /// Floats of a result before the per-light radiance (4 a light).
 pub const RESULT_BASE: usize = 12;
-/// Where the sample count sits in the parameters (see `Params` in march.wgsl).
+/// Where the sample count sits in the parameters (see `Params` in grid.wgsl).
 pub const N_SAMPLES_AT: usize = 32;
 /// Where the shadow maps' part size sits in the parameters.
 const DSM_CHUNK_AT: usize = 44;
 /// Words of the parameters.
-const PARAM_WORDS: usize = 48;
-/// Where the grid's parts begin in the parameters (`upper_base` in march.wgsl).
+const PARAM_WORDS: usize = 56;
+/// Where the grid's parts begin in the parameters (`upper_base` in grid.wgsl).
 const GRID_BASES_AT: usize = 36;
 /// Where the grid's background value sits in the parameters.
 const BACKGROUND_AT: usize = 42;
@@ -60,7 +62,10 @@ impl Buffers {
             ("the density grid's node tables", self.tree.len() as u64 * 4),
             ("the density grid's values", self.vals.len() as u64 * 4),
             ("the shadow maps", self.dsm_chunk as u64 * 4),
-            ("the lights", self.meta.len() as u64 * 4),
+            (
+                "the lights, the phase table and the multiple-scattering lattice",
+                self.meta.len() as u64 * 4,
+            ),
         ]
     }
 
@@ -104,6 +109,8 @@ pub struct SceneParts<'a> {
     pub settings: MarchSettings,
     /// Light scatters toward the camera (lights and σs > 0).
     pub scatters: bool,
+    /// The fast mode's multiple scattering, gathered in the march.
+    pub lattice: Option<&'a MsLattice>,
 }
 
 fn f(v: f64) -> u32 {
@@ -123,7 +130,7 @@ pub struct GridArrays {
     pub tree: Vec<u32>,
     pub vals: Vec<f32>,
     /// Words of the parameters that say where the parts begin, in the order of `Params`
-    /// in march.wgsl from `upper_base` to `lower_cells`.
+    /// in grid.wgsl from `upper_base` to `lower_cells`.
     bases: [u32; 6],
 }
 
@@ -169,6 +176,35 @@ pub fn grid_params(grid: &VoxelGrid, n: &GridNodes, arrays: &GridArrays) -> Vec<
     params[GRID_BASES_AT..GRID_BASES_AT + 6].copy_from_slice(&arrays.bases);
     params[BACKGROUND_AT] = grid.background().to_bits();
     params
+}
+
+/// Appends the lattice's moments (every light's nodes in turn) to `meta`; returns the
+/// parameters from `lattice_base` to `lattice_dims` in grid.wgsl (all 0 but for
+/// `lattice_base` without a lattice: nothing is gathered).
+fn lattice_words(s: &SceneParts, meta: &mut Vec<f32>) -> Result<[u32; 11], String> {
+    let base = meta.len() as u32;
+    let mut words = [0; 11];
+    words[0] = base;
+    let Some(lattice) = s.lattice.filter(|_| s.scatters) else {
+        return Ok(words);
+    };
+    let ((origin, inv_h, dims, g_mean), values) = (lattice.geometry(), lattice.moments_of());
+    let nodes: usize = dims.iter().product();
+    if values.len() != s.lights.len() || values.iter().any(|v| v.len() != nodes) || nodes == 0 {
+        // An empty lattice (no light, nothing dense): nothing to gather.
+        return Ok(words);
+    }
+    if (meta.len() + values.len() * nodes * MOMENTS) as u64 >= u32::MAX as u64 {
+        return Err("a multiple-scattering lattice over 2^32 floats".into());
+    }
+    for v in values {
+        meta.extend(v.iter().flatten());
+    }
+    words[1] = 1;
+    words[2] = f(g_mean);
+    words[3..7].copy_from_slice(&[f(origin.x), f(origin.y), f(origin.z), f(inv_h)]);
+    words[7..11].copy_from_slice(&[dims[0] as u32, dims[1] as u32, dims[2] as u32, nodes as u32]);
+    Ok(words)
 }
 
 /// Lays the scene out for the march.
@@ -256,6 +292,7 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
         let p = s.phase.eval(theta.cos());
         meta.extend([p.x as f32, p.y as f32, p.z as f32, 0.0]);
     }
+    let lattice = lattice_words(s, &mut meta)?;
     // The parameters.
     let bounds = s.grid.active_bounds();
     let sigma_t = s.medium.sigma_t();
@@ -286,10 +323,8 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
         s.grid.background().to_bits(),
         u32::from(s.scatters),
         dsm_chunk as u32,
-        0,
-        0,
-        0,
     ]);
+    params.extend(lattice);
     debug_assert_eq!(params.len(), PARAM_WORDS);
     debug_assert_eq!(params[DSM_CHUNK_AT] as usize, dsm_chunk);
     debug_assert_eq!(params[GRID_BASES_AT..GRID_BASES_AT + 6], bases);

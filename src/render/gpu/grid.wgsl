@@ -1,0 +1,219 @@
+// What every shader over the density grid shares (WGSL has no include: this source is
+// put before each shader's own when it is compiled, see context.rs): the uniform
+// parameters, the grid's nodes (`tree`, `vals`: see upload.rs), the tree lookups of a
+// voxel and of the coarsest cell holding it, rays in index space, and the voxel-cell
+// walk with each cell's eight corners and their trilinear blend.
+
+struct Params {
+    offset: vec4<i32>,       // global index = local index + offset
+    root_min: vec4<i32>,
+    root_dims: vec4<i32>,
+    bounds_lo: vec4<f32>,    // active bounds, local index space
+    bounds_hi: vec4<f32>,
+    sigma_t: vec4<f32>,
+    sigma_s: vec4<f32>,
+    step_voxels: f32,
+    termination: f32,
+    thin_depth: f32,
+    n_lights: u32,
+    n_samples: u32,
+    stride: u32,
+    phase_n: u32,
+    phase_base: u32,
+    upper_base: u32,         // in `tree`
+    lower_base: u32,
+    tile_base: u32,          // in `vals`
+    root_cells: u32,         // in `vals`, two floats a cell
+    upper_cells: u32,
+    lower_cells: u32,
+    background: f32,
+    scatters: u32,
+    dsm_chunk: u32,          // words of each of dsm0, dsm1, dsm2
+    lattice_base: u32,       // in `meta_`: the fast mode's lattice (lattice.wgsl)
+    multiple: u32,           // 1: the lattice's multiple scattering is gathered
+    g_mean: f32,             // the phase function's mean cosine
+    lattice_lo: vec4<f32>,   // the lattice's first node (world), w: 1 / cell side
+    lattice_dims: vec4<u32>, // nodes per axis, w: nodes per light
+};
+
+@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(1) var<storage, read> tree: array<u32>;
+@group(0) @binding(2) var<storage, read> vals: array<f32>;
+
+const CHILD: u32 = 0x80000000u;
+const BIG: f32 = 3.0e38;
+const GL2_HALF_OFFSET: f32 = 0.2886751345948129;
+
+// ---- the grid's tree ----
+
+fn root_entry(key: vec3<i32>) -> u32 {
+    let r = key - P.root_min.xyz;
+    let d = P.root_dims.xyz;
+    if (any(r < vec3<i32>(0)) || any(r >= d)) {
+        return 0xffffffffu;
+    }
+    return u32((r.x * d.y + r.y) * d.z + r.z);
+}
+
+fn upper_off(g: vec3<i32>) -> u32 {
+    return u32((((g.x >> 7u) & 31) << 10u) | (((g.y >> 7u) & 31) << 5u) | ((g.z >> 7u) & 31));
+}
+fn lower_off(g: vec3<i32>) -> u32 {
+    return u32((((g.x >> 3u) & 15) << 8u) | (((g.y >> 3u) & 15) << 4u) | ((g.z >> 3u) & 15));
+}
+fn leaf_off(g: vec3<i32>) -> u32 {
+    return u32(((g.x & 7) << 6u) | ((g.y & 7) << 3u) | (g.z & 7));
+}
+
+// The slot of global voxel g: a tile index, or CHILD | leaf index.
+fn lookup(g: vec3<i32>) -> u32 {
+    let ri = root_entry(g >> vec3<u32>(12u));
+    if (ri == 0xffffffffu) {
+        return 0u;
+    }
+    var e = tree[ri];
+    if ((e & CHILD) == 0u) {
+        return e;
+    }
+    e = tree[P.upper_base + (e & ~CHILD) * 32768u + upper_off(g)];
+    if ((e & CHILD) == 0u) {
+        return e;
+    }
+    return tree[P.lower_base + (e & ~CHILD) * 4096u + lower_off(g)];
+}
+
+fn voxel(g: vec3<i32>) -> f32 {
+    let s = lookup(g);
+    if ((s & CHILD) == 0u) {
+        return vals[P.tile_base + s];
+    }
+    return vals[(s & ~CHILD) * 512u + leaf_off(g)];
+}
+
+struct Cell {
+    origin: vec3<i32>,  // local
+    size: i32,
+    lo: f32,
+    hi: f32,
+};
+
+fn cell_range(at: u32) -> vec2<f32> {
+    return vec2<f32>(vals[at], vals[at + 1u]);
+}
+
+fn align(g: vec3<i32>, s: i32) -> vec3<i32> {
+    return g & vec3<i32>(~(s - 1));
+}
+
+// The coarsest cell holding local voxel ijk, with its value range (Field::cell_at).
+fn cell_at(ijk: vec3<i32>) -> Cell {
+    let g = ijk + P.offset.xyz;
+    let o = P.offset.xyz;
+    let ri = root_entry(g >> vec3<u32>(12u));
+    if (ri == 0xffffffffu) {
+        return Cell(align(g, 4096) - o, 4096, P.background, P.background);
+    }
+    let e = tree[ri];
+    if ((e & CHILD) == 0u) {
+        let r = cell_range(P.root_cells + 2u * ri);
+        return Cell(align(g, 4096) - o, 4096, r.x, r.y);
+    }
+    let ui = (e & ~CHILD) * 32768u + upper_off(g);
+    let e2 = tree[P.upper_base + ui];
+    if ((e2 & CHILD) == 0u) {
+        let r = cell_range(P.upper_cells + 2u * ui);
+        return Cell(align(g, 128) - o, 128, r.x, r.y);
+    }
+    let li = (e2 & ~CHILD) * 4096u + lower_off(g);
+    let r = cell_range(P.lower_cells + 2u * li);
+    return Cell(align(g, 8) - o, 8, r.x, r.y);
+}
+
+// ---- rays in index space ----
+
+struct Ray {
+    o: vec3<f32>,
+    d: vec3<f32>,
+};
+
+fn ray_at(r: Ray, t: f32) -> vec3<f32> {
+    return r.o + r.d * t;
+}
+
+struct Walk {
+    cell: vec3<i32>,
+    next: vec3<f32>,
+    step: vec3<i32>,
+    inv: vec3<f32>,
+    loaded: vec3<i32>,
+    corners0: vec4<f32>,  // corners 0..3 (x = 0)
+    corners1: vec4<f32>,  // corners 4..7 (x = 1)
+    has: bool,
+};
+
+fn face_t(r: Ray, w: Walk, a: i32) -> f32 {
+    let d = r.d[a];
+    if (d > 0.0) {
+        return (f32(w.cell[a]) + 1.0 - r.o[a]) * w.inv[a];
+    }
+    if (d < 0.0) {
+        return (f32(w.cell[a]) - r.o[a]) * w.inv[a];
+    }
+    return BIG;
+}
+
+fn walk_start(r: Ray, t0: f32) -> Walk {
+    var w: Walk;
+    let p = ray_at(r, t0);
+    for (var a = 0; a < 3; a++) {
+        if (r.d[a] < 0.0) {
+            w.cell[a] = -i32(floor(-p[a])) - 1;
+        } else {
+            w.cell[a] = i32(floor(p[a]));
+        }
+    }
+    w.step = vec3<i32>(sign(r.d));
+    w.inv = 1.0 / r.d;
+    w.has = false;
+    for (var a = 0; a < 3; a++) {
+        w.next[a] = face_t(r, w, a);
+    }
+    return w;
+}
+
+// The eight corners of local cell c, corner k at (k>>2 & 1, k>>1 & 1, k & 1).
+fn cell_corners(c: vec3<i32>) -> array<f32, 8> {
+    let g = c + P.offset.xyz;
+    var v: array<f32, 8>;
+    if ((g.x & 7) != 7 && (g.y & 7) != 7 && (g.z & 7) != 7) {
+        let s = lookup(g);
+        if ((s & CHILD) == 0u) {
+            let x = vals[P.tile_base + s];
+            for (var k = 0; k < 8; k++) {
+                v[k] = x;
+            }
+        } else {
+            let base = (s & ~CHILD) * 512u + leaf_off(g);
+            v[0] = vals[base];
+            v[1] = vals[base + 1u];
+            v[2] = vals[base + 8u];
+            v[3] = vals[base + 9u];
+            v[4] = vals[base + 64u];
+            v[5] = vals[base + 65u];
+            v[6] = vals[base + 72u];
+            v[7] = vals[base + 73u];
+        }
+    } else {
+        for (var k = 0; k < 8; k++) {
+            v[k] = voxel(g + vec3<i32>((k >> 2u) & 1, (k >> 1u) & 1, k & 1));
+        }
+    }
+    return v;
+}
+
+fn trilinear(c0: vec4<f32>, c1: vec4<f32>, t: vec3<f32>) -> f32 {
+    let a = mix(vec2<f32>(c0.x, c0.z), vec2<f32>(c0.y, c0.w), t.z); // (x0,y0) (x0,y1)
+    let b = mix(vec2<f32>(c1.x, c1.z), vec2<f32>(c1.y, c1.w), t.z);
+    return mix(mix(a.x, a.y, t.y), mix(b.x, b.y, t.y), t.x);
+}
+
