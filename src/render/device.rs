@@ -22,11 +22,9 @@ pub(super) fn build_scene(
     progress: &dyn Progress,
     reuse: &mut FrameReuse,
 ) -> Result<(Scene, Option<Arc<gpu::GpuColumns>>)> {
-    let may = plan.sampling.device != Device::Cpu
-        && plan.transport.mode != ScatteringMode::Path
-        && plan.outputs.deep.is_none();
+    let may = plan.transport.mode != ScatteringMode::Path && plan.outputs.deep.is_none();
     let columns = may
-        .then(gpu::Gpu::shared)
+        .then(|| gpu_for(plan.sampling.device))
         .and_then(|g| g.ok())
         .map(|g| Arc::new(gpu::GpuColumns::new(g)));
     reuse.columns = columns
@@ -58,6 +56,26 @@ pub(super) fn report_bake(columns: Option<&gpu::GpuColumns>, report: &mut SceneR
     }
 }
 
+/// The GPU `device` asks for: under `gpu` any adapter; under `auto` one that is not
+/// itself run on the CPU (lavapipe, SwiftShader, WARP), which renders slower than murk's
+/// own CPU path; none under `cpu`. Why not, where there is none.
+fn gpu_for(device: Device) -> std::result::Result<&'static gpu::Gpu, String> {
+    match device {
+        Device::Cpu => Err("--device cpu".into()),
+        Device::Gpu => gpu::Gpu::shared(),
+        Device::Auto => gpu::Gpu::shared().and_then(|g| {
+            if g.on_cpu {
+                Err(format!(
+                    "the only adapter, {}, runs on the CPU, slower than murk's own CPU path (--device gpu uses it)",
+                    g.name
+                ))
+            } else {
+                Ok(g)
+            }
+        }),
+    }
+}
+
 /// The GPU a render runs on under `--device gpu|auto`, or none (the CPU); and under
 /// `auto`, a note saying why the CPU renders. Under `gpu` a scene the GPU backend does not
 /// render, or no GPU, is an error naming what is missing.
@@ -74,7 +92,7 @@ pub(super) fn choose_device(
         None if plan.outputs.deep.is_some() => {
             Err("the GPU backend does not write deep samples (--deep) yet".into())
         }
-        None => gpu::Gpu::shared(),
+        None => gpu_for(device),
     };
     match opened {
         Ok(g) => Ok((Some(g), None)),

@@ -15,6 +15,9 @@ pub struct Gpu {
     /// The adapter as it names itself, its device type and backend.
     pub name: String,
     pub limits: wgpu::Limits,
+    /// A device that runs on the CPU (Mesa's lavapipe, SwiftShader, WARP): `--device
+    /// auto` does not take it, as murk's own CPU path renders faster.
+    pub on_cpu: bool,
 }
 
 /// What the march and the column march share (WGSL has no include): the parameters,
@@ -105,6 +108,7 @@ impl Gpu {
             columns: std::sync::OnceLock::new(),
             name,
             limits,
+            on_cpu: info.device_type == wgpu::DeviceType::Cpu,
         })
     }
 

@@ -10,6 +10,7 @@ pub enum Device {
     Cpu,
     /// A GPU through wgpu; a scene it cannot render is an error.
     Gpu,
-    /// A GPU when one is found and it renders every feature of the scene, else the CPU.
+    /// A GPU when one is found (not a device that itself runs on the CPU, such as
+    /// lavapipe) and it renders every feature of the scene, else the CPU.
     Auto,
 }
