@@ -174,6 +174,7 @@ fn render_frame_gpu(
         holdout,
         shutter: None,
         camera_motion: None,
+        centred: false,
         overscan: plan.camera.overscan,
     };
     let (passes, times) = match gpu::render_pixels(gpu, scene, lattice, &job) {

@@ -24,7 +24,7 @@ use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, Integrator, ScatteringMode};
 use crate::output::{DeepExrOptions, DeepImage, Frame, write_deep_exr, write_exr, write_preview};
 use crate::scene::Scene;
-use crate::scene::plan::{MarchPlan, ShadowMode};
+use crate::scene::plan::ShadowMode;
 use crate::scene::reuse::FrameReuse;
 pub use bake_file::bake_shadow_file;
 use device::{Frontends, build_scene, choose_device, render_on, report_bake};
@@ -253,7 +253,7 @@ fn render_image_frame_here(
                     march,
                 )
             };
-            let integrator = make(march_settings(plan, &scene, &mut st, make))
+            let integrator = make(error_budget::march_settings(plan, &scene, &mut st, make))
                 .with_deep(deep.is_some())
                 .with_deep_aovs(!extent.deep_aovs.is_empty());
             let on = Frontends {
@@ -328,7 +328,7 @@ fn render_image_frame_here(
                     march,
                 )
             };
-            let integrator = make(march_settings(plan, &scene, &mut st, make))
+            let integrator = make(error_budget::march_settings(plan, &scene, &mut st, make))
                 .with_deep(deep.is_some())
                 .with_deep_aovs(!extent.deep_aovs.is_empty());
             // On the GPU: the same march with the lattice gathered in it.
@@ -451,42 +451,6 @@ fn deep_note(image: &DeepImage, written: crate::output::deep::DeepWriteSummary) 
     )
 }
 
-/// The camera march's settings: the plan's, or with `--max-error` those a pilot
-/// render through the integrators `make` builds chose (recorded in the stats).
-fn march_settings<I: Integrator>(
-    plan: &RenderPlan,
-    scene: &Scene,
-    st: &mut RenderStats,
-    make: impl Fn(crate::integrate::MarchSettings) -> I,
-) -> crate::integrate::MarchSettings {
-    let Some(max_error) = plan.march.max_error else {
-        return plan.march_settings();
-    };
-    let level = scene
-        .density_level
-        .as_ref()
-        .map_or((0, 0.0), |l| (l.level, l.error));
-    // The map was baked to its share of what the level left (the plan's own share at
-    // level 0).
-    let tolerance = (plan.shadows.mode == ShadowMode::Dsm && !scene.lights.is_empty()).then(|| {
-        if level.0 > 0 {
-            MarchPlan::tolerance_of(MarchPlan::remaining_error(max_error, level.1))
-        } else {
-            plan.shadows.dsm_tolerance
-        }
-    });
-    let (march, report) = error_budget::choose(
-        max_error,
-        level,
-        tolerance,
-        &scene.camera,
-        plan.sampling.seed,
-        make,
-    );
-    st.error_budget = Some(report);
-    march
-}
-
 /// Which pixels a render computes and what it keeps of them: its rows, deep samples
 /// (with their merge tolerance) and the holdout's depth per pixel.
 #[derive(Clone)]
@@ -519,7 +483,8 @@ fn render_frame<I: Integrator>(
     let job = pixels::PixelJob {
         integrator,
         camera: &scene.camera,
-        spp: plan.sampling.spp,
+        // The plan's, or what `--max-error` chose for the shutter's noise.
+        spp: st.spp,
         seed: plan.sampling.seed,
         rows: extent.rows.clone(),
         antialias: plan.sampling.antialias,
@@ -528,6 +493,11 @@ fn render_frame<I: Integrator>(
         holdout: extent.holdout,
         shutter: plan.motion.shutter,
         camera_motion: scene.camera_motion.as_ref(),
+        centred: st
+            .error_budget
+            .as_ref()
+            .and_then(|b| b.shutter_noise.as_ref())
+            .is_some_and(|n| n.centred),
         overscan: plan.camera.overscan,
     };
     progress.start("rendering", job.tiles() as u64, "tiles");

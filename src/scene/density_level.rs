@@ -86,8 +86,8 @@ fn unsupported(scene: &Scene, plan: &RenderPlan) -> Option<&'static str> {
         || !f.emitters.is_empty()
     {
         Some("emission, temperature or colour grids")
-    } else if scene.motion.is_some() || f.keyed.is_some() {
-        Some("the volume moves during the shutter")
+    } else if scene.moves() {
+        Some("something moves while the shutter is open")
     } else if plan.shadows.cache.is_some() {
         Some("a shadow cache")
     } else if !scene.scatters {

@@ -10,6 +10,12 @@ use crate::integrate::blackbody::BlackbodyTable;
 use crate::integrate::{ColorTint, Companion, Emission, Mattes, Volume};
 
 impl Scene {
+    /// Something moves while the shutter is open: the density by its velocity, a keyed
+    /// or advected `[[volume]]`, or the camera.
+    pub fn moves(&self) -> bool {
+        self.motion.is_some() || self.fields.keyed.is_some() || self.camera_motion.is_some()
+    }
+
     /// The fields whose non-zero cells a camera ray visits: the density, and the emission
     /// and temperature fields on its lattice (elsewhere they are sampled only where the
     /// density is non-zero, which the report notes).

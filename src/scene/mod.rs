@@ -108,7 +108,7 @@ use camera::{Camera, Projection};
 pub use error::SceneError;
 use glam::DVec3;
 use lights::{SceneLights, bake_maps, light_shadows};
-use plan::{EmissionPlan, GridChoice, ShadowMode};
+use plan::{EmissionPlan, GridChoice, MarchPlan, ShadowMode};
 use progress::Progress;
 use report::{SceneReport, Stage};
 use roles::{SceneFields, load_fields};
@@ -315,10 +315,18 @@ impl Scene {
             .any(|e| glows(&e.plan, e.emission.is_some(), e.temperature.is_some()));
         scene.report_emission_and_scatter(plan);
         // With --max-error, the density's level first: the map is baked at that level.
-        let leveled = plan
-            .march
-            .max_error
-            .and_then(|e| density_level::apply(&mut scene, plan, e));
+        // Where something moves, the shutter's noise takes a share and the map the
+        // rest's (`MarchPlan::march_error`); a moving density has no level.
+        let leveled = plan.march.max_error.and_then(|e| {
+            density_level::apply(&mut scene, plan, e).or_else(|| {
+                scene.moves().then(|| {
+                    let mut p = plan.clone();
+                    p.shadows.dsm_tolerance =
+                        MarchPlan::tolerance_of(MarchPlan::march_error(e, 0.0, true));
+                    p
+                })
+            })
+        });
         let plan = leveled.as_ref().unwrap_or(plan);
         scene.prepare_shadows(plan, progress, reuse)?;
         Ok(scene)

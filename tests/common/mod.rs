@@ -7,6 +7,7 @@ pub mod camera;
 pub mod deep;
 pub mod frames;
 pub mod march;
+pub mod motion;
 pub mod tools;
 pub mod volumes;
 

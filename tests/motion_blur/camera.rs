@@ -2,6 +2,7 @@
 
 use super::cli::{alpha, write_caches};
 use super::common::frames::{ok, scratch};
+use super::common::motion::{ABSORBING_LOOK, BOX_CAMERA};
 use super::common::tools;
 use crate::need;
 
@@ -31,38 +32,13 @@ fn a_moving_camera_blurs_as_the_same_motion_of_the_volume() {
          translate = [0.95, 1, 5]\n",
     )
     .unwrap();
-    let look = [
-        "--res",
-        "96x8",
-        "--no-lights",
-        "--sigma-a",
-        "1.5,1.5,1.5",
-        "--sigma-s",
-        "0,0,0",
-        "--float",
-        "--spp",
-        "64",
-        "--shutter",
-        "-0.25,0.25",
-    ];
+    let look = [&ABSORBING_LOOK[..], &["--shutter", "-0.25,0.25"]].concat();
     let mut args = vec!["render", "shot.toml", "-o", "cam.exr", "--frames", "2"];
-    args.extend(look);
+    args.extend(&look);
     ok(&dir, &args);
-    let mut args = vec![
-        "render",
-        "moving.vdb",
-        "-o",
-        "vel.exr",
-        "--camera",
-        "ortho",
-        "--eye",
-        "1.95,1,5",
-        "--look-at",
-        "1.95,1,0",
-        "--ortho-width",
-        "3.2",
-    ];
-    args.extend(look);
+    let mut args = vec!["render", "moving.vdb", "-o", "vel.exr"];
+    args.extend(BOX_CAMERA);
+    args.extend(&look);
     ok(&dir, &args);
     let (w, cam) = alpha(&dir.join("cam.exr"));
     let (_, vel) = alpha(&dir.join("vel.exr"));

@@ -3,6 +3,7 @@
 //! sharp and what is refused.
 
 use super::common::frames::{murk, ok, refused, same_image, scratch};
+use super::common::motion::{ABSORBING_LOOK, BOX_CAMERA};
 use super::common::tools;
 use super::common::volumes::channel_with_width;
 use crate::need;
@@ -43,32 +44,14 @@ pub fn red(path: &Path) -> (usize, Vec<f32>) {
     channel_with_width(path, "R")
 }
 
-const VIEW: [&str; 20] = [
-    "--camera",
-    "ortho",
-    "--eye",
-    "1.95,1,5",
-    "--look-at",
-    "1.95,1,0",
-    "--ortho-width",
-    "3.2",
-    "--res",
-    "96x8",
-    "--no-lights",
-    "--sigma-a",
-    "1.5,1.5,1.5",
-    "--sigma-s",
-    "0,0,0",
-    "--float",
-    "--spp",
-    "64",
-    "--fps",
-    "24",
-];
+/// The box's front view ([`BOX_CAMERA`]), absorbing only ([`ABSORBING_LOOK`]), at 24 fps.
+fn view() -> Vec<&'static str> {
+    [&BOX_CAMERA[..], &ABSORBING_LOOK[..], &["--fps", "24"]].concat()
+}
 
 pub fn render(dir: &Path, input: &str, out: &str, extra: &[&str]) -> String {
     let mut args = vec!["render", input, "-o", out];
-    args.extend(VIEW);
+    args.extend(view());
     args.extend(extra);
     ok(dir, &args)
 }
@@ -88,7 +71,7 @@ fn a_velocity_grid_blurs_the_render_as_the_closed_form_says() {
 }
 
 /// The closed form of the box's +x edge moved `width` world units across the shutter,
-/// seen through [`VIEW`]: the still edge (density 1 to x = 1.95, falling linearly to
+/// seen through [`view`]: the still edge (density 1 to x = 1.95, falling linearly to
 /// 0 at 2.0) averaged over the shutter's displacements and the pixel, against each
 /// column's mean (8 rows of 64 jittered samples a pixel) within 3e-3.
 pub fn assert_ramp(path: &Path, width: f64) {
@@ -168,11 +151,7 @@ fn the_path_tracer_blurs_as_single_scattering() {
         "256",
     ];
     let lit_args = |extra: &[&str]| {
-        let mut v: Vec<&str> = VIEW
-            .iter()
-            .copied()
-            .filter(|a| *a != "--no-lights")
-            .collect();
+        let mut v: Vec<&str> = view().into_iter().filter(|a| *a != "--no-lights").collect();
         // The view's own medium and samples are replaced by the lit ones.
         for key in ["--sigma-a", "--sigma-s", "--spp"] {
             if let Some(i) = v.iter().position(|a| *a == key) {

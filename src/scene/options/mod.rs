@@ -220,15 +220,17 @@ render_options! {
     termination: Option<f64> = (Quality, "T", Described("1e-4; 0 with --reference"), Render);
     /// Meet this relative radiance RMSE against --reference at least cost (e.g. 1e-2):
     /// murk chooses the step and termination from a pilot render and the shadow map's
-    /// tolerance, and reports them (stats: error_budget). Not with --step, --termination,
-    /// --dsm-tolerance, --reference or --scattering path.
+    /// tolerance, and reports them (stats: error_budget); where something moves while
+    /// --shutter is open, the samples a pixel too, at the pixel's centre (an explicit
+    /// --spp wins). Not with --step, --termination, --dsm-tolerance, --reference or
+    /// --scattering path.
     max_error: Option<f64> = (Quality, "E", NoDefault, Render);
     /// Reference quality: exact optical depth (f64, per voxel) for camera and shadow rays,
     /// a 1/64-voxel source step (or --step), no early termination. Implies --shadows march;
     /// refuses --shadows dsm|none and a non-zero --termination.
     reference: bool = (Quality, "", NoDefault, Render);
     /// Samples per pixel (1: the pixel centre).
-    spp: Option<u32> = (Quality, "N", Value("1"), Render);
+    spp: Option<u32> = (Quality, "N", Described("1; chosen by --max-error where something moves while --shutter is open"), Render);
     /// At one sample a pixel, silhouette pixels (alpha differs from a neighbour's by more
     /// than 0.1) are rendered again as N×N stratified samples (1: pixel centres only).
     antialias: Option<u32> = (Quality, "N", Value("4"), Render);

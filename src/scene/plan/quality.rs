@@ -42,6 +42,25 @@ impl MarchPlan {
         Self::error_share(e).min(0.05)
     }
 
+    /// The share of `max_error` the shutter's sampling noise takes when something moves
+    /// while the shutter is open: a fourth independent source, as large as each of the
+    /// other three (`render::error_budget`).
+    pub fn noise_share(max_error: f64) -> f64 {
+        max_error / 2.0
+    }
+
+    /// What is left of `max_error` for the step, the termination and the map once the
+    /// density's level has taken `level_error` and, when something moves while the
+    /// shutter is open, the shutter's noise its share (their squares add up).
+    pub fn march_error(max_error: f64, level_error: f64, moving: bool) -> f64 {
+        let e = Self::remaining_error(max_error, level_error);
+        if moving {
+            Self::remaining_error(e, Self::noise_share(e))
+        } else {
+            e
+        }
+    }
+
     /// What is left of `max_error` for the step, the termination and the map once the
     /// density's level has taken `level_error` (their squares add up).
     pub fn remaining_error(max_error: f64, level_error: f64) -> f64 {
@@ -120,6 +139,9 @@ pub struct SamplingPlan {
     /// samples (1: pixel centres only).
     pub antialias: u32,
     pub seed: u64,
+    /// `spp` was given (`--spp`, the scene file): `--max-error` keeps it rather than
+    /// choosing the samples for the shutter's noise.
+    pub spp_given: bool,
     pub threads: Option<usize>,
     /// `--device`: where the pixels are computed.
     pub device: super::device::Device,
@@ -149,6 +171,7 @@ impl SamplingPlan {
             spp,
             antialias,
             seed: o.seed.unwrap_or(defaults::SEED),
+            spp_given: o.spp.is_some(),
             threads: o.threads,
             device: o.device.unwrap_or_default(),
         })
