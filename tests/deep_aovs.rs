@@ -5,7 +5,9 @@
 //! reads and flattens them; bad lists are refused in one line.
 
 mod common;
-use common::deep::{Deep, fixture, flat_channels, flatten_channel, read_deep, render_deep};
+use common::deep::{
+    Deep, SLAB_VIEW, fixture, flat_channels, flatten_channel, read_deep, render_deep,
+};
 use common::frames::{MURK, refused, scratch};
 use common::tools;
 use std::collections::BTreeMap;
@@ -169,29 +171,16 @@ fn an_emitting_slab_places_its_emission_by_its_closed_form() {
         &dir,
         &fixture("slab.vdb"),
         &[
-            "--res",
-            "16x16",
-            "--camera",
-            "ortho",
-            "--eye",
-            "0,0,5",
-            "--look-at",
-            "0,0,0",
-            "--up",
-            "0,1,0",
-            "--ortho-width",
-            "1",
-            "--no-lights",
-            "--sigma-a",
-            "3",
-            "--sigma-s",
-            "0",
-            "--emission-grid",
-            "density",
-            "--emission-intensity",
-            "4",
-            "--float",
-        ],
+            &SLAB_VIEW[..],
+            &[
+                "--emission-grid",
+                "density",
+                "--emission-intensity",
+                "4",
+                "--float",
+            ],
+        ]
+        .concat(),
     );
     let (d, f) = (read_deep(&deep), flat_channels(&flat));
     let i = 8 * 16 + 8;

@@ -70,7 +70,13 @@ fn a_deep_holdout_cuts_where_it_turns_opaque() {
         let out = dir.join(format!("cut_{compression}.exr"));
         let mut args = vec!["render", "fixtures/slab.vdb"];
         args.extend_from_slice(&SLAB_VIEW);
-        args.extend(["-o", out.to_str().unwrap(), "--quiet", "--holdout-deep"]);
+        args.extend([
+            "--float",
+            "-o",
+            out.to_str().unwrap(),
+            "--quiet",
+            "--holdout-deep",
+        ]);
         args.push(deep.to_str().unwrap());
         let o = Command::new(MURK)
             .current_dir(env!("CARGO_MANIFEST_DIR"))

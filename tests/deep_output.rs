@@ -244,27 +244,7 @@ fn a_uniform_slab_split_at_any_depth_is_its_closed_form() {
         let (_, deep) = render(
             &dir,
             &fixture("slab.vdb"),
-            &[
-                "--res",
-                "16x16",
-                "--camera",
-                "ortho",
-                "--eye",
-                "0,0,5",
-                "--look-at",
-                "0,0,0",
-                "--up",
-                "0,1,0",
-                "--ortho-width",
-                "1",
-                "--no-lights",
-                "--sigma-a",
-                "3",
-                "--sigma-s",
-                "0",
-                "--deep-tolerance",
-                tol,
-            ],
+            &[&SLAB_VIEW[..], &["--deep-tolerance", tol]].concat(),
         );
         let d = read_deep(&deep);
         let tol: f64 = tol.parse().unwrap();
@@ -384,7 +364,7 @@ fn a_holdout_cuts_the_slab_where_its_closed_form_says() {
     let out = dir.join("cut.exr");
     let mut args = vec!["render", "fixtures/slab.vdb", "-o", out.to_str().unwrap()];
     args.extend_from_slice(&SLAB_VIEW);
-    args.extend(["--holdout-depth", z.to_str().unwrap(), "--quiet"]);
+    args.extend(["--float", "--holdout-depth", z.to_str().unwrap(), "--quiet"]);
     let o = Command::new(MURK)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .args(&args)

@@ -4,11 +4,12 @@
 //! every segment that holds anything, the ray's opacity so far (`A`, the same mean over
 //! the channels as the flat alpha) and premultiplied colour so far (`C`). Empty space
 //! between such segments is a gap. The pixel loop turns the traces of a pixel's rays
-//! into deep samples ([`pixel_samples`]): the mean of the rays' curves, thinned by
-//! [`simplify`], each kept interval one sample `(Z, ZBack, colour, alpha)` with
-//! `alpha = 1 − T₁/T₀` and `colour = (C₁ − C₀)/T₀` (`T = 1 − A`). Flattening the samples
-//! front to back with "over" gives back the curves' last point, the flat pixel, exactly:
-//! every kept point is a point of the mean curve.
+//! into deep samples (`integrate::deep_pixel`'s `pixel_samples`): the mean of the
+//! rays' curves, thinned by [`simplify`] (here), each kept interval one sample
+//! `(Z, ZBack, colour, alpha)` with `alpha = 1 − T₁/T₀` and `colour = (C₁ − C₀)/T₀`
+//! (`T = 1 − A`). Flattening the samples front to back with "over" gives back the
+//! curves' last point, the flat pixel, exactly: every kept point is a point of the mean
+//! curve.
 
 use glam::DVec3;
 
@@ -140,15 +141,6 @@ impl DeepTrace {
     }
 }
 
-/// One deep sample as written: camera-space depths and premultiplied colour and alpha.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct DeepSample {
-    pub z: f32,
-    pub z_back: f32,
-    pub rgb: [f32; 3],
-    pub alpha: f32,
-}
-
 /// How far apart, as a fraction of a split point's distance from the sample's front, the
 /// depth at which a merged sample reaches that point's opacity may be from the point.
 pub const DEPTH_FRACTION: f64 = 0.5;
@@ -163,7 +155,9 @@ pub const DEPTH_FRACTION: f64 = 0.5;
 /// Greedy from the front, O(points): each dropped point narrows the range of slopes
 /// (of `ln T` against depth, and of colour against opacity) the merged sample may have.
 pub fn simplify(curve: &[DeepPoint], tolerance: f64, color_scale: f64) -> Vec<DeepPoint> {
-    let mut out = Vec::new();
+    // Room for what a ray through a cloud keeps (a few more than the samples it makes),
+    // so the list is not grown point by point.
+    let mut out = Vec::with_capacity(curve.len().min(32));
     let mut start = 0;
     for end in 1..=curve.len() {
         if end == curve.len() || curve[end].starts_run {
@@ -189,6 +183,49 @@ fn ln_t(alpha: f64) -> f64 {
     (1.0 - alpha).max(0.0).ln()
 }
 
+/// `ln(t − tol)` and `ln(t + tol)` (the latter at most 0) from `ln_t = ln t`. Where
+/// `tol ≤ t/4`, without a logarithm: `ln(1 ± x) = 2 atanh(±x/(2 ± x))`, its series to the
+/// ninth power (the first term left out is under 1e-10 of the bound), every term of one
+/// sign, so the bounds come out a little inside the true ones, never outside.
+#[inline]
+fn ln_bounds(t: f64, ln_t: f64, tol: f64) -> (f64, f64) {
+    let hi_exact = || if t + tol >= 1.0 { 0.0 } else { (t + tol).ln() };
+    if !(4.0 * tol <= t) || !ln_t.is_finite() {
+        let lo = if t - tol <= 0.0 {
+            f64::NEG_INFINITY
+        } else {
+            (t - tol).ln()
+        };
+        return (lo, hi_exact());
+    }
+    // u± = ±tol/(2t ± tol), over one division.
+    let (p, m) = (2.0 * t + tol, 2.0 * t - tol);
+    let r = tol / (p * m);
+    let (u_hi, u_lo) = (m * r, -p * r);
+    let atanh2 = |u: f64| {
+        let u2 = u * u;
+        let poly = (((u2 * (1.0 / 9.0) + 1.0 / 7.0) * u2 + 1.0 / 5.0) * u2 + 1.0 / 3.0) * u2 + 1.0;
+        2.0 * u * poly
+    };
+    let hi = if t + tol >= 1.0 {
+        0.0
+    } else {
+        (ln_t + atanh2(u_hi)).min(0.0)
+    };
+    (ln_t + atanh2(u_lo), hi)
+}
+
+/// A point `k` seen from a cone's front `s`: depth and opacity past it (and their
+/// reciprocals), colour past it, `ln T` past it.
+struct Past {
+    dz: f64,
+    inv_dz: f64,
+    da: f64,
+    inv_da: f64,
+    dc: DVec3,
+    dl: f64,
+}
+
 impl Cone {
     /// The cone from `s`, whose `ln T` is `ln_t_s`.
     fn new(s: DeepPoint, ln_t_s: f64) -> Self {
@@ -201,46 +238,52 @@ impl Cone {
         }
     }
 
-    /// Narrows the cone by point `k` (its `ln T` is `ln_t_k`), dropped inside the merged
-    /// sample.
-    fn drop_point(&mut self, k: &DeepPoint, ln_t_k: f64, tol: f64, ctol: f64) {
+    /// Point `k` (its `ln T` is `ln_t_k`) from the front: the one division of depth and
+    /// of opacity that [`Cone::fits`] and [`Cone::drop_point`] share.
+    #[inline]
+    fn past(&self, k: &DeepPoint, ln_t_k: f64) -> Past {
         let dz = k.depth - self.s.depth;
-        if !(dz > 0.0) {
+        let da = k.alpha - self.s.alpha;
+        Past {
+            dz,
+            inv_dz: 1.0 / dz,
+            da,
+            inv_da: 1.0 / da,
+            dc: k.color - self.s.color,
+            dl: ln_t_k - self.ln_t,
+        }
+    }
+
+    /// Narrows the cone by point `k` (seen from the front as `p`), dropped inside the
+    /// merged sample.
+    #[inline]
+    fn drop_point(&mut self, k: &DeepPoint, ln_t_k: f64, p: &Past, tol: f64, ctol: f64) {
+        if !(p.dz > 0.0) {
             self.closed = true;
             return;
         }
-        let t = 1.0 - k.alpha;
         // Opacity: T at k within tol.
-        let lo = if t - tol <= 0.0 {
-            f64::NEG_INFINITY
-        } else {
-            (t - tol).ln()
-        };
-        let hi = if t + tol >= 1.0 { 0.0 } else { (t + tol).ln() };
-        let mut smin = (lo - self.ln_t) / dz;
-        let mut smax = (hi - self.ln_t) / dz;
+        let (lo, hi) = ln_bounds(1.0 - k.alpha, ln_t_k, tol);
+        let mut smin = (lo - self.ln_t) * p.inv_dz;
+        let mut smax = (hi - self.ln_t) * p.inv_dz;
         // Depth: the merged sample reaches ln T_k at s + (ΔL / slope); within
         // DEPTH_FRACTION × dz of k, where k's opacity differs from the front's by more
         // than the tolerance (where it does not, no depth sees the merged opacity off by
         // more than the tolerance, wherever it is placed).
-        let dl = ln_t_k - self.ln_t;
-        if dl.is_finite() && k.alpha - self.s.alpha > tol {
-            let near = dz * (1.0 - DEPTH_FRACTION);
-            let far = dz * (1.0 + DEPTH_FRACTION);
-            smax = smax.min(dl / far);
-            if near > 0.0 {
-                smin = smin.max(dl / near);
+        if p.dl.is_finite() && p.da > tol {
+            let per_dz = p.dl * p.inv_dz;
+            smax = smax.min(per_dz * (1.0 / (1.0 + DEPTH_FRACTION)));
+            if DEPTH_FRACTION < 1.0 {
+                smin = smin.max(per_dz * (1.0 / (1.0 - DEPTH_FRACTION)));
             }
         }
         self.slope = (self.slope.0.max(smin), self.slope.1.min(smax));
-        let da = k.alpha - self.s.alpha;
-        let dcs = k.color - self.s.color;
         // A grey change (a grey medium under white light): one channel's bounds serve all.
-        let channels = if is_grey(dcs) { 1 } else { 3 };
+        let channels = if is_grey(p.dc) { 1 } else { 3 };
         for c in 0..channels {
-            let dc = dcs[c];
-            if da > 0.0 {
-                let (a, b) = ((dc - ctol) / da, (dc + ctol) / da);
+            let dc = p.dc[c];
+            if p.da > 0.0 {
+                let (a, b) = ((dc - ctol) * p.inv_da, (dc + ctol) * p.inv_da);
                 let narrowed = if channels == 1 { 0..3 } else { c..c + 1 };
                 for bound in &mut self.color[narrowed] {
                     *bound = (bound.0.max(a), bound.1.min(b));
@@ -251,14 +294,14 @@ impl Cone {
         }
     }
 
-    /// Whether the merged sample from `s` to `j` (its `ln T` is `ln_t_j`) keeps every
+    /// Whether the merged sample from `s` to `j` (seen from the front as `p`) keeps every
     /// dropped point in tolerance.
-    fn fits(&self, j: &DeepPoint, ln_t_j: f64) -> bool {
-        let dz = j.depth - self.s.depth;
-        if self.closed || !(dz > 0.0) {
+    #[inline]
+    fn fits(&self, j: &DeepPoint, p: &Past) -> bool {
+        if self.closed || !(p.dz > 0.0) {
             return false;
         }
-        let slope = (ln_t_j - self.ln_t) / dz;
+        let slope = p.dl * p.inv_dz;
         let slope_ok = if slope == f64::NEG_INFINITY {
             self.slope.0 == f64::NEG_INFINITY
         } else {
@@ -267,20 +310,18 @@ impl Cone {
         if !slope_ok {
             return false;
         }
-        let da = j.alpha - self.s.alpha;
-        if !(da > 0.0) {
+        if !(p.da > 0.0) {
             // No opacity: every dropped point's colour was within tolerance (else the
             // cone is closed); the end's must be too.
             return self.color.iter().all(|(lo, hi)| lo <= hi)
                 && (0..3).all(|c| (j.color[c] - self.s.color[c]).abs() == 0.0);
         }
-        let dcs = j.color - self.s.color;
-        if is_grey(dcs) {
-            let sc = dcs.x / da;
+        if is_grey(p.dc) {
+            let sc = p.dc.x * p.inv_da;
             return self.color.iter().all(|(lo, hi)| sc >= *lo && sc <= *hi);
         }
         (0..3).all(|c| {
-            let sc = dcs[c] / da;
+            let sc = p.dc[c] * p.inv_da;
             sc >= self.color[c].0 && sc <= self.color[c].1
         })
     }
@@ -304,13 +345,15 @@ fn simplify_run(run: &[DeepPoint], tol: f64, color_scale: f64, out: &mut Vec<Dee
     let mut s = 0;
     for j in 1..run.len() {
         let ln_j = ln_t(run[j].alpha);
-        if j > s + 1 && !cone.fits(&run[j], ln_j) {
+        let mut past = cone.past(&run[j], ln_j);
+        if j > s + 1 && !cone.fits(&run[j], &past) {
             s = j - 1;
             out.push(run[s]);
             cone = Cone::new(run[s], ln_before);
+            past = cone.past(&run[j], ln_j);
         }
         if j + 1 < run.len() {
-            cone.drop_point(&run[j], ln_j, tol, ctol);
+            cone.drop_point(&run[j], ln_j, &past, tol, ctol);
         }
         ln_before = ln_j;
     }
@@ -319,294 +362,32 @@ fn simplify_run(run: &[DeepPoint], tol: f64, color_scale: f64, out: &mut Vec<Dee
     }
 }
 
-/// One pixel's deep output: its samples, front to back, and with deep AOVs each
-/// sample's AOV values (three a selected AOV, in its order), sample after sample.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct DeepPixel {
-    pub samples: Vec<DeepSample>,
-    pub aovs: Vec<f32>,
-}
-
-impl DeepPixel {
-    pub fn clear(&mut self) {
-        self.samples.clear();
-        self.aovs.clear();
-    }
-}
-
-/// What a pixel's rays recorded for its AOVs: per ray its AOV values (`width` per
-/// point of its curve), and the AOVs wanted.
-pub struct PixelAovs<'a> {
-    pub rows: &'a [Vec<f64>],
-    pub width: usize,
-    pub wanted: &'a [DeepAov],
-}
-
-/// The AOVs of a pixel's samples: its rays' curves (in depth) with their AOV values, and
-/// the AOVs wanted. Each sample's value of an AOV is what the AOV's curve (the mean of the
-/// rays', each split by OpenEXR's rule like colour) gains over the sample, over the
-/// transmittance in front of it, so each AOV flattens to the mean of the rays' totals:
-/// the flat layer.
-struct AovWalk<'a> {
-    curves: &'a [Vec<DeepPoint>],
-    rows: &'a [Vec<f64>],
-    width: usize,
-    wanted: &'a [DeepAov],
-    cursors: Vec<usize>,
-    /// What the samples so far add up to, flattened.
-    done: Vec<f64>,
-    now: Vec<f64>,
-}
-
-impl AovWalk<'_> {
-    /// The AOVs' cumulative values at `depth` (growing over calls) into `now`.
-    fn at(&mut self, depth: f64) {
-        self.now.iter_mut().for_each(|v| *v = 0.0);
-        let n = self.curves.len().max(1) as f64;
-        for ((curve, rows), cur) in self.curves.iter().zip(self.rows).zip(&mut self.cursors) {
-            let (i, j, share) = match locate(curve, depth, cur) {
-                Where::Zero => continue,
-                Where::Hold(i) => (i, i, 0.0),
-                Where::Between(i, j, f) => (i, j, split(&curve[i], &curve[j], f).1),
-            };
-            let at = |k: usize| curve[k].row as usize * self.width;
-            let (Some(ri), Some(rj)) = (rows.get(at(i)..), rows.get(at(j)..)) else {
-                continue;
-            };
-            for (k, aov) in self.wanted.iter().enumerate() {
-                for &r in &aov.rows {
-                    for c in 0..3 {
-                        let (a, b) = (ri[r + c], rj[r + c]);
-                        self.now[3 * k + c] += (a + (b - a) * share) / n;
-                    }
-                }
-            }
-        }
-    }
-
-    /// The sample that ends at `depth` with transmittance `t0` in front of it.
-    fn sample(&mut self, depth: f64, t0: f64, out: &mut Vec<f32>) {
-        self.at(depth);
-        for (d, v) in self.done.iter_mut().zip(&self.now) {
-            out.push(((v - *d) / t0) as f32);
-            *d = *v;
-        }
-    }
-}
-
-/// The deep samples of a kept curve: one per interval inside a run, front to back,
-/// leaving out those that add nothing. A sample behind full opacity adds nothing either.
-pub fn samples_of(curve: &[DeepPoint], out: &mut Vec<DeepSample>) {
-    samples_with(curve, out, None);
-}
-
-fn samples_with(
-    curve: &[DeepPoint],
-    out: &mut Vec<DeepSample>,
-    mut aovs: Option<(&mut AovWalk, &mut Vec<f32>)>,
-) {
-    for w in curve.windows(2) {
-        let (p, q) = (w[0], w[1]);
-        if q.starts_run {
-            continue;
-        }
-        let t0 = 1.0 - p.alpha;
-        if !(t0 > 0.0) {
-            break;
-        }
-        let alpha = (1.0 - (1.0 - q.alpha) / t0).clamp(0.0, 1.0);
-        let color = (q.color - p.color) / t0;
-        if alpha == 0.0 && color == DVec3::ZERO {
-            continue;
-        }
-        out.push(DeepSample {
-            z: p.depth as f32,
-            z_back: q.depth.max(p.depth) as f32,
-            rgb: [color.x as f32, color.y as f32, color.z as f32],
-            alpha: alpha as f32,
-        });
-        if let Some((walk, values)) = aovs.as_mut() {
-            walk.sample(q.depth, t0, values);
-        }
-    }
-}
-
-/// Where `depth` falls on a curve: before it (zero), on or after point `i` with nothing
-/// changing until the next (its value), or inside the interval from point `i` to point
-/// `j` at fraction `f` of its depth. `cursor` walks forward over calls with growing depths.
-enum Where {
-    Zero,
-    Hold(usize),
-    Between(usize, usize, f64),
-}
-
-fn locate(curve: &[DeepPoint], depth: f64, cursor: &mut usize) -> Where {
-    while *cursor < curve.len() && curve[*cursor].depth <= depth {
-        *cursor += 1;
-    }
-    let i = *cursor;
-    if i == 0 {
-        return Where::Zero;
-    }
-    if i == curve.len() || curve[i].starts_run {
-        return Where::Hold(i - 1);
-    }
-    let (p, q) = (&curve[i - 1], &curve[i]);
-    Where::Between(
-        i - 1,
-        i,
-        ((depth - p.depth) / (q.depth - p.depth)).clamp(0.0, 1.0),
-    )
-}
-
-/// Inside the interval from `p` to `q` at fraction `f` of its depth, by OpenEXR's split
-/// rule (ln T linear in depth): the opacity, and the share of the interval's opacity (of
-/// its colour, which follows opacity; of its depth where it has no opacity) in front.
-fn split(p: &DeepPoint, q: &DeepPoint, f: f64) -> (f64, f64) {
-    let (t0, t1) = (1.0 - p.alpha, 1.0 - q.alpha);
-    let t = if t0 > 0.0 {
-        t0 * (t1 / t0).powf(f)
-    } else {
-        0.0
-    };
-    let alpha = 1.0 - t;
-    let da = q.alpha - p.alpha;
-    let share = if da > 0.0 {
-        ((alpha - p.alpha) / da).clamp(0.0, 1.0)
-    } else {
-        f
-    };
-    (alpha, share)
-}
-
-/// A curve's value at `depth`: inside an interval by OpenEXR's split rule (ln T linear in
-/// depth, colour in proportion to opacity), in a gap or past the end its last value.
-/// `cursor` walks forward over calls with growing depths.
-fn value_at(curve: &[DeepPoint], depth: f64, cursor: &mut usize) -> (f64, DVec3) {
-    match locate(curve, depth, cursor) {
-        Where::Zero => (0.0, DVec3::ZERO),
-        Where::Hold(i) => (curve[i].alpha, curve[i].color),
-        Where::Between(i, j, f) => {
-            let (p, q) = (&curve[i], &curve[j]);
-            let (alpha, share) = split(p, q, f);
-            (alpha, p.color + (q.color - p.color) * share)
-        }
-    }
-}
-
-/// The mean of several curves (each a pixel sample's, in depth), as one curve whose
-/// points are the union of theirs: exact at every one of their points.
-pub fn mean_curve(curves: &[Vec<DeepPoint>]) -> Vec<DeepPoint> {
-    let mut depths: Vec<f64> = curves.iter().flatten().map(|p| p.depth).collect();
-    depths.sort_by(f64::total_cmp);
-    depths.dedup();
-    let n = curves.len().max(1) as f64;
-    let mut cursors = vec![0usize; curves.len()];
-    let mut out: Vec<DeepPoint> = Vec::with_capacity(depths.len());
-    for &z in &depths {
-        let (mut a, mut c) = (0.0, DVec3::ZERO);
-        for (curve, cur) in curves.iter().zip(cursors.iter_mut()) {
-            let (ai, ci) = value_at(curve, z, cur);
-            a += ai;
-            c += ci;
-        }
-        let point = DeepPoint {
-            depth: z,
-            alpha: a / n,
-            color: c / n,
-            starts_run: false,
-            row: 0,
-        };
-        match out.last_mut() {
-            // Nothing changed since the last point: empty space (or its end).
-            Some(last) if last.alpha == point.alpha && last.color == point.color => {
-                let start = DeepPoint {
-                    starts_run: true,
-                    ..point
-                };
-                if last.starts_run {
-                    *last = start;
-                } else {
-                    out.push(start);
-                }
-            }
-            _ => out.push(point),
-        }
-    }
-    if let Some(first) = out.first_mut() {
-        first.starts_run = true;
-    }
-    // A point that starts a run after a gap and is followed by another run start is a
-    // lone point of nothing: drop it.
-    let mut kept: Vec<DeepPoint> = Vec::with_capacity(out.len());
-    for (i, p) in out.iter().enumerate() {
-        let alone = p.starts_run && out.get(i + 1).is_none_or(|q| q.starts_run);
-        if !alone {
-            kept.push(*p);
-        }
-    }
-    kept
-}
-
-/// The deep samples of one pixel from its samples' curves (each in depth): each thinned
-/// with half the tolerance, their mean thinned with the other half. With `aovs`, each
-/// sample's AOV values too (they follow the samples the beauty's curves make).
-pub fn pixel_samples(
-    curves: &[Vec<DeepPoint>],
-    tolerance: f64,
-    aovs: Option<PixelAovs>,
-    out: &mut DeepPixel,
-) {
-    let scale = |c: &[DeepPoint]| c.last().map_or(0.0, |p| p.color.max_element().max(0.0));
-    // The curves the kept one is made of (each a subset of its ray's points), and it.
-    let (thinned, kept) = match curves {
-        [] => return,
-        [one] => (Vec::new(), simplify(one, tolerance, scale(one))),
-        many => {
-            let half = 0.5 * tolerance;
-            let thinned: Vec<Vec<DeepPoint>> =
-                many.iter().map(|c| simplify(c, half, scale(c))).collect();
-            let mean = mean_curve(&thinned);
-            let kept = simplify(&mean, half, scale(&mean));
-            (thinned, kept)
-        }
-    };
-    // One ray: the kept curve is its thinned one.
-    let thinned = if thinned.is_empty() {
-        std::slice::from_ref(&kept)
-    } else {
-        thinned.as_slice()
-    };
-    match aovs.filter(|a| !a.wanted.is_empty() && a.rows.len() == curves.len()) {
-        Some(a) => {
-            let m = 3 * a.wanted.len();
-            // On the same curves as the colour: at every kept point the AOVs add up to
-            // the colour as the layers do.
-            let mut walk = AovWalk {
-                curves: thinned,
-                rows: a.rows,
-                width: a.width,
-                wanted: a.wanted,
-                cursors: vec![0; curves.len()],
-                done: vec![0.0; m],
-                now: vec![0.0; m],
-            };
-            samples_with(&kept, &mut out.samples, Some((&mut walk, &mut out.aovs)));
-        }
-        None => samples_with(&kept, &mut out.samples, None),
-    }
-}
-
-/// Flattens deep samples front to back with "over": `(R, G, B, A)`.
-pub fn flatten(samples: &[DeepSample]) -> [f64; 4] {
-    let (mut c, mut t) = (DVec3::ZERO, 1.0);
-    for s in samples {
-        c += t * DVec3::new(s.rgb[0] as f64, s.rgb[1] as f64, s.rgb[2] as f64);
-        t *= 1.0 - s.alpha as f64;
-    }
-    [c.x, c.y, c.z, 1.0 - t]
-}
-
 #[cfg(test)]
-#[path = "deep_tests.rs"]
-mod tests;
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_opacity_bounds_without_logarithms_are_the_logarithms_or_just_inside() {
+        for tol in [0.0, 0.002, 0.005, 0.01, 0.05] {
+            for k in 0..=2000 {
+                let t = k as f64 / 2000.0;
+                let (lo, hi) = ln_bounds(t, t.ln(), tol);
+                let lo_exact = if t - tol <= 0.0 {
+                    f64::NEG_INFINITY
+                } else {
+                    (t - tol).ln()
+                };
+                let hi_exact = if t + tol >= 1.0 { 0.0 } else { (t + tol).ln() };
+                let near = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-10;
+                assert!(
+                    near(lo, lo_exact) && lo >= lo_exact - 1e-15,
+                    "{t} {tol}: lo {lo} against {lo_exact}"
+                );
+                assert!(
+                    near(hi, hi_exact) && hi <= hi_exact + 1e-15,
+                    "{t} {tol}: hi {hi} against {hi_exact}"
+                );
+            }
+        }
+    }
+}

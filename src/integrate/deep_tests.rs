@@ -1,4 +1,5 @@
 use super::*;
+use crate::integrate::deep::{DeepTrace, simplify};
 
 /// The trace a march through a uniform slab `[z0, z1]` of extinction `sigma_t` records
 /// in steps of `h`, with a colour of `k` per unit opacity.

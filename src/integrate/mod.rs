@@ -5,6 +5,7 @@
 pub mod blackbody;
 pub mod deep;
 pub mod deep_aovs;
+pub mod deep_pixel;
 pub mod fast;
 pub mod ground;
 pub mod integrator;

@@ -76,7 +76,12 @@ pub fn round_with_aovs(
         }
         t *= 1.0 - a;
         let alpha = to_half((1.0 - t / tq).clamp(0.0, 1.0));
-        let rgb = [0, 1, 2].map(|k| to_half((c[k] - cq[k]) / tq));
+        // A grey pixel so far (a grey medium under white light): one rounding serves all.
+        let rgb = if c[0] == c[1] && c[1] == c[2] && cq[0] == cq[1] && cq[1] == cq[2] {
+            [to_half((c[0] - cq[0]) / tq); 3]
+        } else {
+            [0, 1, 2].map(|k| to_half((c[k] - cq[k]) / tq))
+        };
         if alpha == 0.0 && rgb == [0.0; 3] {
             continue;
         }
@@ -96,25 +101,24 @@ pub fn round_with_aovs(
     }
 }
 
-/// How far the front (`back == false`) or back of sample `i` may move.
-fn limit(samples: &[DeepSample], t_before: &[f64], i: usize, back: bool, tol: f64) -> f64 {
-    let s = samples[i];
-    let len = s.z_back as f64 - s.z as f64;
-    let a = s.rgba[3] as f64;
+/// How far the front and the back of a sample of opacity `a` over `len` may move, with
+/// transmittance `t` in front of it: where a split moves the opacity in front of it by
+/// [`DEPTH_SHARE`] of `tol`, and at most a quarter of the sample.
+fn limits(len: f64, a: f64, t: f64, tol: f64) -> (f64, f64) {
     if !(len > 0.0) || !(a < 1.0) {
-        return 0.0;
+        return (0.0, 0.0);
     }
     // Opacity in front of depth d inside the sample: 1 − T (1 − a)^((d − Z)/len); its
     // slope is T κ (1 − a)^f, the most at the front.
     let kappa = -(1.0 - a).ln() / len;
-    let t = if back { t_before[i + 1] } else { t_before[i] };
-    let slope = t * kappa;
-    let by_split = if slope > 0.0 {
-        DEPTH_SHARE * tol / slope
-    } else {
-        f64::INFINITY
+    let by_split = |slope: f64| {
+        if slope > 0.0 {
+            (DEPTH_SHARE * tol / slope).min(len / 4.0)
+        } else {
+            len / 4.0
+        }
     };
-    by_split.min(len / 4.0)
+    (by_split(t * kappa), by_split(t * (1.0 - a) * kappa))
 }
 
 /// Rounds `z` to the coarsest power-of-two grid that moves it by at most `most`.
@@ -146,42 +150,44 @@ fn pow2_floor(x: f64) -> f64 {
 /// Rounds the depths of one pixel's tidy samples (see the module's notes); `tol` is the
 /// deep tolerance.
 pub fn round_depths(samples: &mut [DeepSample], tol: f64) {
-    let n = samples.len();
-    let mut t_before = Vec::with_capacity(n + 1);
-    t_before.push(1.0f64);
+    // Per sample how far its front and back may move for its own sake (one logarithm a
+    // sample), then, both ends' depths rounded, written back.
+    let mut lim: Vec<(f64, f64)> = Vec::with_capacity(samples.len());
+    let mut t = 1.0f64;
     for s in samples.iter() {
-        let t = t_before[t_before.len() - 1];
-        t_before.push(t * (1.0 - s.rgba[3] as f64));
+        let a = s.rgba[3] as f64;
+        lim.push(limits(s.z_back as f64 - s.z as f64, a, t, tol));
+        t *= 1.0 - a;
     }
-    let lim = |i: usize, back: bool| limit(samples, &t_before, i, back, tol);
-    // Whether sample i's front is sample i − 1's back; the gap otherwise.
-    let joined = |i: usize| i > 0 && samples[i - 1].z_back == samples[i].z;
-    let gap = |i: usize| samples[i].z as f64 - samples[i - 1].z_back as f64;
-    let moved: Vec<(f32, f32)> = (0..n)
-        .map(|i| {
-            let mut front = lim(i, false);
-            if i > 0 {
-                front = front.min(if joined(i) {
-                    lim(i - 1, true)
-                } else {
-                    gap(i) / 4.0
-                });
-            }
-            let mut back = lim(i, true);
-            if i + 1 < n {
-                back = back.min(if joined(i + 1) {
-                    lim(i + 1, false)
-                } else {
-                    gap(i + 1) / 4.0
-                });
-            }
-            let s = samples[i];
-            (round_depth(s.z, front), round_depth(s.z_back, back))
-        })
-        .collect();
-    for (s, (z, zb)) in samples.iter_mut().zip(moved) {
+    let n = samples.len();
+    // A front joined to the sample before moves as little as that one's back may; a gap
+    // limits both ends beside it to a quarter of it.
+    let mut back_before = 0.0;
+    for i in 0..n {
+        let (own_front, own_back) = lim[i];
+        let mut front = own_front;
+        if i > 0 {
+            front = front.min(if samples[i - 1].z_back == samples[i].z {
+                back_before
+            } else {
+                (samples[i].z as f64 - samples[i - 1].z_back as f64) / 4.0
+            });
+        }
+        let mut back = own_back;
+        if i + 1 < n {
+            back = back.min(if samples[i].z_back == samples[i + 1].z {
+                lim[i + 1].0
+            } else {
+                (samples[i + 1].z as f64 - samples[i].z_back as f64) / 4.0
+            });
+        }
+        back_before = own_back;
+        lim[i] = (front, back);
+    }
+    for (s, (front, back)) in samples.iter_mut().zip(lim) {
+        let z = round_depth(s.z, front);
+        s.z_back = round_depth(s.z_back, back).max(z);
         s.z = z;
-        s.z_back = zb.max(z);
     }
 }
 
@@ -195,24 +201,38 @@ fn half_ulp(v: f64) -> f64 {
     }
 }
 
-/// The two half floats about `v` (`v` rounded down and up).
-fn bracket(v: f64) -> [f32; 2] {
-    let h = to_half(v);
-    let other = if (h as f64) < v {
-        to_half(h as f64 + half_ulp(h as f64))
+/// The half float next to the half float `h`, up or down; `h` itself where that is past
+/// the finite range.
+fn half_step(h: f32, up: bool) -> f32 {
+    let b = f16::from_f32(h).to_bits();
+    let bits = if b & 0x7fff == 0 {
+        if up { 0x0001 } else { 0x8001 }
+    } else if (b & 0x8000 != 0) == up {
+        b - 1
     } else {
-        to_half(h as f64 - half_ulp(h as f64))
+        b + 1
     };
-    [h, other]
+    let v = f16::from_bits(bits).to_f32();
+    if v.is_finite() { v } else { h }
 }
 
-/// Transmittance in front of each sample, and behind the last.
-fn t_front(samples: &[DeepSample]) -> Vec<f64> {
-    let mut t = vec![1.0f64; samples.len() + 1];
-    for (i, x) in samples.iter().enumerate() {
-        t[i + 1] = t[i] * (1.0 - x.rgba[3] as f64);
+/// The two half floats about `v` (`v` rounded down and up; its nearest first). Through
+/// a 32-bit float: a double rounding may pick the other one as the nearest, but the two
+/// are the same.
+fn bracket(v: f64) -> [f32; 2] {
+    let h = f16::from_f32(v.clamp(-HALF_MAX, HALF_MAX) as f32).to_f32();
+    [h, half_step(h, (h as f64) < v)]
+}
+
+/// Transmittance in front of each sample, and behind the last, into `t`.
+fn t_front(samples: &[DeepSample], t: &mut Vec<f64>) {
+    t.clear();
+    t.push(1.0);
+    let mut now = 1.0f64;
+    for x in samples {
+        now *= 1.0 - x.rgba[3] as f64;
+        t.push(now);
     }
-    t
 }
 
 /// How many samples [`land_on`] may move per channel.
@@ -227,6 +247,22 @@ fn better(m: Move, best: Option<Move>, now: f64) -> bool {
         None => m.0 < now,
         Some(b) => m.0 < b.0 - 1e-12 || (m.0 <= b.0 + 1e-12 && m.1 < b.1),
     }
+}
+
+/// How far the pixel of `samples` (with `t` its [`t_front`]) is from `target`, per
+/// channel.
+fn off(samples: &[DeepSample], t: &[f64], target: [f32; 4]) -> [f64; 4] {
+    let mut out = [0.0f64; 4];
+    for (c, o) in out.iter_mut().enumerate().take(3) {
+        let sum: f64 = samples
+            .iter()
+            .zip(t)
+            .map(|(x, t)| t * x.rgba[c] as f64)
+            .sum();
+        *o = (sum - target[c] as f64).abs();
+    }
+    out[3] = (1.0 - t[samples.len()] - target[3] as f64).abs();
+    out
 }
 
 /// Moves the half-float values of one pixel's samples so it flattens onto `target` — the
@@ -246,23 +282,17 @@ pub fn land_on(samples: &mut [DeepSample], target: [f32; 4], tolerance: f64) {
     }
     let reach = 0.25 * tolerance;
     let far = |want: f64| 4.0 * half_ulp(want) + 1e-6;
-    // How far the pixel is from the target, per channel: a change that leaves any
-    // channel further from it is undone.
-    let off = |s: &[DeepSample]| {
-        let t = t_front(s);
-        let mut out = [0.0f64; 4];
-        for (c, o) in out.iter_mut().enumerate().take(3) {
-            let sum: f64 = s.iter().zip(&t).map(|(x, t)| t * x.rgba[c] as f64).sum();
-            *o = (sum - target[c] as f64).abs();
-        }
-        out[3] = (1.0 - t[s.len()] - target[3] as f64).abs();
-        out
-    };
-    let before = samples.to_vec();
-    let off_before = off(samples);
+    // The moves made (sample, channel, value before), to undo them.
+    let mut made: [(usize, usize, f32); 4 * LANDING_PASSES] = [(0, 0, 0.0); 4 * LANDING_PASSES];
+    let mut n_made = 0;
+    let mut t = Vec::with_capacity(samples.len() + 1);
+    t_front(samples, &mut t);
+    let off_before = off(samples, &t, target);
     let want_t = 1.0 - target[3] as f64;
-    for _ in 0..LANDING_PASSES {
-        let t = t_front(samples);
+    for pass in 0..LANDING_PASSES {
+        if pass > 0 {
+            t_front(samples, &mut t);
+        }
         let t_end = t[samples.len()];
         let now = (t_end - want_t).abs();
         if now == 0.0 || now > far(target[3] as f64) {
@@ -294,13 +324,31 @@ pub fn land_on(samples: &mut [DeepSample], target: [f32; 4], tolerance: f64) {
             }
         }
         match best {
-            Some((_, _, i, h)) => samples[i].rgba[3] = h,
+            Some((_, _, i, h)) => {
+                made[n_made] = (i, 3, samples[i].rgba[3]);
+                n_made += 1;
+                samples[i].rgba[3] = h;
+            }
             None => break,
         }
     }
-    let t = t_front(samples);
-    for c in 0..3 {
+    if n_made > 0 {
+        t_front(samples, &mut t);
+    }
+    // A grey pixel and target (a grey medium under white light): the green and blue
+    // channels would move as the red one does; it moves, and they are given its values.
+    let grey = target[0] == target[1]
+        && target[1] == target[2]
+        && samples
+            .iter()
+            .all(|s| s.rgba[0] == s.rgba[1] && s.rgba[1] == s.rgba[2]);
+    let made_before_colour = n_made;
+    for c in 0..if grey { 1 } else { 3 } {
         let want = target[c] as f64;
+        // Not a rounding away before the opacity moved: another pixel's value.
+        if off_before[c] > far(want) {
+            continue;
+        }
         for _ in 0..LANDING_PASSES {
             let sum: f64 = samples
                 .iter()
@@ -308,8 +356,7 @@ pub fn land_on(samples: &mut [DeepSample], target: [f32; 4], tolerance: f64) {
                 .map(|(s, t)| t * s.rgba[c] as f64)
                 .sum();
             let now = (sum - want).abs();
-            // Not a rounding away before the opacity moved: another pixel's value.
-            if now == 0.0 || off_before[c] > far(want) {
+            if now == 0.0 {
                 break;
             }
             let mut best: Option<Move> = None;
@@ -335,18 +382,39 @@ pub fn land_on(samples: &mut [DeepSample], target: [f32; 4], tolerance: f64) {
                 }
             }
             match best {
-                Some((_, _, i, h)) => samples[i].rgba[c] = h,
+                Some((_, _, i, h)) => {
+                    made[n_made] = (i, c, samples[i].rgba[c]);
+                    n_made += 1;
+                    samples[i].rgba[c] = h;
+                }
                 None => break,
             }
         }
+    }
+    let copy_red = |samples: &mut [DeepSample], moves: &[(usize, usize, f32)]| {
+        for &(i, _, _) in moves {
+            samples[i].rgba[1] = samples[i].rgba[0];
+            samples[i].rgba[2] = samples[i].rgba[0];
+        }
+    };
+    if grey {
+        copy_red(samples, &made[made_before_colour..n_made]);
+    }
+    if n_made == 0 {
+        return;
     }
     // Kept where it brings the pixel's furthest channel nearer: moving the opacity moves
     // the colour behind it, which the colour's own moves may not bring back to where it
     // was (a few large samples, as a mesh's cells give, have coarse half-float steps),
     // but to well within the opacity's own error before.
     let worst = |o: [f64; 4]| o.iter().copied().fold(0.0, f64::max);
-    if worst(off(samples)) > worst(off_before) {
-        samples.copy_from_slice(&before);
+    if worst(off(samples, &t, target)) > worst(off_before) {
+        for &(i, c, v) in made[..n_made].iter().rev() {
+            samples[i].rgba[c] = v;
+        }
+        if grey {
+            copy_red(samples, &made[made_before_colour..n_made]);
+        }
     }
 }
 
@@ -379,6 +447,34 @@ mod tests {
             let p = pow2_floor(x);
             assert!(p <= x && 2.0 * p > x, "{x}: {p}");
             assert_eq!(p.log2().fract(), 0.0, "{x}: {p}");
+        }
+    }
+
+    #[test]
+    fn the_bracket_is_the_two_half_floats_about_a_value() {
+        for v in [
+            0.0,
+            1e-7,
+            -3e-6,
+            0.1,
+            0.333_333,
+            1.0,
+            -1.0,
+            2.0 - 1e-9,
+            1000.5,
+            65504.0,
+        ] {
+            let [a, b] = bracket(v);
+            let (lo, hi) = (a.min(b) as f64, a.max(b) as f64);
+            assert!(
+                lo <= v && v <= hi && lo < hi || v == 65504.0,
+                "{v}: {a} {b}"
+            );
+            // Adjacent: nothing half between them.
+            let mid = to_half(0.5 * (lo + hi)) as f64;
+            assert!(mid == lo || mid == hi, "{v}: {a} {b}");
+            // The nearest first.
+            assert!((a as f64 - v).abs() <= (b as f64 - v).abs(), "{v}: {a} {b}");
         }
     }
 
@@ -479,6 +575,11 @@ mod tests {
             off(&flatten(&out)) < 1e-6,
             "{:?} against {target:?}",
             flatten(&out)
+        );
+        // A grey pixel stays grey.
+        assert!(
+            out.iter()
+                .all(|s| s.rgba[0] == s.rgba[1] && s.rgba[1] == s.rgba[2])
         );
         // Half floats still, and the opacity in front of every sample within a quarter of
         // the tolerance of what it was.

@@ -2,7 +2,8 @@
 //! an [`Integrator`] into the buffer its passes lay out, then averaged.
 
 use crate::integrate::WorldRay;
-use crate::integrate::deep::{DeepAov, DeepPixel, DeepPoint, PixelAovs, pixel_samples};
+use crate::integrate::deep::{DeepAov, DeepPoint};
+use crate::integrate::deep_pixel::{DeepPixel, PixelAovs, pixel_samples};
 use crate::integrate::integrator::{
     CameraSample, Integrator, SampleRng, shutter_time, unit_random,
 };

@@ -221,8 +221,9 @@ pub fn render_deep(dir: &Path, input: &str, flags: &[&str], args: &[&str]) -> (P
 }
 
 /// The slab fixture (run from the checkout's root) seen from above, orthographic, absorbing
-/// only: inside it α(d) = 1 − e^{−3 (d − 4.025)}. 16×16, float.
-pub const SLAB_VIEW: [&str; 18] = [
+/// only: inside it α(d) = 1 − e^{−3 (d − 4.025)}. 16×16; the default (half) file, so a
+/// test that wants float values adds `--float`.
+pub const SLAB_VIEW: [&str; 17] = [
     "--res",
     "16x16",
     "--camera",
@@ -240,5 +241,4 @@ pub const SLAB_VIEW: [&str; 18] = [
     "3",
     "--sigma-s",
     "0",
-    "--float",
 ];
