@@ -143,6 +143,27 @@ impl PassLayout {
         let i = self.passes.iter().position(|p| p.kind == kind)?;
         Some(self.offsets[i])
     }
+
+    /// Offsets of the passes that add up to the beauty.
+    pub fn beauty_offsets(&self) -> Vec<usize> {
+        (0..self.passes.len())
+            .filter(|&i| self.passes[i].in_beauty)
+            .map(|i| self.offsets[i])
+            .collect()
+    }
+}
+
+/// The beauty's RGB in a pixel's buffer `acc` (its passes at `beauty`, from
+/// [`PassLayout::beauty_offsets`]), the sum of `samples` samples, averaged; 0 where it
+/// is not finite.
+pub fn beauty_rgb(acc: &[f64], beauty: &[usize], samples: f64) -> [f64; 3] {
+    let mut rgb = [0f64; 3];
+    for &at in beauty {
+        for (c, v) in rgb.iter_mut().enumerate() {
+            *v += acc[at + c] / samples;
+        }
+    }
+    rgb.map(|v| if v.is_finite() { v } else { 0.0 })
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@
 
 use crate::integrate::WorldRay;
 use crate::integrate::integrator::{CameraSample, Integrator, SampleRng};
+use crate::integrate::pass::beauty_rgb;
 use crate::scene::camera::Camera;
 use rayon::prelude::*;
 
@@ -45,10 +46,7 @@ pub fn render_pilot<I: Integrator>(
     pixels: &[(usize, usize)],
 ) -> Vec<f64> {
     let layout = integrator.passes().clone();
-    let beauty: Vec<usize> = (0..layout.passes().len())
-        .filter(|&i| layout.passes()[i].in_beauty)
-        .map(|i| layout.offset(i))
-        .collect();
+    let beauty = layout.beauty_offsets();
     let frame = camera.frame();
     pixels
         .par_iter()
@@ -65,13 +63,7 @@ pub fn render_pilot<I: Integrator>(
                 };
                 let mut rng = SampleRng::new(seed, x, y, 0);
                 integrator.sample(&sample, &mut rng, scratch, acc);
-                let mut rgb = [0f64; 3];
-                for &at in &beauty {
-                    for (c, v) in rgb.iter_mut().enumerate() {
-                        *v += acc[at + c];
-                    }
-                }
-                rgb.map(|v| if v.is_finite() { v } else { 0.0 })
+                beauty_rgb(acc, &beauty, 1.0)
             },
         )
         .flatten_iter()

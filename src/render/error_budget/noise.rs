@@ -22,6 +22,7 @@
 //! count.
 
 use crate::integrate::integrator::{Integrator, SampleRng, shutter_time};
+use crate::integrate::pass::beauty_rgb;
 use crate::render::pixels::PixelJob;
 use crate::scene::camera::Camera;
 use crate::scene::camera_motion::CameraMotion;
@@ -198,10 +199,7 @@ fn pixel_means<I: Integrator>(
         overscan: shutter.overscan,
     };
     let layout = integrator.passes().clone();
-    let beauty: Vec<usize> = (0..layout.passes().len())
-        .filter(|&i| layout.passes()[i].in_beauty)
-        .map(|i| layout.offset(i))
-        .collect();
+    let beauty = layout.beauty_offsets();
     let frame = camera.frame();
     pixels
         .par_iter()
@@ -217,13 +215,7 @@ fn pixel_means<I: Integrator>(
                     let mut rng = SampleRng::new(seed, sx, sy, stream);
                     integrator.sample(&sample, &mut rng, scratch, acc);
                 }
-                let mut rgb = [0f64; 3];
-                for &at in &beauty {
-                    for (c, v) in rgb.iter_mut().enumerate() {
-                        *v += acc[at + c] / n as f64;
-                    }
-                }
-                rgb.map(|v| if v.is_finite() { v } else { 0.0 })
+                beauty_rgb(acc, &beauty, n as f64)
             },
         )
         .flatten_iter()
