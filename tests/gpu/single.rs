@@ -1,0 +1,31 @@
+//! Single scattering on the GPU against the CPU's image: the demo cloud, tiles at every
+//! level, rotated grids, point lights' cube maps, coloured and anisotropic media.
+
+use super::*;
+
+#[test]
+fn the_gpu_renders_the_cpus_image_of_the_demo_cloud() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    let (e, _) = gpu_matches_cpu("cloud.vdb", &options("40x24"));
+    eprintln!("cloud: radiance rel. RMSE {e:e}");
+}
+
+#[test]
+fn the_gpu_walks_tiles_at_every_level_and_rotated_grids() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    // Leaves and 8³, 128³ and 4096³ tiles; an affine transform.
+    gpu_matches_cpu("tiles.vdb", &options("32x18"));
+    gpu_matches_cpu("rotated.vdb", &options("32x18"));
+}
+
+#[test]
+fn the_gpu_looks_shadows_up_in_point_lights_cube_maps_and_anisotropic_media() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    // Two lights (a layer each), a point light's six charts, a coloured medium, and a
+    // forward-peaked Henyey–Greenstein phase function from its table.
+    gpu_matches_cpu("cloud.vdb", &two_lights_in_a_coloured_medium());
+    gpu_matches_cpu("sphere.vdb", &forward_peaked_sphere());
+}
