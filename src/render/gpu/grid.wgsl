@@ -34,6 +34,10 @@ struct Params {
     g_mean: f32,             // the phase function's mean cosine
     lattice_lo: vec4<f32>,   // the lattice's first node (world), w: 1 / cell side
     lattice_dims: vec4<u32>, // nodes per axis, w: nodes per light
+    shadow_step: f32,        // marched shadow rays' midpoint step, voxels (0: exact)
+    shadow_enough: f32,      // ∫ρ ds past which a shadow ray stops
+    pad0: u32,
+    pad1: u32,
 };
 
 @group(0) @binding(0) var<uniform> P: Params;

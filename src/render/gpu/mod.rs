@@ -3,7 +3,9 @@
 //! lights' deep shadow maps uploaded as storage buffers, one invocation per camera
 //! sample — beside the CPU's pixel loop, with the same samples, rays and passes. Under
 //! `--scattering fast` the multiple-scattering lattice, solved on the CPU, is uploaded
-//! too and gathered in the same march, per segment, as the CPU's march does.
+//! too and gathered in the same march, per segment, as the CPU's march does. Shadows
+//! are the maps' lookups or shadow rays marched through the grid (`--shadows march`);
+//! the ground plane's light, where a camera ray meets it, is found in the same kernel.
 //!
 //! What it renders is checked first ([`unsupported`]): a scene with anything else runs on
 //! the CPU under `--device auto` (with a note naming it) and is refused under `gpu`.
@@ -14,7 +16,7 @@ mod pixels;
 mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
-pub use context::Gpu;
+pub use context::{Gpu, MAX_BINDING_VAR};
 
 use super::pixels::{PixelJob, PixelPasses};
 use crate::field::grid_nodes::FlatGridError;
@@ -22,6 +24,7 @@ use crate::integrate::ScatteringMode;
 use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::single::SingleScattering;
 use crate::scene::Scene;
+use crate::scene::light::LightKind;
 use crate::scene::lights::LightShadow;
 use crate::scene::plan::RenderPlan;
 use std::time::Instant;
@@ -57,9 +60,6 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
     if scene.fields.color.is_some() && scene.scatters {
         return Some("a colour grid".into());
     }
-    if scene.ground.is_some() {
-        return Some("the ground plane (--ground)".into());
-    }
     if scene.motion.is_some() {
         return Some("motion blur from a velocity grid (--shutter)".into());
     }
@@ -72,14 +72,19 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
     if scene.lights.len() > upload::MAX_LIGHTS {
         return Some(format!("more than {} lights", upload::MAX_LIGHTS));
     }
+    // Shadow rays marched toward a point light: on lavapipe the kernel that marches
+    // them cut some camera rays short (their march stopped early), so they stay on the
+    // CPU until that is understood. Suns' marched rays match the CPU's.
     let lights = scene.illumination();
-    if scene.scatters
-        && lights
-            .shadows
-            .iter()
-            .any(|s| matches!(s, LightShadow::Marched))
-    {
-        return Some("marched shadow rays (--shadows march)".into());
+    let marched_point = scene
+        .lights
+        .iter()
+        .zip(lights.shadows.iter())
+        .any(|(l, s)| {
+            matches!(s, LightShadow::Marched) && matches!(l.kind, LightKind::Point { .. })
+        });
+    if marched_point && (scene.scatters || scene.ground.is_some()) {
+        return Some("shadow rays marched toward a point light (--shadows march)".into());
     }
     None
 }
@@ -129,6 +134,9 @@ pub fn render_pixels(
         settings: job.integrator.settings(),
         scatters: scene.scatters && scene.medium.scatters(),
         lattice,
+        ground: job.integrator.ground().is_some(),
+        quadrature: lights.quadrature,
+        enough: lights.enough,
     })?;
     let layout = t.elapsed().as_secs_f64();
     buffers.split_maps(gpu.max_binding());
