@@ -98,6 +98,8 @@ pub struct GpuTimes {
     pub kernel: f64,
     /// Of `march`: adding each sample's results into its pixel's passes on the CPU.
     pub record: f64,
+    /// Bytes of the scene's buffers uploaded (not the per-batch samples and results).
+    pub resident_bytes: usize,
 }
 
 /// Renders the job's pixels on `gpu` (the scene passed [`unsupported`]), with the fast
@@ -134,6 +136,7 @@ pub fn render_pixels(
         bounds: crate::field::Field::active_bounds(&traversal),
     })?;
     let layout = t.elapsed().as_secs_f64();
+    let resident_bytes = buffers.resident_bytes();
     buffers.split_maps(gpu.max_binding());
     let resident = gpu.upload(&buffers)?;
     drop(buffers);
@@ -142,6 +145,7 @@ pub fn render_pixels(
     let mut times = GpuTimes {
         upload,
         layout,
+        resident_bytes,
         ..GpuTimes::default()
     };
     let passes = pixels::render_pixels(gpu, &resident, job, &mut times)?;

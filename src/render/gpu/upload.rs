@@ -74,6 +74,15 @@ impl Buffers {
         ]
     }
 
+    /// Bytes of every buffer of the scene (the shadow maps whole).
+    pub fn resident_bytes(&self) -> usize {
+        4 * (self.tree.len()
+            + self.vals.len()
+            + self.dsm.len()
+            + self.meta.len()
+            + self.params.len())
+    }
+
     /// Cuts the shadow maps into [`DSM_BUFFERS`] thirds where they exceed one binding of
     /// `max_bytes`; else they stay whole in the first buffer.
     pub fn split_maps(&mut self, max_bytes: u64) {
