@@ -214,5 +214,6 @@ fn forward_peaked_sphere() -> RenderOptions {
 
 mod closed_forms;
 mod device;
+mod emission;
 mod fast;
 mod single;

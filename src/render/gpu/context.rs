@@ -84,6 +84,7 @@ impl Gpu {
             include_str!("march.wgsl"),
             include_str!("dsm.wgsl"),
             include_str!("lattice.wgsl"),
+            include_str!("emission.wgsl"),
         ]
         .join("\n");
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
