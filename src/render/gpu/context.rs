@@ -110,6 +110,7 @@ impl Gpu {
             include_str!("dsm.wgsl"),
             include_str!("lattice.wgsl"),
             include_str!("toward_light.wgsl"),
+            include_str!("emission.wgsl"),
         ]
         .join("\n");
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {

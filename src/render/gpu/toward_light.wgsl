@@ -11,8 +11,8 @@ fn value_at(p: vec3<f32>) -> f32 {
 
 // ∫ρ ds from world point pw (local index point pi) toward light l along a shadow ray:
 // over the grid's cells (empty ones skipped), constant cells exactly, the others by the
-// midpoint rule on equal steps of at most P.shadow_step voxels (0: exactly, per voxel);
-// stopped once past P.shadow_enough.
+// midpoint rule on equal steps of at most P.shadow.x voxels (0: exactly, per voxel);
+// stopped once past P.shadow.y.
 fn march_to_light(l: u32, pw: vec3<f32>, pi: vec3<f32>) -> f32 {
     // The light in index space (light_f 12..14): the sun's direction, or the point
     // light's position.
@@ -38,8 +38,8 @@ fn march_to_light(l: u32, pw: vec3<f32>, pi: vec3<f32>) -> f32 {
     let scale = max(max(abs(r.o.x), abs(r.o.y)), max(abs(r.o.z), 1.0));
     let min_step = 1e-6 * scale / speed;
     var h = 0.0;
-    if (P.shadow_step > 0.0) {
-        h = P.shadow_step / speed;
+    if (P.shadow.x > 0.0) {
+        h = P.shadow.x / speed;
     }
     var sum = 0.0;
     var cells = MAX_CELLS;
@@ -73,7 +73,7 @@ fn march_to_light(l: u32, pw: vec3<f32>, pi: vec3<f32>) -> f32 {
             var walk = walk_start(r, t0);
             sum += integral(r, &walk, t0, t1, &budget);
         }
-        if (sum > P.shadow_enough) {
+        if (sum > P.shadow.y) {
             break;
         }
     }
