@@ -48,7 +48,7 @@ fn render_with(device: &str, env: &[(&str, &str)]) -> (String, Option<i32>, Stri
 fn a_grid_over_the_gpus_largest_buffer_falls_back_under_auto_and_is_refused_under_gpu() {
     need!(tools::LAVAPIPE);
     use_lavapipe();
-    // cloud.vdb's node tables are 1 MiB (eight upper nodes of 32768 words), its
+    // cloud.vdb's node tables are 1.1 MiB (eight upper nodes of 32768 words), its
     // values 1.5 MiB; 512 KiB holds neither.
     let small = [(MAX_BINDING_VAR, "524288")];
     let (err, code, _) = render_with("gpu", &small);
@@ -56,7 +56,7 @@ fn a_grid_over_the_gpus_largest_buffer_falls_back_under_auto_and_is_refused_unde
     let lines: Vec<&str> = err.lines().collect();
     assert_eq!(lines.len(), 1, "{err}");
     assert!(
-        lines[0].contains("--device gpu: the density grid's")
+        lines[0].contains("--device gpu: the grids' node tables (1.1 MiB)")
             && lines[0].contains("exceed the largest buffer llvmpipe")
             && lines[0].contains("(512.0 KiB)"),
         "{err}"
@@ -73,7 +73,7 @@ fn a_grid_over_the_gpus_largest_buffer_falls_back_under_auto_and_is_refused_unde
         .collect();
     assert_eq!(notes.len(), 1, "{err}");
     assert!(
-        notes[0].contains("rendered on the CPU: the density grid's")
+        notes[0].contains("rendered on the CPU: the grids' node tables")
             && notes[0].contains("(512.0 KiB)"),
         "{err}"
     );
