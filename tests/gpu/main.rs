@@ -215,4 +215,5 @@ fn forward_peaked_sphere() -> RenderOptions {
 mod closed_forms;
 mod device;
 mod fast;
+mod path;
 mod single;

@@ -5,16 +5,21 @@
 //! `--scattering fast` the multiple-scattering lattice, solved on the CPU, is uploaded
 //! too and gathered in the same march, per segment, as the CPU's march does.
 //!
+//! Under `--scattering path` the path tracer's paths are traced on the GPU (path.rs,
+//! path.wgsl) over the same uploaded grid and maps and the path tracer's majorants.
+//!
 //! What it renders is checked first ([`unsupported`]): a scene with anything else runs on
 //! the CPU under `--device auto` (with a note naming it) and is refused under `gpu`.
 
 mod bake;
 mod context;
+mod path;
 mod pixels;
 mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
 pub use context::Gpu;
+pub use path::render_path;
 
 use super::pixels::{PixelJob, PixelPasses};
 use crate::field::grid_nodes::FlatGridError;
@@ -29,11 +34,9 @@ use std::time::Instant;
 /// The first feature of the render that the GPU backend does not run, or `None` when
 /// it runs all of them.
 pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
-    if plan.transport.mode == ScatteringMode::Path {
-        return Some(format!(
-            "--scattering {} (the GPU renders --scattering single and fast)",
-            plan.transport.mode.name()
-        ));
+    if plan.transport.mode == ScatteringMode::Path && scene.scatters && scene.environment.is_some()
+    {
+        return Some("an environment light under --scattering path".into());
     }
     let Some(grid) = scene.fields.density.as_voxel_grid() else {
         return Some(if plan.volumes.is_some() {
