@@ -1,10 +1,10 @@
 //! Which device renders a frame under `--device`, and a frame's march on the GPU.
 
 use super::{Extent, RenderError, Result, channels, gpu, pixels, render_frame};
+use crate::integrate::Integrator;
 use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::path::PathTracer;
 use crate::integrate::single::SingleScattering;
-use crate::integrate::{Integrator, ScatteringMode};
 use crate::output::{DeepImage, Frame};
 use crate::render::stats::{RenderStats, Stage};
 use crate::scene::plan::Device;
@@ -16,14 +16,14 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// Builds the scene, its shadow bake's light columns marched on the GPU where the render
-/// may run there (`--device gpu|auto`, single or fast scattering, no deep output) and a GPU opens;
+/// may run there (`--device gpu|auto`, no deep output) and a GPU opens;
 /// the GPU's marcher is returned for its times.
 pub(super) fn build_scene(
     plan: &RenderPlan,
     progress: &dyn Progress,
     reuse: &mut FrameReuse,
 ) -> Result<(Scene, Option<Arc<gpu::GpuColumns>>)> {
-    let may = plan.transport.mode != ScatteringMode::Path && plan.outputs.deep.is_none();
+    let may = plan.outputs.deep.is_none();
     let columns = may
         .then(|| gpu_for(plan.sampling.device))
         .and_then(|g| g.ok())

@@ -88,7 +88,9 @@ pub fn render_path(
     };
     let maj_base = buffers.meta.len();
     buffers.meta.extend(majorants.maxima());
-    buffers.meta.resize(buffers.meta.len().max(maj_base + 4), 0.0);
+    buffers
+        .meta
+        .resize(buffers.meta.len().max(maj_base + 4), 0.0);
     if buffers.meta.len() as u64 >= u32::MAX as u64 {
         return Err("a majorant grid over 2^32 floats".into());
     }
@@ -326,7 +328,10 @@ fn dispatch(
     });
     d.poll(wgpu::PollType::wait_indefinitely())
         .map_err(|e| format!("{}: {e}", gpu.name))?;
-    let mapped = rx.recv().map_err(|e| e.to_string()).and_then(|r| r.map_err(|e| e.to_string()));
+    let mapped = rx
+        .recv()
+        .map_err(|e| e.to_string())
+        .and_then(|r| r.map_err(|e| e.to_string()));
     if let Some(e) = pollster::block_on(oom.pop()) {
         return Err(format!("{}: out of memory ({e})", gpu.name));
     }
@@ -365,7 +370,10 @@ fn path_pipeline(gpu: &Gpu) -> Result<&wgpu::ComputePipeline, String> {
             cache: None,
         });
         match pollster::block_on(scope.pop()) {
-            Some(e) => Err(format!("{}: the path tracer does not compile ({e})", gpu.name)),
+            Some(e) => Err(format!(
+                "{}: the path tracer does not compile ({e})",
+                gpu.name
+            )),
             None => Ok(pipeline),
         }
     });

@@ -222,7 +222,7 @@ fn dense_flight(r: Ray, t0: f32, t1: f32, maj: f32, beta: ptr<function, vec3<f32
     }
     var kept = 0;
     for (var i = 0; i < 64; i++) {
-        if (!(b - a > max(1e-6 * (b - t0), 4.0 * ulp))) {
+        if (!(b - a > max(1e-9 * (b - t0), 4.0 * ulp))) {
             break;
         }
         var m = (a * fb - b * fa) / (fb - fa);
