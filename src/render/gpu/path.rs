@@ -56,6 +56,8 @@ pub fn render_path(
         return Err(format!("the GPU backend does not render {why} yet"));
     }
     let t = Instant::now();
+    // Compiled before the samples are timed (a setup cost, as the upload is).
+    path_pipeline(gpu)?;
     let grid = scene
         .fields
         .density
