@@ -98,6 +98,11 @@ impl MajorantGrid {
         self.ranges.iter().map(|r| r.max)
     }
 
+    /// Every block's range's least value, in [`MajorantGrid::maxima`]'s order.
+    pub fn minima(&self) -> impl Iterator<Item = f32> + '_ {
+        self.ranges.iter().map(|r| r.min)
+    }
+
     /// The non-zero blocks `ray` crosses within `[t_min, t_max]` and the field's active
     /// bounds, front to back.
     pub fn spans(&self, ray: IndexRay, t_min: f64, t_max: f64) -> MajorantSpans<'_> {

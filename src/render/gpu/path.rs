@@ -1,7 +1,7 @@
 //! `--scattering path` on the GPU: the CPU's path tracer (src/integrate/path.rs) as a
 //! compute shader (path.wgsl), one invocation per camera sample, over the march's
 //! uploaded grid and shadow maps and the path tracer's majorant grid (its blocks'
-//! maxima appended to `meta`). Each sample carries its random streams' key
+//! maxima and minima appended to `meta`). Each sample carries its random streams' key
 //! ([`SampleRng::stream_key`]), so the GPU draws the CPU's numbers: where f32 and f64
 //! agree on every decision a path is the CPU's path. The samples, their rays and the
 //! pixels' two passes are the single march's ([`super::pixels::assemble`]); each
@@ -19,6 +19,7 @@ use crate::integrate::path::PathTracer;
 use crate::integrate::{MarchSettings, phase::HenyeyGreenstein};
 use crate::render::pixels::{PixelJob, PixelPasses, finish_pixel};
 use crate::scene::Scene;
+use crate::scene::lights::LightShadow;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -32,18 +33,6 @@ const PATH_RESULT_BASE: usize = 4;
 /// a long dispatch may be stopped by the driver's watchdog.
 const PATH_BATCH: usize = 1 << 18;
 
-/// Why the GPU does not trace this path tracer's paths, or `None`.
-pub fn unsupported(path: &PathTracer) -> Option<&'static str> {
-    let parts = path.parts();
-    if parts.environment {
-        return Some("an environment light under --scattering path");
-    }
-    if parts.ratio_tracking && parts.lights > 0 {
-        return Some("shadow rays by ratio tracking (--shadows march) under --scattering path");
-    }
-    None
-}
-
 /// Renders the job's pixels by tracing `job.integrator`'s paths on `gpu` (the scene
 /// passed [`super::unsupported`]; `g`: its Henyey–Greenstein asymmetry).
 pub fn render_path(
@@ -52,9 +41,6 @@ pub fn render_path(
     g: f64,
     job: &PixelJob<PathTracer>,
 ) -> Result<(PixelPasses, GpuTimes), String> {
-    if let Some(why) = unsupported(job.integrator) {
-        return Err(format!("the GPU backend does not render {why} yet"));
-    }
     let t = Instant::now();
     // Compiled before the samples are timed (a setup cost, as the upload is).
     path_pipeline(gpu)?;
@@ -68,13 +54,21 @@ pub fn render_path(
         .map_err(|_| "a density grid it cannot flatten")?;
     let lights = scene.illumination();
     let parts = job.integrator.parts();
+    // Shadow rays tracked on the GPU read no map.
+    let unshadowed: Vec<LightShadow> = (0..scene.lights.len())
+        .map(|_| LightShadow::Unshadowed)
+        .collect();
     let mut buffers = upload::build(&upload::SceneParts {
         grid,
         nodes,
         medium: scene.medium,
         phase: scene.phase.as_ref(),
         lights: &scene.lights,
-        shadows: &lights.shadows,
+        shadows: if parts.ratio_tracking {
+            &unshadowed
+        } else {
+            &lights.shadows
+        },
         settings: MarchSettings::default(),
         scatters: parts.lights > 0,
         lattice: None,
@@ -90,6 +84,8 @@ pub fn render_path(
     };
     let maj_base = buffers.meta.len();
     buffers.meta.extend(majorants.maxima());
+    let min_base = buffers.meta.len();
+    buffers.meta.extend(majorants.minima());
     buffers
         .meta
         .resize(buffers.meta.len().max(maj_base + 4), 0.0);
@@ -115,21 +111,31 @@ pub fn render_path(
     params.extend([origin.x, origin.y, origin.z, majorants.block()].map(|v| v as u32));
     params.extend([dims.x as u32, dims.y as u32, dims.z as u32, maj_base as u32]);
     let n_lights = parts.lights.min(upload::MAX_LIGHTS);
-    let stride = PATH_RESULT_BASE + 8 * n_lights;
+    // The environment's layer follows the lights'.
+    let dome = scene.environment.as_ref().filter(|_| parts.environment);
+    let layers = n_lights + usize::from(dome.is_some());
+    let stride = PATH_RESULT_BASE + 8 * layers;
     params.extend([
         f(HenyeyGreenstein::new(g).g()),
         parts.bounces.max(1),
         n_lights as u32,
         stride as u32,
         u32::from(sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z),
+        min_base as u32,
+        u32::from(parts.ratio_tracking),
         0,
-        0,
-        0,
+    ]);
+    let radiance = dome.map_or(DVec3::ZERO, |e| e.radiance);
+    params.extend([
+        f(radiance.x),
+        f(radiance.y),
+        f(radiance.z),
+        f(if dome.is_some() { 1.0 } else { 0.0 }),
     ]);
     let path_params = PathBatch {
         params,
         stride,
-        n_lights,
+        layers,
     };
     let upload = t.elapsed().as_secs_f64();
     let t = Instant::now();
@@ -150,7 +156,8 @@ struct PathBatch {
     params: Vec<u32>,
     /// Floats per sample's result.
     stride: usize,
-    n_lights: usize,
+    /// The lights' layers, the environment's last.
+    layers: usize,
 }
 
 /// Traces `picks` on the GPU: each pixel's values, the mean of its samples as the CPU's
@@ -243,7 +250,7 @@ fn trace_picks(
                 }
                 n_samples += r[2] as u64;
                 let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
-                for l in 0..batch.n_lights {
+                for l in 0..batch.layers {
                     let at = PATH_RESULT_BASE + 8 * l;
                     passes.add_scattered(&mut acc, l, 1, v(at));
                     passes.add_scattered(&mut acc, l, 2, v(at + 4));

@@ -2,13 +2,14 @@
 // free flights by delta (spectral) tracking over the majorant grid's blocks (a 3-D DDA;
 // a span too dense to track by its integral, as path/dense.rs), next-event estimation
 // of every sun and point light at each scattering event (the transmittance from the
-// light's deep shadow map, dsm.wgsl), Henyey–Greenstein sampled exactly, Russian
-// roulette from the third event; the camera ray's exact opacity and depth on the
-// samples the CPU computes them on. Random numbers: SplitMix64 on pairs of u32 (WGSL
-// has no u64), each flight's stream derived from the sample's key as the CPU's
-// `SampleRng::stream` derives it, so both draw the same numbers (the GPU keeps the top
-// 24 bits of each). Compiled after grid.wgsl, march.wgsl (its bindings, the integral
-// walk, clipping, the lights), dsm.wgsl and lattice.wgsl.
+// light's deep shadow map, dsm.wgsl, or by ratio tracking), a uniform dome found by the
+// paths themselves, Henyey–Greenstein sampled exactly, Russian roulette from the third
+// event; the camera ray's exact opacity and depth on the samples the CPU computes them
+// on. Random numbers: SplitMix64 on pairs of u32 (WGSL has no u64), each flight's and
+// shadow ray's stream derived from the sample's key as the CPU's `SampleRng::stream`
+// derives it, so both draw the same numbers (the GPU keeps the top 24 bits of each).
+// Compiled after grid.wgsl, march.wgsl (its bindings, the integral walk, clipping, the
+// lights), dsm.wgsl and lattice.wgsl.
 
 struct PathParams {
     to_index_x: vec4<f32>,   // world → local index: the inverse linear map's columns,
@@ -22,9 +23,10 @@ struct PathParams {
     n_lights: u32,
     stride: u32,             // result floats per sample
     grey: u32,               // every channel's extinction is the same
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    maj_min_base: u32,       // where the blocks' minima start in meta_
+    ratio: u32,              // 1: shadow rays by ratio tracking, else the lights' maps
+    _pad: u32,
+    environment: vec4<f32>,  // a uniform dome's radiance, w: 1 where there is one
 };
 
 @group(0) @binding(9) var<uniform> Q: PathParams;
@@ -256,70 +258,112 @@ fn dense_flight(r: Ray, t0: f32, t1: f32, maj: f32, beta: ptr<function, vec3<f32
     return t;
 }
 
-// ---- free flights ----
+// ---- the majorant grid's blocks along a ray (MajorantSpans) ----
 
-// Flies along `r` over [t_min, t_max]: the first scattering event's t, with `beta`
-// weighted for it, or −1 when the path leaves the volume.
-fn fly(r: Ray, t_min: f32, t_max: f32, beta: ptr<function, vec3<f32>>,
-       rng: ptr<function, vec2<u32>>, n: ptr<function, u32>) -> f32 {
+struct Blocks {
+    cell: vec3<i32>,
+    step: vec3<i32>,
+    next: vec3<f32>,
+    delta: vec3<f32>,
+    t: f32,
+    t_end: f32,
+    left: u32,  // blocks it may still visit
+};
+
+fn blocks_start(r: Ray, t_min: f32, t_max: f32) -> Blocks {
+    var b: Blocks;
+    b.t = 0.0;
+    b.t_end = 0.0;
+    b.left = 1048576u;
     let dims = Q.maj_dims.xyz;
     if (any(dims <= vec3<i32>(0))) {
-        return -1.0;
+        return b;
     }
     let clip = clip_to_bounds(r, t_min, t_max);
     if (!(clip.y > clip.x)) {
-        return -1.0;
+        return b;
     }
     let s = f32(Q.maj_origin.w);
     let o = vec3<f32>(Q.maj_origin.xyz);
     let rel = (ray_at(r, clip.x) - o) / s;
-    var cell = vec3<i32>(0);
-    var step = vec3<i32>(0);
-    var next = vec3<f32>(BIG);
-    var delta = vec3<f32>(BIG);
+    b.cell = vec3<i32>(0);
+    b.step = vec3<i32>(0);
+    b.next = vec3<f32>(BIG);
+    b.delta = vec3<f32>(BIG);
     for (var a = 0; a < 3; a++) {
         let d = r.d[a];
         var c = floor(rel[a]);
         if (d < 0.0) {
             c = ceil(rel[a]) - 1.0;
         }
-        cell[a] = clamp(i32(clamp(c, -1.0, f32(dims[a]))), 0, dims[a] - 1);
+        b.cell[a] = clamp(i32(clamp(c, -1.0, f32(dims[a]))), 0, dims[a] - 1);
         if (d != 0.0) {
-            step[a] = select(-1, 1, d > 0.0);
-            let face = o[a] + s * f32(cell[a] + select(0, 1, d > 0.0));
-            next[a] = (face - r.o[a]) / d;
-            delta[a] = s / abs(d);
+            b.step[a] = select(-1, 1, d > 0.0);
+            let face = o[a] + s * f32(b.cell[a] + select(0, 1, d > 0.0));
+            b.next[a] = (face - r.o[a]) / d;
+            b.delta[a] = s / abs(d);
         }
     }
-    let st_max = max3(P.sigma_t.xyz);
-    var t = clip.x;
-    var t_end = clip.y;
-    var blocks = 0u;
+    b.t = clip.x;
+    b.t_end = clip.y;
+    return b;
+}
+
+// The next block with density: its span (t0, t1) and range (max, min) in `span`;
+// false when the ray has left the grid.
+fn blocks_next(b: ptr<function, Blocks>, span: ptr<function, vec4<f32>>) -> bool {
+    let dims = Q.maj_dims.xyz;
     loop {
-        if (!(t < t_end) || blocks > 1048576u) {
-            break;
+        if (!((*b).t < (*b).t_end) || (*b).left == 0u) {
+            return false;
         }
-        blocks += 1u;
-        let rmax = meta_[u32(Q.maj_dims.w) + u32((cell.z * dims.y + cell.y) * dims.x + cell.x)];
+        (*b).left -= 1u;
+        let c = (*b).cell;
+        let at = u32((c.z * dims.y + c.y) * dims.x + c.x);
+        let hi = meta_[u32(Q.maj_dims.w) + at];
+        let lo = meta_[Q.maj_min_base + at];
+        let n = (*b).next;
         var a = 2;
-        if (next.x <= next.y && next.x <= next.z) {
+        if (n.x <= n.y && n.x <= n.z) {
             a = 0;
-        } else if (next.y <= next.z) {
+        } else if (n.y <= n.z) {
             a = 1;
         }
-        let t1 = max(min(next[a], t_end), t);
-        let t0 = t;
-        t = t1;
-        cell[a] += step[a];
-        next[a] += delta[a];
-        if (cell[a] < 0 || cell[a] >= dims[a]) {
-            t_end = t;
+        let t1 = max(min(n[a], (*b).t_end), (*b).t);
+        let t0 = (*b).t;
+        (*b).t = t1;
+        (*b).cell[a] += (*b).step[a];
+        (*b).next[a] += (*b).delta[a];
+        if ((*b).cell[a] < 0 || (*b).cell[a] >= dims[a]) {
+            (*b).t_end = (*b).t;
         }
-        let maj = st_max * rmax;
-        if (!(rmax > 0.0 && t1 > t0 && maj > 0.0)) {
+        if (hi > 0.0 && t1 > t0) {
+            *span = vec4<f32>(t0, t1, hi, lo);
+            return true;
+        }
+    }
+    return false;
+}
+
+// ---- free flights ----
+
+// Flies along `r` over [t_min, t_max]: the first scattering event's t, with `beta`
+// weighted for it, or −1 when the path leaves the volume.
+fn fly(r: Ray, t_min: f32, t_max: f32, beta: ptr<function, vec3<f32>>,
+       rng: ptr<function, vec2<u32>>, n: ptr<function, u32>) -> f32 {
+    let st_max = max3(P.sigma_t.xyz);
+    var blocks = blocks_start(r, t_min, t_max);
+    var span: vec4<f32>;
+    loop {
+        if (!blocks_next(&blocks, &span)) {
+            break;
+        }
+        let t1 = span.y;
+        let maj = st_max * span.z;
+        if (!(maj > 0.0)) {
             continue;
         }
-        var tt = t0;
+        var tt = span.x;
         var tries = 0u;
         loop {
             if (too_many(tries, maj * (t1 - tt))) {
@@ -356,6 +400,61 @@ fn fly(r: Ray, t_min: f32, t_max: f32, beta: ptr<function, vec3<f32>>,
         }
     }
     return -1.0;
+}
+
+// ---- transmittance by ratio tracking ----
+
+const RATIO_ROULETTE: f32 = 0.1;
+
+// The transmittance from world point x toward unit `toward` over `dist`.
+fn ratio_tracking(x: vec3<f32>, toward: vec3<f32>, dist: f32, rng: ptr<function, vec2<u32>>,
+                  n: ptr<function, u32>) -> vec3<f32> {
+    let r = Ray(to_index(x), to_index_dir(toward));
+    let st = P.sigma_t.xyz;
+    let st_max = max3(st);
+    var tr = vec3<f32>(1.0);
+    var blocks = blocks_start(r, 0.0, dist);
+    var span: vec4<f32>;
+    loop {
+        if (!blocks_next(&blocks, &span)) {
+            break;
+        }
+        let len = span.y - span.x;
+        if (span.z == span.w) {
+            // A constant block: its transmittance is exact.
+            tr *= exp(-st * span.z * len);
+        } else if (st_max * span.z * len > DENSE_SPAN) {
+            *n += 1u;
+            let i = max(integral_over(r, span.x, span.y), 0.0);
+            tr *= select(exp(-st * i), vec3<f32>(1.0), st == vec3<f32>(0.0));
+        } else {
+            let maj = st_max * span.z;
+            if (!(maj > 0.0)) {
+                continue;
+            }
+            var t = span.x;
+            loop {
+                t -= log(1.0 - next_f(rng)) / maj;
+                if (t >= span.y) {
+                    break;
+                }
+                let rho = max(density_at(ray_at(r, t)), 0.0);
+                *n += 1u;
+                tr *= max(vec3<f32>(1.0) - st * (rho / maj), vec3<f32>(0.0));
+                let m = max3(tr);
+                if (m < RATIO_ROULETTE) {
+                    if (next_f(rng) >= m) {
+                        return vec3<f32>(0.0);
+                    }
+                    tr /= m;
+                }
+            }
+        }
+        if (max3(tr) <= 0.0) {
+            return vec3<f32>(0.0);
+        }
+    }
+    return tr;
 }
 
 // ---- the camera ray's opacity (path/camera.rs) ----
@@ -441,11 +540,17 @@ fn camera_ray(r: Ray, t_min: f32, t_max: f32, half: ptr<function, f32>, n: ptr<f
 
 // ---- the paths ----
 
+// Stream `lo` of event `events` (flights: lo 0; shadow rays: 1 + their light).
+fn event_stream(key: vec2<u32>, events: u32, lo: u32) -> vec2<u32> {
+    return stream(key, vec2<u32>((events << 16u) | lo, events >> 16u));
+}
+
 // Results of sample i at results[i * Q.stride]: the camera ray's ∫ρ (0 where its
 // opacity is not computed), the half-opacity t (−1: none), the density samples taken,
-// 0; then per light its light scattered once (rgb, 0) and more than once (rgb, 0).
-// The samples: two `Sample`s each, the march's, then the key of its random streams
-// in four 16-bit parts (world_origin) and 1 where its opacity is computed (world_dir.x).
+// 0; then per light (the environment last) its light scattered once (rgb, 0) and more
+// than once (rgb, 0). The samples: two `Sample`s each, the march's, then the key of its
+// random streams in four 16-bit parts (world_origin) and 1 where its opacity is
+// computed (world_dir.x).
 @compute @workgroup_size(64)
 fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x + id.y * 65535u * 64u;
@@ -466,24 +571,35 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     if (extra.world_dir.x != 0.0) {
         depth = camera_ray(r, t_min, t_max, &half, &n);
     }
-    var once: array<vec3<f32>, 8>;
-    var more: array<vec3<f32>, 8>;
-    for (var l = 0u; l < MAX_LIGHTS; l++) {
+    var once: array<vec3<f32>, 9>;
+    var more: array<vec3<f32>, 9>;
+    for (var l = 0u; l <= MAX_LIGHTS; l++) {
         once[l] = vec3<f32>(0.0);
         more[l] = vec3<f32>(0.0);
     }
     let n_lights = min(Q.n_lights, MAX_LIGHTS);
+    let env = Q.environment.w != 0.0;
+    let n_layers = n_lights + select(0u, 1u, env);
     var wo = smp.world_origin.xyz;
     var wd = smp.world_dir.xyz;
     var beta = vec3<f32>(1.0);
     var events = 0u;
     loop {
-        if (n_lights == 0u) {
+        if (n_layers == 0u) {
             break;
         }
-        var rng = stream(key, vec2<u32>(events << 16u, events >> 16u));
+        var rng = event_stream(key, events, 0u);
         let t = fly(r, t_min, t_max, &beta, &rng, &n);
         if (t < 0.0) {
+            // Escaped: the dome's light, after at least one event.
+            if (env && events > 0u) {
+                let v = beta * Q.environment.xyz;
+                if (events == 1u) {
+                    once[n_lights] += v;
+                } else {
+                    more[n_lights] += v;
+                }
+            }
             break;
         }
         let x = wo + wd * t;
@@ -494,7 +610,17 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
             if (all(irr == vec3<f32>(0.0))) {
                 continue;
             }
-            let tr = exp(-P.sigma_t.xyz * max(density_to_light(l, x), 0.0));
+            var tr: vec3<f32>;
+            if (Q.ratio != 0u) {
+                var sh = event_stream(key, events, 1u + l);
+                var dist = BIG;
+                if (light_f(l, 0u) != 0.0) {
+                    dist = length(vec3<f32>(light_f(l, 4u), light_f(l, 5u), light_f(l, 6u)) - x);
+                }
+                tr = ratio_tracking(x, -travel, dist, &sh, &n);
+            } else {
+                tr = exp(-P.sigma_t.xyz * max(density_to_light(l, x), 0.0));
+            }
             let v = beta * hg(dot(travel, -wd), Q.g) * irr * tr;
             if (finite3(v)) {
                 if (events == 1u) {
@@ -505,6 +631,20 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
         if (events >= Q.bounces) {
+            // The last event: the dome's light through it, by ratio tracking along a
+            // phase-sampled direction.
+            if (env) {
+                let u0 = next_f(&rng);
+                let u1 = next_f(&rng);
+                let d = frame_around(wd, hg_inverse_cdf(u0, Q.g), 6.283185307179586 * u1);
+                var sh = event_stream(key, events, 1u + n_lights);
+                let v = beta * ratio_tracking(x, d, BIG, &sh, &n) * Q.environment.xyz;
+                if (events == 1u) {
+                    once[n_lights] += v;
+                } else {
+                    more[n_lights] += v;
+                }
+            }
             break;
         }
         if (events >= 3u) {
@@ -531,7 +671,7 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     results[out + 1u] = half;
     results[out + 2u] = f32(n);
     results[out + 3u] = 0.0;
-    for (var l = 0u; l < n_lights; l++) {
+    for (var l = 0u; l < n_layers; l++) {
         let o = out + 4u + 8u * l;
         results[o] = once[l].x;
         results[o + 1u] = once[l].y;
