@@ -161,8 +161,32 @@ struct PathBatch {
 }
 
 /// Traces `picks` on the GPU: each pixel's values, the mean of its samples as the CPU's
-/// pixel loop takes it, and the density samples the paths took.
+/// pixel loop takes it, and the density samples the paths took. The pixels go in
+/// chunks of about [`PATH_BATCH`] samples, each made, traced and recorded in turn, so
+/// the samples' arrays stay that small whatever the image.
 fn trace_picks(
+    gpu: &Gpu,
+    scene: &Resident,
+    batch: &PathBatch,
+    job: &PixelJob<PathTracer>,
+    picks: &[Pick],
+    times: &mut GpuTimes,
+) -> Result<(Vec<f32>, u64), String> {
+    let per_pick = picks
+        .first()
+        .map_or(1, |&p| sample_points(job, p).len().max(1));
+    let mut values = Vec::new();
+    let mut samples = 0;
+    for chunk in picks.chunks((PATH_BATCH / per_pick).max(1)) {
+        let (v, n) = trace_chunk(gpu, scene, batch, job, chunk, times)?;
+        values.extend(v);
+        samples += n;
+    }
+    Ok((values, samples))
+}
+
+/// [`trace_picks`] of one chunk.
+fn trace_chunk(
     gpu: &Gpu,
     scene: &Resident,
     batch: &PathBatch,
