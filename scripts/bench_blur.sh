@@ -9,7 +9,8 @@
 # Cases: fixtures/pyro.vdb (Houdini's vel grid; density, flame, temperature and Cd) at
 # 160x90, 16 samples a pixel; the same with its density only; the 192³ fBm cloud of
 # benches/make_cloud.py with the synthetic swirl of benches/add_velocity.py at 160x90, 4
-# samples a pixel. One thread (BENCH_BLUR_THREADS) so that CPU seconds are the work.
+# samples a pixel. The --max-error rows pass no --spp: the blurred render's samples a
+# pixel are the ones the error budget chooses for the shutter's noise. One thread (BENCH_BLUR_THREADS) so that CPU seconds are the work.
 #
 # Knobs (environment): BENCH_RUNS (3), BENCH_BLUR_THREADS (1), BENCH_BLUR_ERROR (0.02:
 # the --max-error rows), BENCH_MURK (a murk binary to measure instead of building this
@@ -35,10 +36,10 @@ import json, os, statistics, subprocess
 
 murk, runs, threads, err, d = (os.environ[k] for k in ("BENCH_MURK", "RUNS", "THREADS", "ERR", "DIR"))
 cases = [
-    ("pyro, every grid", ["fixtures/pyro.vdb", "--res", "160x90", "--spp", "16"]),
-    ("pyro, density only", ["fixtures/pyro.vdb", "--res", "160x90", "--spp", "16",
-                            "--emission-grid", "none", "--temperature-grid", "none", "--color-grid", "none"]),
-    ("cloud 192³, swirl", [f"{d}/cloud192_vel.vdb", "--res", "160x90", "--spp", "4"]),
+    ("pyro, every grid", ["fixtures/pyro.vdb", "--res", "160x90"], "16"),
+    ("pyro, density only", ["fixtures/pyro.vdb", "--res", "160x90",
+                            "--emission-grid", "none", "--temperature-grid", "none", "--color-grid", "none"], "16"),
+    ("cloud 192³, swirl", [f"{d}/cloud192_vel.vdb", "--res", "160x90"], "4"),
 ]
 blur = ["--shutter", "-0.25,0.25"]
 
@@ -57,8 +58,9 @@ def median(args):
 
 print(f"| case | settings | sharp CPU s (render stage, wall s) | blurred CPU s (render stage, wall s) | ratio CPU (render stage) | samples sharp → blurred |")
 print("|---|---|---|---|---|---|")
-for name, args in cases:
-    for label, extra in (("equal spp", []), (f"--max-error {err}", ["--max-error", err])):
+for name, args, spp in cases:
+    # Under --max-error the samples a pixel are the error budget's choice: no --spp.
+    for label, extra in ((f"--spp {spp}", ["--spp", spp]), (f"--max-error {err}", ["--max-error", err])):
         c0, r0, n0 = median(args + extra)
         c1, r1, n1 = median(args + extra + blur)
         print(f"| {name} | {label} | {c0:.2f} ({r0:.2f}) | {c1:.2f} ({r1:.2f}) | "

@@ -6,6 +6,7 @@
 mod common;
 use common::camera::alpha_of;
 use common::frames::{ok, same_image, scratch};
+use common::motion::ABSORBING;
 use common::tools;
 use std::fs;
 use std::path::Path;
@@ -308,7 +309,7 @@ fn a_sequence_blurs_each_frame_from_its_own_velocity() {
         .expect("/usr/bin/python3 with pyopenvdb");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let (w, h, width) = (128usize, 16usize, 4.0);
-    let look = [
+    let camera = [
         "--camera",
         "ortho",
         "--eye",
@@ -319,17 +320,8 @@ fn a_sequence_blurs_each_frame_from_its_own_velocity() {
         "4",
         "--res",
         "128x16",
-        "--no-lights",
-        "--sigma-a",
-        "1.5,1.5,1.5",
-        "--sigma-s",
-        "0,0,0",
-        "--float",
-        "--spp",
-        "64",
-        "--fps",
-        "24",
     ];
+    let look = [&camera[..], &ABSORBING[..], &["--fps", "24"]].concat();
     let mut args = vec![
         "render",
         "box_####.vdb",
@@ -338,7 +330,7 @@ fn a_sequence_blurs_each_frame_from_its_own_velocity() {
         "--shutter",
         "0,0.5",
     ];
-    args.extend(look);
+    args.extend(&look);
     let err = ok(&dir, &args);
     let notes: Vec<&str> = err
         .lines()
@@ -350,7 +342,7 @@ fn a_sequence_blurs_each_frame_from_its_own_velocity() {
         "{err}"
     );
     let mut sharp = vec!["render", "box_0003.vdb", "-o", "sharp3.exr"];
-    sharp.extend(look);
+    sharp.extend(&look);
     ok(&dir, &sharp);
     same_image(&dir.join("seq_0003.exr"), &dir.join("sharp3.exr"));
 

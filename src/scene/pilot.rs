@@ -45,25 +45,38 @@ pub fn render_pilot<I: Integrator>(
     seed: u64,
     pixels: &[(usize, usize)],
 ) -> Vec<f64> {
-    let layout = integrator.passes().clone();
-    let beauty = layout.beauty_offsets();
     let frame = camera.frame();
+    beauty_per_pixel(integrator, pixels, |(x, y), scratch, acc| {
+        let (o, d) = camera.ray(&frame, x as f64 + 0.5, y as f64 + 0.5);
+        let mut ray = WorldRay::new(o, d);
+        (ray.t_min, ray.t_max) = camera.clip(&frame, ray.dir);
+        let sample = CameraSample {
+            ray,
+            depth_rate: d.dot(frame.forward),
+        };
+        let mut rng = SampleRng::new(seed, x, y, 0);
+        integrator.sample(&sample, &mut rng, scratch, acc);
+        1
+    })
+}
+
+/// Each of `pixels`' beauty RGB, flattened, in parallel: `samples` adds a pixel's samples
+/// into its (zeroed) accumulator and returns how many it took.
+pub fn beauty_per_pixel<I: Integrator>(
+    integrator: &I,
+    pixels: &[(usize, usize)],
+    samples: impl Fn((usize, usize), &mut I::Scratch, &mut [f64]) -> u32 + Sync,
+) -> Vec<f64> {
+    let layout = integrator.passes();
+    let beauty = layout.beauty_offsets();
     pixels
         .par_iter()
         .map_init(
             || (integrator.scratch(), vec![0f64; layout.slots()]),
-            |(scratch, acc), &(x, y)| {
+            |(scratch, acc), &pixel| {
                 acc.fill(0.0);
-                let (o, d) = camera.ray(&frame, x as f64 + 0.5, y as f64 + 0.5);
-                let mut ray = WorldRay::new(o, d);
-                (ray.t_min, ray.t_max) = camera.clip(&frame, ray.dir);
-                let sample = CameraSample {
-                    ray,
-                    depth_rate: d.dot(frame.forward),
-                };
-                let mut rng = SampleRng::new(seed, x, y, 0);
-                integrator.sample(&sample, &mut rng, scratch, acc);
-                beauty_rgb(acc, &beauty, 1.0)
+                let n = samples(pixel, scratch, acc);
+                beauty_rgb(acc, &beauty, n as f64)
             },
         )
         .flatten_iter()

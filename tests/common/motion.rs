@@ -13,11 +13,12 @@ pub const BOX_CAMERA: [&str; 8] = [
     "3.2",
 ];
 
-/// 96×8 pixels, absorbing only (σa 1.5, no lights: alpha is 1 − e^{−1.5 × the density
-/// crossed}), float, 64 samples a pixel.
-pub const ABSORBING_LOOK: [&str; 10] = [
-    "--res",
-    "96x8",
+/// 96×8 pixels: the box's edge and its streak, a few rows.
+pub const BOX_RES: [&str; 2] = ["--res", "96x8"];
+
+/// Absorbing only (σa 1.5, no lights: alpha is 1 − e^{−1.5 × the density crossed}),
+/// float, 64 samples a pixel.
+pub const ABSORBING: [&str; 8] = [
     "--no-lights",
     "--sigma-a",
     "1.5,1.5,1.5",

@@ -2,7 +2,7 @@
 
 use super::cli::{alpha, write_caches};
 use super::common::frames::{ok, scratch};
-use super::common::motion::{ABSORBING_LOOK, BOX_CAMERA};
+use super::common::motion::{ABSORBING, BOX_CAMERA, BOX_RES};
 use super::common::tools;
 use crate::need;
 
@@ -32,7 +32,7 @@ fn a_moving_camera_blurs_as_the_same_motion_of_the_volume() {
          translate = [0.95, 1, 5]\n",
     )
     .unwrap();
-    let look = [&ABSORBING_LOOK[..], &["--shutter", "-0.25,0.25"]].concat();
+    let look = [&BOX_RES[..], &ABSORBING[..], &["--shutter", "-0.25,0.25"]].concat();
     let mut args = vec!["render", "shot.toml", "-o", "cam.exr", "--frames", "2"];
     args.extend(&look);
     ok(&dir, &args);

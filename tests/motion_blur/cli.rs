@@ -3,7 +3,7 @@
 //! sharp and what is refused.
 
 use super::common::frames::{murk, ok, refused, same_image, scratch};
-use super::common::motion::{ABSORBING_LOOK, BOX_CAMERA};
+use super::common::motion::{ABSORBING, BOX_CAMERA, BOX_RES};
 use super::common::tools;
 use super::common::volumes::channel_with_width;
 use crate::need;
@@ -44,9 +44,15 @@ pub fn red(path: &Path) -> (usize, Vec<f32>) {
     channel_with_width(path, "R")
 }
 
-/// The box's front view ([`BOX_CAMERA`]), absorbing only ([`ABSORBING_LOOK`]), at 24 fps.
+/// The box's front view ([`BOX_CAMERA`]), absorbing only ([`ABSORBING`]), [`BOX_RES`], at 24 fps.
 fn view() -> Vec<&'static str> {
-    [&BOX_CAMERA[..], &ABSORBING_LOOK[..], &["--fps", "24"]].concat()
+    [
+        &BOX_CAMERA[..],
+        &BOX_RES[..],
+        &ABSORBING[..],
+        &["--fps", "24"],
+    ]
+    .concat()
 }
 
 pub fn render(dir: &Path, input: &str, out: &str, extra: &[&str]) -> String {

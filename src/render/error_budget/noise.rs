@@ -22,12 +22,10 @@
 //! count.
 
 use crate::integrate::integrator::{Integrator, SampleRng, shutter_time};
-use crate::integrate::pass::beauty_rgb;
 use crate::render::pixels::PixelJob;
 use crate::scene::camera::Camera;
 use crate::scene::camera_motion::CameraMotion;
-use crate::scene::pilot::pixel_lattice;
-use rayon::prelude::*;
+use crate::scene::pilot::{beauty_per_pixel, pixel_lattice};
 use serde::Serialize;
 
 /// Pixels the noise pilot renders (a regular lattice over the image).
@@ -198,28 +196,18 @@ fn pixel_means<I: Integrator>(
         centred: shutter.given_spp.is_none(),
         overscan: shutter.overscan,
     };
-    let layout = integrator.passes().clone();
-    let beauty = layout.beauty_offsets();
     let frame = camera.frame();
-    pixels
-        .par_iter()
-        .map_init(
-            || (integrator.scratch(), vec![0f64; layout.slots()]),
-            |(scratch, acc), &(x, y)| {
-                acc.fill(0.0);
-                let (sx, sy) = job.stream_pixel(x, y);
-                for s in 0..n {
-                    let (jx, jy, stream) = job.sample_point(sx, sy, 0, s);
-                    let time = shutter_time(seed, sx, sy, s, n, shutter.shutter);
-                    let sample = job.camera_sample(&frame, x, y, jx, jy, Some(time));
-                    let mut rng = SampleRng::new(seed, sx, sy, stream);
-                    integrator.sample(&sample, &mut rng, scratch, acc);
-                }
-                beauty_rgb(acc, &beauty, n as f64)
-            },
-        )
-        .flatten_iter()
-        .collect()
+    beauty_per_pixel(integrator, pixels, |(x, y), scratch, acc| {
+        let (sx, sy) = job.stream_pixel(x, y);
+        for s in 0..n {
+            let (jx, jy, stream) = job.sample_point(sx, sy, 0, s);
+            let time = shutter_time(seed, sx, sy, s, n, shutter.shutter);
+            let sample = job.camera_sample(&frame, x, y, jx, jy, Some(time));
+            let mut rng = SampleRng::new(seed, sx, sy, stream);
+            integrator.sample(&sample, &mut rng, scratch, acc);
+        }
+        n
+    })
 }
 
 #[cfg(test)]
