@@ -1,10 +1,10 @@
 //! `--scattering path` on the GPU: the CPU's path tracer (src/integrate/path.rs) as a
-//! compute shader (path.wgsl), one invocation per camera sample, over the march's
-//! uploaded grid and shadow maps and the path tracer's majorant grid (its blocks'
-//! maxima and minima appended to `meta`). Each sample carries its random streams' key
-//! ([`SampleRng::stream_key`]), so the GPU draws the CPU's numbers: where f32 and f64
-//! agree on every decision a path is the CPU's path. The samples, their rays and the
-//! pixels' two passes are the single march's ([`super::pixels::assemble`]); each
+//! compute shader (path.wgsl, path_tracking.wgsl), one invocation per camera sample,
+//! over the march's uploaded grid and shadow maps and the path tracer's majorant grid
+//! (its blocks' maxima and minima appended to `meta`). Each sample carries its random
+//! streams' key ([`SampleRng::stream_key`]), so the GPU draws the CPU's numbers: where
+//! f32 and f64 agree on every decision a path is the CPU's path. The samples, their rays
+//! and the pixels' two passes are the single march's ([`super::pixels::assemble`]); each
 //! sample's values are written into the pixel's passes on the CPU by the path tracer's
 //! own [`crate::integrate::scatter_passes::ScatterPasses`].
 
@@ -383,13 +383,17 @@ fn dispatch(
     Ok(values)
 }
 
-/// The path tracer's pipeline (path.wgsl after the march's sources), compiled on first use.
+/// The path tracer's pipeline (path.wgsl and path_tracking.wgsl after the march's
+/// sources), compiled on first use.
 fn path_pipeline(gpu: &Gpu) -> Result<&wgpu::ComputePipeline, String> {
     let compiled = gpu.path.get_or_init(|| {
         let d = &gpu.device;
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut sources = MARCH_WGSL.to_vec();
-        sources.push(include_str!("path.wgsl"));
+        sources.extend([
+            include_str!("path.wgsl"),
+            include_str!("path_tracking.wgsl"),
+        ]);
         let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("path"),
             source: wgpu::ShaderSource::Wgsl(sources.join("\n").into()),
