@@ -1,7 +1,7 @@
 //! A colour field made of three scalar fields, one a channel: Blender writes smoke
 //! colour as the float grids `color_r`, `color_g`, `color_b`.
 
-use super::{ColorField, Field, IndexToWorld, lattice_offset};
+use super::{ColorField, ColorParts, Field, IndexToWorld, lattice_offset};
 use glam::{DVec3, Vec3};
 
 /// Three scalar fields as one colour field, in the first one's index space.
@@ -37,6 +37,11 @@ impl ColorField for ChannelColor {
             None => self.channels[c].value_at_world(self.transform().index_to_world(p)),
         };
         Vec3::new(r, at(1), at(2))
+    }
+
+    fn parts(&self) -> Option<ColorParts<'_>> {
+        let [r, g, b] = &self.channels;
+        Some(ColorParts::Channels([r.as_ref(), g.as_ref(), b.as_ref()]))
     }
 }
 

@@ -63,6 +63,17 @@ impl VoxelGrid {
     /// The grid's nodes as flat arrays with each slot's cell range.
     pub fn nodes(&self) -> Result<GridNodes, FlatGridError> {
         self.nodes_check()?;
+        self.flatten(true)
+    }
+
+    /// The nodes of a grid of any number of channels (the values interleaved, as the
+    /// grid holds them: `channels` a voxel and a tile), without the cells' ranges: for
+    /// a field that is sampled and never traversed (a colour grid).
+    pub fn nodes_unranged(&self) -> Result<GridNodes, FlatGridError> {
+        self.flatten(false)
+    }
+
+    fn flatten(&self, ranges: bool) -> Result<GridNodes, FlatGridError> {
         let RootIndex::Dense { min, dims, entries } = &self.root else {
             return Err(FlatGridError::SparseRoot);
         };
@@ -96,7 +107,7 @@ impl VoxelGrid {
             let o = off as i32;
             IVec3::new(o >> (2 * bits), (o >> bits) & m, o & m) << shift
         };
-        let root_cells: Vec<[f32; 2]> = (0..root.len())
+        let root_cells: Vec<[f32; 2]> = (0..if ranges { root.len() } else { 0 })
             .into_par_iter()
             .map(|i| range(root_at(i)))
             .collect();
@@ -114,14 +125,14 @@ impl VoxelGrid {
                 lower_base[(e & !CHILD) as usize] = g;
             }
         }
-        let upper_cells: Vec<[f32; 2]> = (0..self.upper_slots.len())
+        let upper_cells: Vec<[f32; 2]> = (0..if ranges { self.upper_slots.len() } else { 0 })
             .into_par_iter()
             .map(|k| match self.upper_slots[k] & CHILD {
                 0 => range(upper_base[k / UPPER_SLOTS] + slot_at(k % UPPER_SLOTS, 5, 7)),
                 _ => [0.0, 0.0],
             })
             .collect();
-        let lower_cells: Vec<[f32; 2]> = (0..self.lower_slots.len())
+        let lower_cells: Vec<[f32; 2]> = (0..if ranges { self.lower_slots.len() } else { 0 })
             .into_par_iter()
             .map(|k| range(lower_base[k / LOWER_SLOTS] + slot_at(k % LOWER_SLOTS, 4, 3)))
             .collect();

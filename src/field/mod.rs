@@ -336,6 +336,19 @@ pub trait ColorField: Send + Sync {
     fn transform(&self) -> &IndexToWorld;
     /// Trilinear value at a local index point.
     fn color_at_index(&self, p: DVec3) -> Vec3;
+    /// The grids the colour is read from, where they are voxel grids (the GPU backend
+    /// walks their nodes).
+    fn parts(&self) -> Option<ColorParts<'_>> {
+        None
+    }
+}
+
+/// The grids of a colour field ([`ColorField::parts`]).
+pub enum ColorParts<'a> {
+    /// One grid of three (or more) channels: the colour is channels 0, 1, 2.
+    Vector(&'a VoxelGrid),
+    /// One scalar field a channel, each on its own transform.
+    Channels([&'a dyn Field; 3]),
 }
 
 impl ColorField for VoxelGrid {
@@ -344,6 +357,9 @@ impl ColorField for VoxelGrid {
     }
     fn color_at_index(&self, p: DVec3) -> Vec3 {
         self.sample_vec3(p)
+    }
+    fn parts(&self) -> Option<ColorParts<'_>> {
+        Some(ColorParts::Vector(self))
     }
 }
 

@@ -350,6 +350,14 @@ impl BlackbodyTable {
         }
     }
 
+    /// What [`BlackbodyTable::rgb_normalized_clamped`] interpolates, for a renderer
+    /// that looks it up elsewhere (the GPU): `1/t_max`, `1 / Δ(1/T)` and the normalised
+    /// colour at each sample, in increasing `1/T`; no samples for an empty table.
+    pub fn rgb_samples(&self) -> (f64, f64, Vec<[f64; 3]>) {
+        let rgb = self.entries.iter().map(|e| e.0).collect();
+        (self.u_min, self.inv_du, rgb)
+    }
+
     /// The tabulated range `(t_min, t_max)`.
     pub fn range(&self) -> (f64, f64) {
         (self.t_min, self.t_max)

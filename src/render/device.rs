@@ -195,6 +195,7 @@ fn render_frame_gpu(
     ] {
         st.scene.stages.insert(name.into(), Stage::ran(seconds));
     }
+    st.scene.gpu_memory_bytes = times.resident_bytes;
     st.rays = passes.rays;
     st.samples = passes.samples;
     st.samples_per_second = passes.samples as f64 / times.march.max(1e-9);

@@ -401,8 +401,10 @@ fn render_image_frame_here(
         .map(|s| s.to_string())
         .collect();
     let gpu_stages = std::mem::take(&mut st.scene.stages);
+    let gpu_memory_bytes = st.scene.gpu_memory_bytes;
     st.scene = scene.report;
     st.scene.stages.extend(gpu_stages);
+    st.scene.gpu_memory_bytes = gpu_memory_bytes;
     st.scene.notes.extend(device_note);
     report_bake(columns.as_deref(), &mut st.scene);
     st.device = match &gpu {

@@ -59,6 +59,10 @@ pub struct SceneReport {
     /// All shadow maps' memory, bytes, and the density structure's, to compare.
     pub shadow_map_memory_bytes: usize,
     pub density_memory_bytes: usize,
+    /// With the march on a GPU: the bytes of the scene's buffers there (the grids' nodes,
+    /// the shadow maps, the lights, phase table, lattice and blackbody colours, the
+    /// parameters), to compare with the two above; 0 on the CPU.
+    pub gpu_memory_bytes: usize,
     pub notes: Vec<String>,
     /// What cost accuracy without being asked to (a budget that stopped a shadow map's
     /// refinement): printed on stderr as well, even with `--quiet`.

@@ -42,10 +42,12 @@ fn auto_falls_back_to_the_cpu_with_a_note_and_gpu_refuses_in_one_line() {
             mode,
         ]
     };
-    // Water drops' coloured phase function is refused too.
-    let mut drops = args("gpu", "single");
-    drops.extend(["--phase", "water-drop"]);
-    refused(&dir, &drops, "--phase water-drop");
+    // More lights than the march takes are refused too.
+    let mut many = args("gpu", "single");
+    for _ in 0..9 {
+        many.extend(["--light", "sun:0,1,0:1,1,1:1"]);
+    }
+    refused(&dir, &many, "more than 8 lights");
     // Several volumes: named as such, not as "a density that is not a voxel grid".
     std::fs::write(
         dir.join("two.toml"),

@@ -214,6 +214,7 @@ fn forward_peaked_sphere() -> RenderOptions {
 
 mod closed_forms;
 mod device;
+mod emission;
 mod fast;
 mod path;
 mod single;

@@ -29,3 +29,28 @@ fn the_gpu_looks_shadows_up_in_point_lights_cube_maps_and_anisotropic_media() {
     gpu_matches_cpu("cloud.vdb", &two_lights_in_a_coloured_medium());
     gpu_matches_cpu("sphere.vdb", &forward_peaked_sphere());
 }
+
+#[test]
+fn the_gpus_buffers_are_at_most_one_and_a_half_times_the_cpus_density_and_maps() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    // The memory target: what the GPU holds of the scene (the grid's nodes with
+    // their cells' ranges, the maps, the lights and phase table) against the CPU's
+    // density structure and shadow maps, as the stats report both.
+    for input in ["cloud.vdb", "tiles.vdb"] {
+        let o = options("16x9");
+        let cpu = render(input, &o, Device::Cpu);
+        assert_eq!(cpu.stats.scene.gpu_memory_bytes, 0, "{input}: on the CPU");
+        let s = render(input, &o, Device::Gpu).stats.scene;
+        let held = s.density_memory_bytes + s.shadow_map_memory_bytes;
+        let ratio = s.gpu_memory_bytes as f64 / held as f64;
+        eprintln!(
+            "{input}: GPU {} bytes, CPU density {} + maps {} bytes: {ratio:.3}×",
+            s.gpu_memory_bytes, s.density_memory_bytes, s.shadow_map_memory_bytes
+        );
+        assert!(
+            s.gpu_memory_bytes > 0 && ratio <= 1.5,
+            "{input}: the GPU holds {ratio:.3}× the CPU's"
+        );
+    }
+}

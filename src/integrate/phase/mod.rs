@@ -75,6 +75,26 @@ pub trait PhaseFunction: Send + Sync {
     }
     /// The largest value over all angles and channels (a majorant for the march).
     fn max_value(&self) -> f64;
+    /// The table the phase function interpolates, where it is one (a renderer elsewhere,
+    /// the GPU, then interpolates the same nodes); `None` for a closed form.
+    fn table(&self) -> Option<PhaseTable<'_>> {
+        None
+    }
+}
+
+/// A phase function that is linear in the scattering angle θ between nodes placed as
+/// [`water_drop::AngleGrid`] places them: `θᵢ = θ₀(e^{iδ} − 1)` for `i ≤ n_log`, then
+/// steps of `step` from `theta_split` to π.
+pub struct PhaseTable<'a> {
+    pub theta0: f64,
+    pub delta: f64,
+    pub n_log: usize,
+    pub theta_split: f64,
+    pub step: f64,
+    /// θ at each node.
+    pub nodes: &'a [f64],
+    /// The phase function at each node, per channel.
+    pub values: &'a [DVec3],
 }
 
 /// A direction at angle `acos(cos_theta)` from the unit vector `axis`, at azimuth

@@ -426,6 +426,19 @@ impl PhaseFunction for WaterDrop {
     fn max_value(&self) -> f64 {
         self.max_value
     }
+
+    fn table(&self) -> Option<super::PhaseTable<'_>> {
+        let g = &self.grid;
+        Some(super::PhaseTable {
+            theta0: g.theta0,
+            delta: g.delta,
+            n_log: g.n_log,
+            theta_split: g.theta_split,
+            step: g.step,
+            nodes: &g.nodes,
+            values: &self.rgb,
+        })
+    }
 }
 
 pub mod disk_cache;

@@ -28,11 +28,12 @@ pub struct Gpu {
 pub(super) const GRID_WGSL: &str = include_str!("grid.wgsl");
 
 /// The march's sources in the order they are compiled (the path tracer's follow).
-pub(super) const MARCH_WGSL: [&str; 4] = [
+pub(super) const MARCH_WGSL: [&str; 5] = [
     GRID_WGSL,
     include_str!("march.wgsl"),
     include_str!("dsm.wgsl"),
     include_str!("lattice.wgsl"),
+    include_str!("emission.wgsl"),
 ];
 
 /// Storage buffers the march binds.

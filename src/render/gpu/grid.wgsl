@@ -34,6 +34,33 @@ struct Params {
     g_mean: f32,             // the phase function's mean cosine
     lattice_lo: vec4<f32>,   // the lattice's first node (world), w: 1 / cell side
     lattice_dims: vec4<u32>, // nodes per axis, w: nodes per light
+    // The emission, temperature and colour grids (emission.wgsl); a grid is named by
+    // k ≥ 1, its header `grids[k − 1]`, 0 naming none.
+    emit_rgb: vec4<f32>,     // emission colour × intensity
+    blackbody: vec4<f32>,    // Kelvin = value × x + y; z: blackbody intensity
+    bb_table: vec4<f32>,     // the colour table: 1/t_max, 1/Δ(1/T), t_min, t_max
+    emit_grids: vec4<u32>,   // emission grid, 1: its segment means exact (on the density's
+                             // lattice), temperature grid, the table's start in `meta_`
+    flags: vec4<u32>,        // 1: something emits, the colour table's entries, the phase
+                             // table's log-spaced bins
+    color_grids: vec4<u32>,  // the grid of r, g, b (0: no colour tint)
+    color_chans: vec4<u32>,  // the channel of each
+    traverse: vec4<u32>,     // grids whose cells are visited beside the density's
+    phase_grid: vec4<f32>,   // the phase table's nodes: θ₀ and δ of θᵢ = θ₀(e^{iδ} − 1),
+                             // then from θ = z on steps of w (march.wgsl, phase_at)
+    grids: array<Grid, 5>,
+};
+
+// A grid beside the density, its nodes in `tree` and `vals` after the density's.
+struct Grid {
+    offset: vec4<i32>,       // global index = local index + offset; w: values a voxel
+    root_min: vec4<i32>,     // w: its root table's start in `tree`
+    root_dims: vec4<i32>,    // w: its leaf values' start in `vals`
+    bases: vec4<u32>,        // upper_base, lower_base (in `tree`), tile_base, root_cells
+    cells: vec4<u32>,        // upper_cells, lower_cells, the background's bits, 0
+    to_x: vec4<f32>,         // the density's local index → this grid's local index,
+    to_y: vec4<f32>,         // an affine map's rows (on the density's lattice: the
+    to_z: vec4<f32>,         // identity and an integer shift)
 };
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -217,3 +244,122 @@ fn trilinear(c0: vec4<f32>, c1: vec4<f32>, t: vec3<f32>) -> f32 {
     return mix(mix(a.x, a.y, t.y), mix(b.x, b.y, t.y), t.x);
 }
 
+
+// ---- the grids beside the density (emission, temperature, colour) ----
+
+fn grid_of(k: u32) -> Grid {
+    return P.grids[k - 1u];
+}
+
+// The local index point of grid h at the density's local index point p.
+fn to_grid(h: Grid, p: vec3<f32>) -> vec3<f32> {
+    let q = vec4<f32>(p, 1.0);
+    return vec3<f32>(dot(h.to_x, q), dot(h.to_y, q), dot(h.to_z, q));
+}
+
+// The integer shift of a grid on the density's lattice.
+fn grid_shift(h: Grid) -> vec3<i32> {
+    return vec3<i32>(round(vec3<f32>(h.to_x.w, h.to_y.w, h.to_z.w)));
+}
+
+fn root_entry_in(h: Grid, key: vec3<i32>) -> u32 {
+    let r = key - h.root_min.xyz;
+    let d = h.root_dims.xyz;
+    if (any(r < vec3<i32>(0)) || any(r >= d)) {
+        return 0xffffffffu;
+    }
+    return u32((r.x * d.y + r.y) * d.z + r.z);
+}
+
+// lookup() in grid h.
+fn lookup_in(h: Grid, g: vec3<i32>) -> u32 {
+    let ri = root_entry_in(h, g >> vec3<u32>(12u));
+    if (ri == 0xffffffffu) {
+        return 0u;
+    }
+    var e = tree[u32(h.root_min.w) + ri];
+    if ((e & CHILD) == 0u) {
+        return e;
+    }
+    e = tree[h.bases.x + (e & ~CHILD) * 32768u + upper_off(g)];
+    if ((e & CHILD) == 0u) {
+        return e;
+    }
+    return tree[h.bases.y + (e & ~CHILD) * 4096u + lower_off(g)];
+}
+
+// Channel c of global voxel g of grid h.
+fn voxel_in(h: Grid, g: vec3<i32>, c: u32) -> f32 {
+    let s = lookup_in(h, g);
+    let n = u32(h.offset.w);
+    if ((s & CHILD) == 0u) {
+        return vals[h.bases.z + s * n + c];
+    }
+    return vals[u32(h.root_dims.w) + ((s & ~CHILD) * 512u + leaf_off(g)) * n + c];
+}
+
+// cell_corners() of channel ch of grid h, at its local cell c.
+fn cell_corners_in(h: Grid, c: vec3<i32>, ch: u32) -> array<f32, 8> {
+    let g = c + h.offset.xyz;
+    var v: array<f32, 8>;
+    let n = u32(h.offset.w);
+    if ((g.x & 7) != 7 && (g.y & 7) != 7 && (g.z & 7) != 7) {
+        let s = lookup_in(h, g);
+        if ((s & CHILD) == 0u) {
+            let x = vals[h.bases.z + s * n + ch];
+            for (var k = 0; k < 8; k++) {
+                v[k] = x;
+            }
+        } else {
+            let base = u32(h.root_dims.w) + ((s & ~CHILD) * 512u + leaf_off(g)) * n + ch;
+            v[0] = vals[base];
+            v[1] = vals[base + n];
+            v[2] = vals[base + 8u * n];
+            v[3] = vals[base + 9u * n];
+            v[4] = vals[base + 64u * n];
+            v[5] = vals[base + 65u * n];
+            v[6] = vals[base + 72u * n];
+            v[7] = vals[base + 73u * n];
+        }
+    } else {
+        for (var k = 0; k < 8; k++) {
+            v[k] = voxel_in(h, g + vec3<i32>((k >> 2u) & 1, (k >> 1u) & 1, k & 1), ch);
+        }
+    }
+    return v;
+}
+
+// Channel ch of grid h, trilinear at its local index point q.
+fn sample_in(h: Grid, q: vec3<f32>, ch: u32) -> f32 {
+    let c = floor(q);
+    if (!all(abs(c) < vec3<f32>(1073741824.0))) {
+        return vals[h.bases.z + ch];
+    }
+    let v = cell_corners_in(h, vec3<i32>(c), ch);
+    return trilinear(vec4<f32>(v[0], v[1], v[2], v[3]), vec4<f32>(v[4], v[5], v[6], v[7]), q - c);
+}
+
+// cell_at() in grid h (local voxel ijk of h).
+fn cell_at_in(h: Grid, ijk: vec3<i32>) -> Cell {
+    let g = ijk + h.offset.xyz;
+    let o = h.offset.xyz;
+    let background = bitcast<f32>(h.cells.z);
+    let ri = root_entry_in(h, g >> vec3<u32>(12u));
+    if (ri == 0xffffffffu) {
+        return Cell(align(g, 4096) - o, 4096, background, background);
+    }
+    let e = tree[u32(h.root_min.w) + ri];
+    if ((e & CHILD) == 0u) {
+        let r = cell_range(h.bases.w + 2u * ri);
+        return Cell(align(g, 4096) - o, 4096, r.x, r.y);
+    }
+    let ui = (e & ~CHILD) * 32768u + upper_off(g);
+    let e2 = tree[h.bases.x + ui];
+    if ((e2 & CHILD) == 0u) {
+        let r = cell_range(h.cells.x + 2u * ui);
+        return Cell(align(g, 128) - o, 128, r.x, r.y);
+    }
+    let li = (e2 & ~CHILD) * 4096u + lower_off(g);
+    let r = cell_range(h.cells.y + 2u * li);
+    return Cell(align(g, 8) - o, 8, r.x, r.y);
+}

@@ -94,10 +94,20 @@ fn cell_exit(r: Ray, origin: vec3<i32>, size: i32) -> f32 {
 // ---- exact density integrals: a walk over the voxel cells ----
 
 fn load_corners(w: ptr<function, Walk>) {
+    load_corners_in(0u, w);
+}
+
+// The corners of the walk's cell in grid k (0: the density).
+fn load_corners_in(k: u32, w: ptr<function, Walk>) {
     if ((*w).has && all((*w).loaded == (*w).cell)) {
         return;
     }
-    let v = cell_corners((*w).cell);
+    var v: array<f32, 8>;
+    if (k == 0u) {
+        v = cell_corners((*w).cell);
+    } else {
+        v = cell_corners_in(grid_of(k), (*w).cell, 0u);
+    }
     (*w).corners0 = vec4<f32>(v[0], v[1], v[2], v[3]);
     (*w).corners1 = vec4<f32>(v[4], v[5], v[6], v[7]);
     (*w).loaded = (*w).cell;
@@ -106,6 +116,11 @@ fn load_corners(w: ptr<function, Walk>) {
 
 // ∫ρ dt over [a, b], continuing the walk (which is at or before a).
 fn integral(r: Ray, w: ptr<function, Walk>, a: f32, b: f32, budget: ptr<function, u32>) -> f32 {
+    return integral_in(0u, r, w, a, b, budget);
+}
+
+// integral() of grid k (0: the density; r in its local index space).
+fn integral_in(k: u32, r: Ray, w: ptr<function, Walk>, a: f32, b: f32, budget: ptr<function, u32>) -> f32 {
     var sum = 0.0;
     var lo = a;
     loop {
@@ -116,7 +131,7 @@ fn integral(r: Ray, w: ptr<function, Walk>, a: f32, b: f32, budget: ptr<function
         let tn = min(min((*w).next.x, (*w).next.y), (*w).next.z);
         let hi = min(tn, b);
         if (hi > lo) {
-            load_corners(w);
+            load_corners_in(k, w);
             let t = ray_at(r, 0.5 * (lo + hi)) - vec3<f32>((*w).cell);
             let off = r.d * (GL2_HALF_OFFSET * (hi - lo));
             sum += 0.5 * (hi - lo) * (trilinear((*w).corners0, (*w).corners1, t - off)
@@ -161,14 +176,42 @@ fn exp_source_weight(st: f32, tau0: f32, tau1: f32, ds: f32) -> f32 {
 }
 
 fn phase(cos_theta: f32) -> vec3<f32> {
-    // Tabulated over the scattering angle θ, evenly.
-    let theta = acos(clamp(cos_theta, -1.0, 1.0));
-    let x = theta * (f32(P.phase_n - 1u) / 3.14159265358979);
-    let i = min(u32(x), P.phase_n - 2u);
-    let f = x - f32(i);
+    return phase_at(acos(clamp(cos_theta, -1.0, 1.0)));
+}
+
+// The phase function between the direction light travels and the one toward the
+// camera (unit vectors), its angle from both (acos of the cosine alone, in f32, cannot
+// tell angles under a milliradian apart: water drops' forward peak is narrower).
+fn phase_between(travel: vec3<f32>, toward_camera: vec3<f32>) -> vec3<f32> {
+    return phase_at(atan2(length(cross(travel, toward_camera)), dot(travel, toward_camera)));
+}
+
+// Tabulated over the scattering angle θ, linear between nodes (4 floats each: rgb and
+// θ) placed as P.phase_grid says: log-spaced to θ = phase_grid.z, then evenly.
+fn phase_at(theta: f32) -> vec3<f32> {
+    let n = P.phase_n;
+    let g = P.phase_grid;
+    var x: f32;
+    if (theta < g.z) {
+        x = log(1.0 + theta / g.x) / g.y;
+    } else {
+        x = f32(P.flags.z) + (theta - g.z) / g.w;
+    }
+    var i = min(u32(max(x, 0.0)), n - 2u);
+    // The nodes' own angles settle a bin that rounding put one off.
+    if (i > 0u && theta < meta_[P.phase_base + 4u * i + 3u]) {
+        i -= 1u;
+    } else if (i + 2u < n && theta > meta_[P.phase_base + 4u * i + 7u]) {
+        i += 1u;
+    }
     let at = P.phase_base + 4u * i;
     let p0 = vec3<f32>(meta_[at], meta_[at + 1u], meta_[at + 2u]);
     let p1 = vec3<f32>(meta_[at + 4u], meta_[at + 5u], meta_[at + 6u]);
+    let span = meta_[at + 7u] - meta_[at + 3u];
+    var f = 0.0;
+    if (span > 0.0) {
+        f = clamp((theta - meta_[at + 3u]) / span, 0.0, 1.0);
+    }
     return mix(p0, p1, f);
 }
 
@@ -198,8 +241,8 @@ fn incident(l: u32, x: vec3<f32>, irr: ptr<function, vec3<f32>>) -> vec3<f32> {
 
 // Results of one sample at results[i * stride]: optical depth (rgb) and 1 where the
 // march terminated, transmittance (rgb) and the half-opacity t (−1: none), the density
-// samples taken and the multiply scattered radiance of all lights (rgb), then per light
-// its scattered radiance (rgb, every order) and 0.
+// samples taken and the multiply scattered radiance of all lights (rgb), the emitted
+// radiance (rgb) and 0, then per light its scattered radiance (rgb, every order) and 0.
 @compute @workgroup_size(64)
 fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x + id.y * 65535u * 64u;
@@ -221,6 +264,7 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     var n = 0u;
     var per_light: array<vec3<f32>, 8>;
     var indirect = vec3<f32>(0.0);
+    var emission = vec3<f32>(0.0);
     var light_tau: array<vec3<f32>, 8>;
     var light_tau_ok: array<bool, 8>;
     for (var l = 0u; l < MAX_LIGHTS; l++) {
@@ -244,7 +288,7 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
                 break;
             }
             cells -= 1u;
-            let cell = cell_at(voxel_ahead(r, t));
+            let cell = visited_cell(voxel_ahead(r, t));
             let exit = cell_exit(r, cell.origin, cell.size);
             let t1 = min(max(exit, t + min_step), t_end);
             let t0 = t;
@@ -252,14 +296,21 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
             if (cell.hi <= 0.0 && cell.lo >= 0.0) {
                 continue;
             }
-            // One span [t0, t1]: segments of h_span, the first shortened by the jitter.
-            let constant = cell.lo == cell.hi;
+            // One span [t0, t1]: segments of h_span, the first shortened by the jitter
+            // (not longer in thin cells where something emits: flame does not follow
+            // density). A cell of several grids' is never taken as constant.
+            let constant = cell.lo == cell.hi && P.traverse.x == 0u;
             var h_span = h;
             let per_step = st_max * cell.hi * h;
-            if (per_step > 0.0 && per_step < P.thin_depth) {
+            if (per_step > 0.0 && per_step < P.thin_depth && P.flags.x == 0u) {
                 h_span = h * (P.thin_depth / per_step);
             }
             var walk = walk_start(r, t0);
+            var emission_walk = walk;
+            if (P.emit_grids.y != 0u) {
+                let o = vec3<f32>(grid_shift(grid_of(P.emit_grids.x)));
+                emission_walk = walk_start(Ray(r.o + o, r.d), t0);
+            }
             var a = t0;
             var first = true;
             loop {
@@ -288,8 +339,17 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
                 }
                 n += 1u;
                 let st = P.sigma_t.xyz * rho;
+                let p_mid = ray_at(r, mid);
+                if (P.flags.x != 0u) {
+                    let eps = emitted(r, &emission_walk, a, b, p_mid, &budget);
+                    if (max(max(eps.x, eps.y), eps.z) > 0.0) {
+                        let w = ds * vec3<f32>(phi(st.x * ds), phi(st.y * ds), phi(st.z * ds));
+                        emission += t_now * eps * w;
+                    }
+                }
                 if (P.scatters != 0u && rho > 0.0) {
                     let xw = wo + wd * mid;
+                    let sigma_s_here = P.sigma_s.xyz * tint(p_mid);
                     for (var l = 0u; l < n_lights; l++) {
                         var tau0: vec3<f32>;
                         if (light_tau_ok[l] && last_end == a) {
@@ -302,17 +362,17 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
                         light_tau_ok[l] = true;
                         var irr: vec3<f32>;
                         let travel = incident(l, xw, &irr);
-                        let ph = phase(dot(travel, -wd));
+                        let ph = phase_between(travel, -wd);
                         let weight = vec3<f32>(
                             exp_source_weight(st.x, tau0.x, tau1.x, ds),
                             exp_source_weight(st.y, tau0.y, tau1.y, ds),
                             exp_source_weight(st.z, tau0.z, tau1.z, ds));
-                        per_light[l] += t_now * P.sigma_s.xyz * rho * ph * irr * weight;
+                        per_light[l] += t_now * sigma_s_here * rho * ph * irr * weight;
                         if (P.multiple != 0u) {
                             // Multiply scattered light toward the camera, constant over
                             // the segment: the segment's own weight.
                             let w = ds * vec3<f32>(phi(st.x * ds), phi(st.y * ds), phi(st.z * ds));
-                            let ms = t_now * P.sigma_s.xyz * rho * multiple_toward(l, xw, -wd, travel) * w;
+                            let ms = t_now * sigma_s_here * rho * multiple_toward(l, xw, -wd, travel) * w;
                             per_light[l] += ms;
                             indirect += ms;
                         }
@@ -353,8 +413,11 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     results[out + 9u] = indirect.x;
     results[out + 10u] = indirect.y;
     results[out + 11u] = indirect.z;
+    results[out + 12u] = emission.x;
+    results[out + 13u] = emission.y;
+    results[out + 14u] = emission.z;
     for (var l = 0u; l < n_lights; l++) {
-        let o = out + 12u + 4u * l;
+        let o = out + 16u + 4u * l;
         results[o] = per_light[l].x;
         results[o + 1u] = per_light[l].y;
         results[o + 2u] = per_light[l].z;

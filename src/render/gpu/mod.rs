@@ -3,7 +3,9 @@
 //! lights' deep shadow maps uploaded as storage buffers, one invocation per camera
 //! sample — beside the CPU's pixel loop, with the same samples, rays and passes. Under
 //! `--scattering fast` the multiple-scattering lattice, solved on the CPU, is uploaded
-//! too and gathered in the same march, per segment, as the CPU's march does.
+//! too and gathered in the same march, per segment, as the CPU's march does. Emission,
+//! temperature and colour grids are packed after the density's nodes (grids.rs) and
+//! sampled as the CPU samples them (emission.wgsl).
 //!
 //! Under `--scattering path` the path tracer's paths are traced on the GPU (path.rs,
 //! path.wgsl) over the same uploaded grid and maps and the path tracer's majorants.
@@ -13,6 +15,7 @@
 
 mod bake;
 mod context;
+mod grids;
 mod path;
 mod pixels;
 mod upload;
@@ -61,14 +64,10 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
             FlatGridError::SparseRoot => "a density grid whose nodes lie far apart".into(),
         });
     }
-    if scene.scatters && !scene.phase.is_grey() {
-        return Some("a coloured phase function (--phase water-drop)".into());
-    }
-    if scene.emits {
-        return Some("emission and temperature grids".into());
-    }
-    if scene.fields.color.is_some() && scene.scatters {
-        return Some("a colour grid".into());
+    let traversal = scene.traversal();
+    let volume = scene.volume(&traversal);
+    if let Some(why) = grids::unsupported(&grids::Beside::of(&volume)) {
+        return Some(why);
     }
     if scene.ground.is_some() {
         return Some("the ground plane (--ground)".into());
@@ -114,6 +113,8 @@ pub struct GpuTimes {
     pub kernel: f64,
     /// Of `march`: adding each sample's results into its pixel's passes on the CPU.
     pub record: f64,
+    /// Bytes of the scene's buffers uploaded (not the per-batch samples and results).
+    pub resident_bytes: usize,
 }
 
 /// Renders the job's pixels on `gpu` (the scene passed [`unsupported`]), with the fast
@@ -134,6 +135,8 @@ pub fn render_pixels(
         .nodes()
         .map_err(|_| "a density grid it cannot flatten")?;
     let lights = scene.illumination();
+    let traversal = scene.traversal();
+    let volume = scene.volume(&traversal);
     let mut buffers = upload::build(&upload::SceneParts {
         grid,
         nodes,
@@ -144,8 +147,11 @@ pub fn render_pixels(
         settings: job.integrator.settings(),
         scatters: scene.scatters && scene.medium.scatters(),
         lattice,
+        beside: grids::Beside::of(&volume),
+        bounds: crate::field::Field::active_bounds(&traversal),
     })?;
     let layout = t.elapsed().as_secs_f64();
+    let resident_bytes = buffers.resident_bytes();
     buffers.split_maps(gpu.max_binding());
     let resident = gpu.upload(&buffers)?;
     drop(buffers);
@@ -154,6 +160,7 @@ pub fn render_pixels(
     let mut times = GpuTimes {
         upload,
         layout,
+        resident_bytes,
         ..GpuTimes::default()
     };
     let passes = pixels::render_pixels(gpu, &resident, job, &mut times)?;

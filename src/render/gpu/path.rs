@@ -72,6 +72,12 @@ pub fn render_path(
         settings: MarchSettings::default(),
         scatters: parts.lights > 0,
         lattice: None,
+        // Emission and colour grids are refused under path.
+        beside: super::grids::Beside {
+            emission: None,
+            color: None,
+        },
+        bounds: grid.active_bounds(),
     })?;
     // The majorant grid: the path tracer's, else one of the same blocks.
     let built;
@@ -93,6 +99,7 @@ pub fn render_path(
         return Err("a majorant grid over 2^32 floats".into());
     }
     let layout = t.elapsed().as_secs_f64();
+    let resident_bytes = buffers.resident_bytes();
     buffers.split_maps(gpu.max_binding());
     let resident = gpu.upload(&buffers)?;
     drop(buffers);
@@ -142,6 +149,7 @@ pub fn render_path(
     let mut times = GpuTimes {
         upload,
         layout,
+        resident_bytes,
         ..GpuTimes::default()
     };
     let passes = assemble(job, |picks| {

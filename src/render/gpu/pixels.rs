@@ -7,7 +7,7 @@
 
 use super::GpuTimes;
 use super::context::{Gpu, Resident};
-use super::upload::{RESULT_BASE, SAMPLE_FLOATS};
+use super::upload::{RESULT_BASE, RESULT_EMISSION, SAMPLE_FLOATS};
 use crate::field::IndexRay;
 use crate::integrate::RayResult;
 use crate::integrate::integrator::{Integrator, SampleRng};
@@ -116,7 +116,7 @@ fn render_picks(
                 let ray = RayResult {
                     transmittance: v(4),
                     optical_depth: if r[3] != 0.0 { DVec3::INFINITY } else { v(0) },
-                    emission: DVec3::ZERO,
+                    emission: v(RESULT_EMISSION),
                     scatter: per_light.iter().sum(),
                     half_opacity_t: (r[7] >= 0.0).then_some(r[7] as f64),
                     samples: r[8] as u64,

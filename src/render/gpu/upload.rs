@@ -1,8 +1,9 @@
 //! What the march reads on the GPU, as flat arrays: the density grid's nodes with each
-//! slot's cell range (`tree`, `vals`), every light's deep shadow map (`dsm`), the lights,
-//! a phase table and the fast mode's multiple-scattering lattice (`meta`), and the
-//! uniform parameters, in the layouts grid.wgsl, march.wgsl, dsm.wgsl and lattice.wgsl
-//! read.
+//! slot's cell range (`tree`, `vals`) and after them those of the grids sampled beside
+//! it (grids.rs), every light's deep shadow map (`dsm`), the lights, a phase table, the
+//! fast mode's multiple-scattering lattice and the blackbody colours (`meta`), and the
+//! uniform parameters, in the layouts grid.wgsl, march.wgsl, dsm.wgsl, lattice.wgsl and
+//! emission.wgsl read.
 
 use crate::field::VoxelGrid;
 use crate::field::grid_nodes::GridNodes;
@@ -20,13 +21,17 @@ use glam::DVec3;
 /// clipping planes and the holdout, along the ray).
 pub const SAMPLE_FLOATS: usize = 16;
 /// Floats of a result before the per-light radiance (4 a light).
-pub const RESULT_BASE: usize = 12;
+pub const RESULT_BASE: usize = 16;
+/// Where the emitted radiance sits in a result.
+pub const RESULT_EMISSION: usize = 12;
 /// Where the sample count sits in the parameters (see `Params` in grid.wgsl).
 pub const N_SAMPLES_AT: usize = 32;
 /// Where the shadow maps' part size sits in the parameters.
 const DSM_CHUNK_AT: usize = 44;
+/// Words of the parameters before those of the grids beside the density.
+const DENSITY_PARAM_WORDS: usize = 56;
 /// Words of the parameters.
-const PARAM_WORDS: usize = 56;
+const PARAM_WORDS: usize = DENSITY_PARAM_WORDS + super::grids::WORDS;
 /// Where the grid's parts begin in the parameters (`upper_base` in grid.wgsl).
 const GRID_BASES_AT: usize = 36;
 /// Where the grid's background value sits in the parameters.
@@ -59,14 +64,23 @@ impl Buffers {
     /// [`DSM_BUFFERS`] buffers).
     pub fn sizes(&self) -> [(&'static str, u64); 4] {
         [
-            ("the density grid's node tables", self.tree.len() as u64 * 4),
-            ("the density grid's values", self.vals.len() as u64 * 4),
+            ("the grids' node tables", self.tree.len() as u64 * 4),
+            ("the grids' values", self.vals.len() as u64 * 4),
             ("the shadow maps", self.dsm_chunk as u64 * 4),
             (
                 "the lights, the phase table and the multiple-scattering lattice",
                 self.meta.len() as u64 * 4,
             ),
         ]
+    }
+
+    /// Bytes of every buffer of the scene (the shadow maps whole).
+    pub fn resident_bytes(&self) -> usize {
+        4 * (self.tree.len()
+            + self.vals.len()
+            + self.dsm.len()
+            + self.meta.len()
+            + self.params.len())
     }
 
     /// Cuts the shadow maps into [`DSM_BUFFERS`] thirds where they exceed one binding of
@@ -111,6 +125,11 @@ pub struct SceneParts<'a> {
     pub scatters: bool,
     /// The fast mode's multiple scattering, gathered in the march.
     pub lattice: Option<&'a MsLattice>,
+    /// The emission, temperature and colour grids.
+    pub beside: super::grids::Beside<'a>,
+    /// The box of the cells a camera ray visits (the density's, and the emission and
+    /// temperature grids' on its lattice), local index space.
+    pub bounds: crate::field::IndexBox,
 }
 
 fn f(v: f64) -> u32 {
@@ -207,14 +226,62 @@ fn lattice_words(s: &SceneParts, meta: &mut Vec<f32>) -> Result<[u32; 11], Strin
     Ok(words)
 }
 
+/// Where the phase table's nodes lie in θ (`phase_grid` in grid.wgsl).
+struct PhaseGrid {
+    n: u32,
+    n_log: u32,
+    /// θ₀, δ, the θ where the log part ends, the uniform part's step.
+    grid: [u32; 4],
+}
+
+/// Appends the phase table to `meta` (per node the phase function per channel and θ);
+/// returns where it begins and its nodes' placing. A phase function that is a table
+/// (water drops) gives its own nodes, interpolated as on the CPU; a closed form
+/// (Henyey–Greenstein) is sampled at [`PHASE_ENTRIES`] angles evenly.
+fn phase_table(
+    phase: &dyn PhaseFunction,
+    meta: &mut Vec<f32>,
+) -> Result<(usize, PhaseGrid), String> {
+    let base = meta.len();
+    if let Some(t) = phase.table() {
+        if t.nodes.len() < 2 || t.nodes.len() != t.values.len() {
+            return Err("a phase table of fewer than two nodes".into());
+        }
+        for (theta, v) in t.nodes.iter().zip(t.values) {
+            meta.extend([v.x as f32, v.y as f32, v.z as f32, *theta as f32]);
+        }
+        let grid = [f(t.theta0), f(t.delta), f(t.theta_split), f(t.step)];
+        let (n, n_log) = (t.nodes.len() as u32, t.n_log as u32);
+        return Ok((base, PhaseGrid { n, n_log, grid }));
+    }
+    let step = std::f64::consts::PI / (PHASE_ENTRIES - 1) as f64;
+    for i in 0..PHASE_ENTRIES {
+        let theta = step * i as f64;
+        let p = phase.eval(theta.cos());
+        meta.extend([p.x as f32, p.y as f32, p.z as f32, theta as f32]);
+    }
+    let grid = [f(1.0), f(1.0), f(0.0), f(step)];
+    Ok((
+        base,
+        PhaseGrid {
+            n: PHASE_ENTRIES as u32,
+            n_log: 0,
+            grid,
+        },
+    ))
+}
+
 /// Lays the scene out for the march.
 pub fn build(s: &SceneParts) -> Result<Buffers, String> {
-    use crate::field::Field;
     let n = &s.nodes;
     if s.lights.len() > MAX_LIGHTS {
         return Err(format!("more than {MAX_LIGHTS} lights"));
     }
-    let GridArrays { tree, vals, bases } = grid_arrays(n);
+    let GridArrays {
+        mut tree,
+        mut vals,
+        bases,
+    } = grid_arrays(n);
     // dsm: one header per chart, then the charts' arrays.
     let mut charts: Vec<FlatChart> = Vec::new();
     let mut first_chart = Vec::new();
@@ -286,15 +353,13 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
         meta.extend([e.x as f32, e.y as f32, e.z as f32, 0.0]);
         meta.extend([0.0; 4]);
     }
-    let phase_base = meta.len();
-    for i in 0..PHASE_ENTRIES {
-        let theta = std::f64::consts::PI * i as f64 / (PHASE_ENTRIES - 1) as f64;
-        let p = s.phase.eval(theta.cos());
-        meta.extend([p.x as f32, p.y as f32, p.z as f32, 0.0]);
-    }
+    let (phase_base, phase) = phase_table(s.phase, &mut meta)?;
     let lattice = lattice_words(s, &mut meta)?;
+    let mut beside = super::grids::pack(s.grid, &s.beside, &mut tree, &mut vals, &mut meta)?;
+    beside[super::grids::PHASE_N_LOG] = phase.n_log;
+    beside[super::grids::PHASE_GRID..super::grids::PHASE_GRID + 4].copy_from_slice(&phase.grid);
     // The parameters.
-    let bounds = s.grid.active_bounds();
+    let bounds = s.bounds;
     let sigma_t = s.medium.sigma_t();
     let sigma_s = s.medium.sigma_s_scaled();
     let stride = (RESULT_BASE + 4 * s.lights.len()) as u32;
@@ -315,7 +380,7 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
         s.lights.len() as u32,
         0, // the samples of a batch, set per dispatch
         stride,
-        PHASE_ENTRIES as u32,
+        phase.n,
         phase_base as u32,
     ]);
     params.extend(bases);
@@ -325,6 +390,8 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
         dsm_chunk as u32,
     ]);
     params.extend(lattice);
+    debug_assert_eq!(params.len(), DENSITY_PARAM_WORDS);
+    params.extend(beside);
     debug_assert_eq!(params.len(), PARAM_WORDS);
     debug_assert_eq!(params[DSM_CHUNK_AT] as usize, dsm_chunk);
     debug_assert_eq!(params[GRID_BASES_AT..GRID_BASES_AT + 6], bases);
