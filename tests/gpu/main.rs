@@ -216,4 +216,5 @@ mod closed_forms;
 mod device;
 mod emission;
 mod fast;
+mod path;
 mod single;

@@ -7,17 +7,22 @@
 //! temperature and colour grids are packed after the density's nodes (grids.rs) and
 //! sampled as the CPU samples them (emission.wgsl).
 //!
+//! Under `--scattering path` the path tracer's paths are traced on the GPU (path.rs,
+//! path.wgsl) over the same uploaded grid and maps and the path tracer's majorants.
+//!
 //! What it renders is checked first ([`unsupported`]): a scene with anything else runs on
 //! the CPU under `--device auto` (with a note naming it) and is refused under `gpu`.
 
 mod bake;
 mod context;
 mod grids;
+mod path;
 mod pixels;
 mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
 pub use context::Gpu;
+pub use path::render_path;
 
 use super::pixels::{PixelJob, PixelPasses};
 use crate::field::grid_nodes::FlatGridError;
@@ -32,11 +37,19 @@ use std::time::Instant;
 /// The first feature of the render that the GPU backend does not run, or `None` when
 /// it runs all of them.
 pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
+    // What the march may render but the path tracer's port does not.
     if plan.transport.mode == ScatteringMode::Path {
-        return Some(format!(
-            "--scattering {} (the GPU renders --scattering single and fast)",
-            plan.transport.mode.name()
-        ));
+        if scene.scatters && !scene.phase.is_grey() {
+            return Some(
+                "a coloured phase function (--phase water-drop) under --scattering path".into(),
+            );
+        }
+        if scene.emits {
+            return Some("emission and temperature grids under --scattering path".into());
+        }
+        if scene.fields.color.is_some() && scene.scatters {
+            return Some("a colour grid under --scattering path".into());
+        }
     }
     let Some(grid) = scene.fields.density.as_voxel_grid() else {
         return Some(if plan.volumes.is_some() {
@@ -72,7 +85,9 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
         return Some(format!("more than {} lights", upload::MAX_LIGHTS));
     }
     let lights = scene.illumination();
+    // The path tracer tracks its shadow rays itself.
     if scene.scatters
+        && plan.transport.mode != ScatteringMode::Path
         && lights
             .shadows
             .iter()
