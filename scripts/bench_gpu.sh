@@ -6,12 +6,18 @@
 # Prints each run's wall and CPU seconds, the device and the stages of its --stats
 # (gpu_upload: flattening and uploading the grid, maps and lattice; render: rays, march,
 # readback and passes; multiple_scattering: the lattice's solve), and per mode the image
-# difference of the GPU's render against the CPU's (needs oiiotool).
+# difference of the GPU's render against the CPU's (needs oiiotool). Then --scattering
+# path at BENCH_PATH_SPP samples a pixel, on the GPU and on the CPU (all threads and
+# one), with each one's paths per second (camera samples over the render stage) and the
+# GPU's over the CPU's: the GPU traces the CPU's paths (the same random streams), so its
+# noise at equal samples is the CPU's and that ratio is also the ratio of the times to
+# a given error.
 #
 #   scripts/bench_gpu.sh [CLOUD.vdb]    (made with make_cloud.py --size 192 if not given)
 #
 # Knobs: MURK (a murk binary; default: build this tree's), BENCH_THREADS (nproc),
-# BENCH_RES (960x540), OUT (where images and stats go; a temporary folder).
+# BENCH_RES (960x540), BENCH_PATH_RES (BENCH_RES), BENCH_PATH_SPP (16), BENCH_PATH=0 (no
+# path runs), OUT (where images and stats go; a temporary folder).
 # On a machine without a GPU it measures lavapipe (Mesa's Vulkan on the CPU), if installed.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -24,13 +30,13 @@ if [[ -z "${MURK:-}" ]]; then
 fi
 CLOUD=${1:-$OUT/cloud192.vdb}
 [[ -f "$CLOUD" ]] || /usr/bin/python3 "$ROOT/benches/make_cloud.py" "$CLOUD" --size 192 >&2
-A=(render "$CLOUD" --res "$RES" --eye 0,1,18 --look-at 0,-0.4,0 --fov 40
+A=(render "$CLOUD" --eye 0,1,18 --look-at 0,-0.4,0 --fov 40
    --sigma-a 1.92,1.92,1.92 --sigma-s 5.76,5.76,5.76 --light sun:0.6,1,0.5:1,1,1:6
    --float --quiet --antialias 1)
 run() { # NAME FLAGS...
     local n=$1
     shift
-    /usr/bin/time -f "$n: wall %e s, cpu %U+%S s" "$MURK" "${A[@]}" -o "$OUT/$n.exr" \
+    /usr/bin/time -f "$n: wall %e s, cpu %U+%S s" "$MURK" "${A[@]}" --res "${RUN_RES:-$RES}" -o "$OUT/$n.exr" \
         --stats "$OUT/$n.json" "$@" 2>&1 | tail -1
     /usr/bin/python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print('  ', s['device'], {k: round(v['seconds'], 4) for k, v in s['stages'].items() if 'seconds' in v})" "$OUT/$n.json"
 }
@@ -48,5 +54,28 @@ if command -v oiiotool >/dev/null; then
         read -r s _ < <(avg "$OUT/cpu-$mode.exr" --ch R,G,B,A --dup --mul)
         /usr/bin/python3 -c "import math,sys; d,da,s=map(float,sys.argv[2:]); print(f'GPU against CPU, {sys.argv[1]}: radiance relative RMSE {math.sqrt(d/1e6/s):.2e}, alpha RMSE {math.sqrt(da/1e6):.2e}')" "$mode" "$d" "$da" "$s"
     done
+fi
+if [[ "${BENCH_PATH:-1}" != 0 ]]; then
+    PRES=${BENCH_PATH_RES:-$RES}
+    PSPP=${BENCH_PATH_SPP:-16}
+    paths() { # NAME: paths per second over the render stage
+        /usr/bin/python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print(s['rays'] / s['stages']['render']['seconds'])" "$OUT/$1.json"
+    }
+    for dev in gpu cpu cpu1; do
+        case $dev in
+            gpu) flags=(--device gpu) ;;
+            cpu) flags=(--device cpu --threads "$THREADS") ;;
+            cpu1) flags=(--device cpu --threads 1) ;;
+        esac
+        RUN_RES=$PRES run "$dev-path" "${flags[@]}" --scattering path --spp "$PSPP"
+        echo "   $dev-path: $(paths "$dev-path") paths/s"
+    done
+    /usr/bin/python3 -c "import sys; g,c,c1=map(float,sys.argv[1:]); print(f'path at $PSPP spp, $PRES: GPU {g:.4g} paths/s, {g/c:.3g}x the CPU on $THREADS threads ({c:.4g}), {g/c1:.3g}x one thread ({c1:.4g})')" \
+        "$(paths gpu-path)" "$(paths cpu-path)" "$(paths cpu1-path)"
+    if command -v oiiotool >/dev/null; then
+        read -r d da < <(avg "$OUT/gpu-path.exr" "$OUT/cpu-path.exr" --ch R,G,B,A --sub --mulc 1000 --dup --mul)
+        read -r s _ < <(avg "$OUT/cpu-path.exr" --ch R,G,B,A --dup --mul)
+        /usr/bin/python3 -c "import math,sys; d,da,s=map(float,sys.argv[1:]); print(f'GPU against CPU, path: radiance relative RMSE {math.sqrt(d/1e6/s):.2e} (the same paths), alpha RMSE {math.sqrt(da/1e6):.2e}')" "$d" "$da" "$s"
+    fi
 fi
 echo "images and stats in $OUT"

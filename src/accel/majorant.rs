@@ -88,6 +88,21 @@ impl MajorantGrid {
         self.block
     }
 
+    /// Local index of block (0, 0, 0)'s lowest corner, and the blocks along each axis.
+    pub fn lattice(&self) -> (IVec3, IVec3) {
+        (self.origin, self.dims)
+    }
+
+    /// Every block's majorant (its range's largest value), x fastest, then y, then z.
+    pub fn maxima(&self) -> impl Iterator<Item = f32> + '_ {
+        self.ranges.iter().map(|r| r.max)
+    }
+
+    /// Every block's range's least value, in [`MajorantGrid::maxima`]'s order.
+    pub fn minima(&self) -> impl Iterator<Item = f32> + '_ {
+        self.ranges.iter().map(|r| r.min)
+    }
+
     /// The non-zero blocks `ray` crosses within `[t_min, t_max]` and the field's active
     /// bounds, front to back.
     pub fn spans(&self, ray: IndexRay, t_min: f64, t_max: f64) -> MajorantSpans<'_> {

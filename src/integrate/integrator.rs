@@ -35,6 +35,9 @@ pub fn shutter_time(seed: u64, x: usize, y: usize, s: u32, n: u32, shutter: (f64
 /// The random dimension of a pixel's shutter offset ([`shutter_time`]).
 const SHUTTER_DIMENSION: u32 = 0x5417;
 
+/// [`SampleRng::stream`]'s multiplier of a stream's id.
+const STREAM_ID_MUL: u64 = 0xD6E8_FEB8_6659_FD93;
+
 /// The random numbers of one pixel sample, drawn in order. Dimensions 1 and 2 are the
 /// pixel loop's jitter inside the pixel; an integrator's draws are 0, 3, 4, 5, …
 #[derive(Clone, Copy, Debug)]
@@ -75,12 +78,19 @@ impl SampleRng {
     /// shadow rays), each part drawing from its own stream so that how many numbers one
     /// part takes does not shift the others'.
     pub fn stream(&self, id: u64) -> SplitMix64 {
+        SplitMix64(mix64(self.stream_key() ^ id.wrapping_mul(STREAM_ID_MUL)))
+    }
+
+    /// What every [`SampleRng::stream`] of this pixel sample is derived from: stream `id`
+    /// starts at `mix64(key ^ id · 0xD6E8_FEB8_6659_FD93)` (the GPU's path tracer draws
+    /// the same numbers from it).
+    pub fn stream_key(&self) -> u64 {
         let z = self
             .seed
             .wrapping_add((self.x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15))
             .wrapping_add((self.y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F))
             .wrapping_add((self.s as u64).wrapping_mul(0x1656_67B1_9E37_79F9));
-        SplitMix64(mix64(mix64(z) ^ id.wrapping_mul(0xD6E8_FEB8_6659_FD93)))
+        mix64(z)
     }
 }
 

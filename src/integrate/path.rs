@@ -53,6 +53,8 @@ use glam::DVec3;
 mod camera;
 mod dense;
 mod moving;
+mod parts;
+pub use parts::PathParts;
 
 /// How a scattering event finds the transmittance toward a sun or point light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -477,11 +479,7 @@ impl PathTracer<'_> {
         let mut samples = 0u64;
         let scatters = self.n_lights > 0 || self.environment.is_some();
         let emits = self.volume.emission.as_ref().is_some_and(|e| e.is_active());
-        let alpha_weight = match self.opacity_samples {
-            None => Some(1.0),
-            Some(o) => (rng.sample_index() < o.n).then_some(o.weight),
-        };
-        if let Some(w) = alpha_weight {
+        if let Some(w) = self.alpha_weight(rng.sample_index()) {
             let (depth, half_t) =
                 self.camera_ray(ray.origin, ray.dir, ray.t_min, ray.t_max, scratch);
             let alpha = (DVec3::ONE - (-self.sigma_t * depth).exp()).element_sum() / 3.0;

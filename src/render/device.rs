@@ -1,9 +1,10 @@
 //! Which device renders a frame under `--device`, and a frame's march on the GPU.
 
 use super::{Extent, RenderError, Result, channels, gpu, pixels, render_frame};
+use crate::integrate::Integrator;
 use crate::integrate::ms_lattice::MsLattice;
+use crate::integrate::path::PathTracer;
 use crate::integrate::single::SingleScattering;
-use crate::integrate::{Integrator, ScatteringMode};
 use crate::output::{DeepImage, Frame};
 use crate::render::stats::{RenderStats, Stage};
 use crate::scene::plan::Device;
@@ -15,14 +16,14 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// Builds the scene, its shadow bake's light columns marched on the GPU where the render
-/// may run there (`--device gpu|auto`, single or fast scattering, no deep output) and a GPU opens;
+/// may run there (`--device gpu|auto`, no deep output) and a GPU opens;
 /// the GPU's marcher is returned for its times.
 pub(super) fn build_scene(
     plan: &RenderPlan,
     progress: &dyn Progress,
     reuse: &mut FrameReuse,
 ) -> Result<(Scene, Option<Arc<gpu::GpuColumns>>)> {
-    let may = plan.transport.mode != ScatteringMode::Path && plan.outputs.deep.is_none();
+    let may = plan.outputs.deep.is_none();
     let columns = may
         .then(|| gpu_for(plan.sampling.device))
         .and_then(|g| g.ok())
@@ -108,10 +109,19 @@ pub(super) fn choose_device(
 }
 
 /// A frame's integrator on each device: on the GPU its single-scattering march, with
-/// the fast mode's lattice to gather in it; on the CPU the integrator itself.
+/// the fast mode's lattice to gather in it, or the path tracer's paths; on the CPU the
+/// integrator itself.
 pub(super) struct Frontends<'a, I> {
-    pub gpu: (&'a SingleScattering<'a>, Option<&'a MsLattice>),
+    pub gpu: OnGpu<'a>,
     pub cpu: &'a I,
+}
+
+/// What the GPU renders of a frame.
+pub(super) enum OnGpu<'a> {
+    /// The single-scattering march, with the fast mode's lattice gathered in it.
+    March(&'a SingleScattering<'a>, Option<&'a MsLattice>),
+    /// The path tracer's paths, with the phase function's asymmetry.
+    Path(&'a PathTracer<'a>, f64),
 }
 
 /// Renders the frame on the GPU `device.0` when there is one, else on the CPU; where the
@@ -129,9 +139,8 @@ pub(super) fn render_on<I: Integrator>(
     let (gpu, note) = device;
     let on_gpu = match gpu {
         Some(g) => {
-            let (single, lattice) = on.gpu;
             let rows = extent.rows.clone();
-            render_frame_gpu(g, single, lattice, scene, plan, rows, extent.holdout, st)?
+            render_frame_gpu(g, on.gpu, scene, plan, rows, extent.holdout, st)?
         }
         None => Err(String::new()),
     };
@@ -151,11 +160,9 @@ pub(super) fn render_on<I: Integrator>(
 /// march and readback) go in the stats. What failed on the GPU (a grid over its buffer
 /// limit, say) is an error under `--device gpu`, and the inner `Err` (the CPU renders
 /// instead) under `auto`.
-#[allow(clippy::too_many_arguments)]
 fn render_frame_gpu(
     gpu: &gpu::Gpu,
-    integrator: &SingleScattering,
-    lattice: Option<&MsLattice>,
+    work: OnGpu,
     scene: &Scene,
     plan: &RenderPlan,
     rows: std::ops::Range<usize>,
@@ -163,22 +170,16 @@ fn render_frame_gpu(
     st: &mut RenderStats,
 ) -> Result<std::result::Result<(Frame, f64), String>> {
     let t = Instant::now();
-    let job = pixels::PixelJob {
-        integrator,
-        camera: &scene.camera,
-        spp: plan.sampling.spp,
-        seed: plan.sampling.seed,
-        rows,
-        antialias: plan.sampling.antialias,
-        deep: None,
-        deep_aovs: &[],
-        holdout,
-        shutter: None,
-        camera_motion: None,
-        centred: false,
-        overscan: plan.camera.overscan,
+    let rendered = match work {
+        OnGpu::March(single, lattice) => {
+            let job = gpu_job(single, scene, plan, rows, holdout);
+            gpu::render_pixels(gpu, scene, lattice, &job)
+        }
+        OnGpu::Path(path, g) => {
+            gpu::render_path(gpu, scene, g, &gpu_job(path, scene, plan, rows, holdout))
+        }
     };
-    let (passes, times) = match gpu::render_pixels(gpu, scene, lattice, &job) {
+    let (passes, times) = match rendered {
         Ok(done) => done,
         Err(why) if plan.sampling.device == Device::Auto => return Ok(Err(why)),
         Err(why) => return Err(RenderError::Device(format!("--device gpu: {why}"))),
@@ -200,4 +201,29 @@ fn render_frame_gpu(
     st.samples = passes.samples;
     st.samples_per_second = passes.samples as f64 / times.march.max(1e-9);
     Ok(Ok((channels::assemble(&passes)?, render_seconds)))
+}
+
+/// The GPU's pixel job: the frame's rows, still (the GPU renders no shutter), no deep output.
+fn gpu_job<'a, I: Integrator>(
+    integrator: &'a I,
+    scene: &'a Scene,
+    plan: &RenderPlan,
+    rows: std::ops::Range<usize>,
+    holdout: Option<&'a [f32]>,
+) -> pixels::PixelJob<'a, I> {
+    pixels::PixelJob {
+        integrator,
+        camera: &scene.camera,
+        spp: plan.sampling.spp,
+        seed: plan.sampling.seed,
+        rows,
+        antialias: plan.sampling.antialias,
+        deep: None,
+        deep_aovs: &[],
+        holdout,
+        shutter: None,
+        camera_motion: None,
+        centred: false,
+        overscan: plan.camera.overscan,
+    }
 }

@@ -27,7 +27,7 @@ use crate::scene::Scene;
 use crate::scene::plan::ShadowMode;
 use crate::scene::reuse::FrameReuse;
 pub use bake_file::bake_shadow_file;
-use device::{Frontends, build_scene, choose_device, render_on, report_bake};
+use device::{Frontends, OnGpu, build_scene, choose_device, render_on, report_bake};
 pub use error::RenderError;
 use piece::Piece;
 use stats::{RenderStats, Stage};
@@ -257,7 +257,7 @@ fn render_image_frame_here(
                 .with_deep(deep.is_some())
                 .with_deep_aovs(!extent.deep_aovs.is_empty());
             let on = Frontends {
-                gpu: (&integrator, None),
+                gpu: OnGpu::March(&integrator, None),
                 cpu: &integrator,
             };
             render_on(
@@ -291,8 +291,13 @@ fn render_image_frame_here(
                 },
             )
             .with_opacity_samples(PATH_OPACITY_SAMPLES, plan.sampling.spp);
-            render_frame(
-                &integrator,
+            let on = Frontends {
+                gpu: OnGpu::Path(&integrator, plan.medium.g),
+                cpu: &integrator,
+            };
+            render_on(
+                (&mut gpu, &mut device_note),
+                on,
                 &scene,
                 plan,
                 &Extent {
@@ -333,7 +338,7 @@ fn render_image_frame_here(
                 .with_deep_aovs(!extent.deep_aovs.is_empty());
             // On the GPU: the same march with the lattice gathered in it.
             let on = Frontends {
-                gpu: (integrator.single(), lattice.as_ref()),
+                gpu: OnGpu::March(integrator.single(), lattice.as_ref()),
                 cpu: &integrator,
             };
             render_on(

@@ -72,11 +72,13 @@ fn auto_falls_back_to_the_cpu_with_a_note_and_gpu_refuses_in_one_line() {
         ],
         "several volumes ([[volume]] tables)",
     );
-    // Path tracing runs on the CPU only.
+    // Path tracing through water drops runs on the CPU only.
+    let mut drops = args("gpu", "path");
+    drops.extend(["--phase", "water-drop"]);
     refused(
         &dir,
-        &args("gpu", "path"),
-        "--device gpu: the GPU backend does not render --scattering path",
+        &drops,
+        "--device gpu: the GPU backend does not render a coloured phase function (--phase water-drop) under --scattering path",
     );
     // Under auto a device that runs on the CPU, as lavapipe does, is not taken: murk's
     // own CPU path renders faster. One note says so, naming the adapter.
@@ -93,8 +95,11 @@ fn auto_falls_back_to_the_cpu_with_a_note_and_gpu_refuses_in_one_line() {
         lines[0].contains("llvmpipe") && lines[0].contains("runs on the CPU"),
         "{err}"
     );
-    // Path tracing runs on the CPU only: named before any adapter is looked at.
-    let err = ok(&dir, &args("auto", "path"));
+    // Path tracing through water drops runs on the CPU only: named before any adapter
+    // is looked at.
+    let mut drops = args("auto", "path");
+    drops.extend(["--phase", "water-drop"]);
+    let err = ok(&dir, &drops);
     let lines = notes(&err);
     assert_eq!(lines.len(), 1, "{err}");
     assert!(lines[0].contains("--scattering path"), "{err}");

@@ -221,4 +221,5 @@ mod emission;
 mod fast;
 mod ground;
 mod memory;
+mod path;
 mod single;

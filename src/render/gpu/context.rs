@@ -12,6 +12,8 @@ pub struct Gpu {
     pipeline: wgpu::ComputePipeline,
     /// The shadow bake's column march, compiled on first use.
     columns: std::sync::OnceLock<Result<wgpu::ComputePipeline, String>>,
+    /// The path tracer (path.wgsl), compiled on first use.
+    pub(super) path: std::sync::OnceLock<Result<wgpu::ComputePipeline, String>>,
     /// The adapter as it names itself, its device type and backend.
     pub name: String,
     pub limits: wgpu::Limits,
@@ -40,7 +42,17 @@ pub(super) fn size_text(bytes: u64) -> String {
 /// What the march and the column march share (WGSL has no include): the parameters,
 /// the grid's nodes and their lookups, rays and the voxel-cell walk; compiled before
 /// each one's own source.
-const GRID_WGSL: &str = include_str!("grid.wgsl");
+pub(super) const GRID_WGSL: &str = include_str!("grid.wgsl");
+
+/// The march's sources in the order they are compiled (the path tracer's follow).
+pub(super) const MARCH_WGSL: [&str; 6] = [
+    GRID_WGSL,
+    include_str!("march.wgsl"),
+    include_str!("dsm.wgsl"),
+    include_str!("lattice.wgsl"),
+    include_str!("emission.wgsl"),
+    include_str!("toward_light.wgsl"),
+];
 
 /// Storage buffers the march binds.
 const STORAGE_BUFFERS: u32 = 8;
@@ -104,15 +116,7 @@ impl Gpu {
         }))
         .map_err(|e| format!("{name}: cannot open the device ({e})"))?;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let source = [
-            GRID_WGSL,
-            include_str!("march.wgsl"),
-            include_str!("dsm.wgsl"),
-            include_str!("lattice.wgsl"),
-            include_str!("toward_light.wgsl"),
-            include_str!("emission.wgsl"),
-        ]
-        .join("\n");
+        let source = MARCH_WGSL.join("\n");
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("march"),
             source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -133,6 +137,7 @@ impl Gpu {
             queue,
             pipeline,
             columns: std::sync::OnceLock::new(),
+            path: std::sync::OnceLock::new(),
             name,
             limits,
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
@@ -349,12 +354,12 @@ pub(super) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry
 
 /// A scene's buffers on the GPU.
 pub struct Resident {
-    tree: wgpu::Buffer,
-    vals: wgpu::Buffer,
+    pub(super) tree: wgpu::Buffer,
+    pub(super) vals: wgpu::Buffer,
     /// The shadow maps, in [`DSM_BUFFERS`] parts.
-    dsm: [wgpu::Buffer; DSM_BUFFERS],
-    meta: wgpu::Buffer,
-    params: Vec<u32>,
+    pub(super) dsm: [wgpu::Buffer; DSM_BUFFERS],
+    pub(super) meta: wgpu::Buffer,
+    pub(super) params: Vec<u32>,
     /// Floats per sample in the results.
     pub stride: u32,
 }

@@ -9,17 +9,22 @@
 //! shadow rays marched through the grid (`--shadows march`); the ground plane's light,
 //! where a camera ray meets it, is found in the same kernel.
 //!
+//! Under `--scattering path` the path tracer's paths are traced on the GPU (path.rs,
+//! path.wgsl) over the same uploaded grid and maps and the path tracer's majorants.
+//!
 //! What it renders is checked first ([`unsupported`]): a scene with anything else runs on
 //! the CPU under `--device auto` (with a note naming it) and is refused under `gpu`.
 
 mod bake;
 mod context;
 mod grids;
+mod path;
 mod pixels;
 mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
 pub use context::{Gpu, MAX_BINDING_VAR};
+pub use path::render_path;
 
 use super::pixels::{PixelJob, PixelPasses};
 use crate::field::grid_nodes::FlatGridError;
@@ -35,11 +40,19 @@ use std::time::Instant;
 /// The first feature of the render that the GPU backend does not run, or `None` when
 /// it runs all of them.
 pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
+    // What the march may render but the path tracer's port does not.
     if plan.transport.mode == ScatteringMode::Path {
-        return Some(format!(
-            "--scattering {} (the GPU renders --scattering single and fast)",
-            plan.transport.mode.name()
-        ));
+        if scene.scatters && !scene.phase.is_grey() {
+            return Some(
+                "a coloured phase function (--phase water-drop) under --scattering path".into(),
+            );
+        }
+        if scene.emits {
+            return Some("emission and temperature grids under --scattering path".into());
+        }
+        if scene.fields.color.is_some() && scene.scatters {
+            return Some("a colour grid under --scattering path".into());
+        }
     }
     let Some(grid) = scene.fields.density.as_voxel_grid() else {
         return Some(if plan.volumes.is_some() {
@@ -73,7 +86,8 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
     }
     // Shadow rays marched toward a point light: on lavapipe the kernel that marches
     // them cut some camera rays short (their march stopped early), so they stay on the
-    // CPU until that is understood. Suns' marched rays match the CPU's.
+    // CPU until that is understood. Suns' marched rays match the CPU's. (The path
+    // tracer tracks its shadow rays itself.)
     let lights = scene.illumination();
     let marched_point = scene
         .lights
@@ -82,7 +96,10 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
         .any(|(l, s)| {
             matches!(s, LightShadow::Marched) && matches!(l.kind, LightKind::Point { .. })
         });
-    if marched_point && (scene.scatters || scene.ground.is_some()) {
+    if marched_point
+        && plan.transport.mode != ScatteringMode::Path
+        && (scene.scatters || scene.ground.is_some())
+    {
         return Some("shadow rays marched toward a point light (--shadows march)".into());
     }
     None

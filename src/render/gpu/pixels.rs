@@ -19,17 +19,17 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// One camera sample to march: its pixel and where it goes in the pixel's mean.
+/// One pixel to render: where and how it is sampled.
 #[derive(Clone, Copy)]
-struct Pick {
-    x: usize,
-    y: usize,
+pub(super) struct Pick {
+    pub x: usize,
+    pub y: usize,
     /// The stratified grid's size (0: the job's samples, or the centre).
-    grid: u32,
+    pub grid: u32,
 }
 
 /// The samples of pixel `p`: their jitter inside the pixel and their stream.
-fn sample_points(job: &PixelJob<SingleScattering>, p: Pick) -> Vec<(f64, f64, u32)> {
+pub(super) fn sample_points<I: Integrator>(job: &PixelJob<I>, p: Pick) -> Vec<(f64, f64, u32)> {
     let count = if p.grid == 0 {
         job.spp
     } else {
@@ -158,6 +158,17 @@ pub fn render_pixels(
     job: &PixelJob<SingleScattering>,
     times: &mut GpuTimes,
 ) -> Result<PixelPasses, String> {
+    assemble(job, |picks| render_picks(gpu, scene, job, picks, times))
+}
+
+/// [`crate::render::pixels::render_pixels`]'s two passes (the centres or the job's
+/// samples, then the silhouette pixels again on the stratified grid) with each pass's
+/// pixels rendered by `render` (each pixel's `stride` values and the density samples
+/// taken), and the pixels laid out as planes.
+pub(super) fn assemble<I: Integrator>(
+    job: &PixelJob<I>,
+    mut render: impl FnMut(&[Pick]) -> Result<(Vec<f32>, u64), String>,
+) -> Result<PixelPasses, String> {
     let (w, h) = (job.camera.width, job.camera.height);
     let layout = job.integrator.passes().clone();
     let stride = layout.slots();
@@ -167,7 +178,7 @@ pub fn render_pixels(
     let centres: Vec<Pick> = (c0..c1)
         .flat_map(|y| (0..w).map(move |x| Pick { x, y, grid: 0 }))
         .collect();
-    let (mut values, mut samples) = render_picks(gpu, scene, job, &centres, times)?;
+    let (mut values, mut samples) = render(&centres)?;
     let mut resampled = 0u64;
     if let (true, Some(a)) = (job.edges() && r1 > r0, alpha_at) {
         let alpha = |x: usize, y: usize| values[((y - c0) * w + x) * stride + a];
@@ -187,7 +198,7 @@ pub fn render_pixels(
                 grid: job.antialias,
             })
             .collect();
-        let (again, more) = render_picks(gpu, scene, job, &edges, times)?;
+        let (again, more) = render(&edges)?;
         for (p, px) in edges.iter().zip(again.chunks(stride)) {
             values[((p.y - c0) * w + p.x) * stride..][..stride].copy_from_slice(px);
         }
