@@ -63,6 +63,13 @@ impl Ground {
             open += e;
             through += e * DVec3::new((-tau.x).exp(), (-tau.y).exp(), (-tau.z).exp());
         }
+        GroundLight::through(open, through)
+    }
+}
+
+impl GroundLight {
+    /// The light of irradiance `open` without the volume and `through` through it.
+    pub fn through(open: DVec3, through: DVec3) -> GroundLight {
         let ratio = |a: f64, b: f64| {
             if b > 0.0 {
                 (a / b).clamp(0.0, 1.0)

@@ -186,6 +186,11 @@ impl SingleScattering<'_> {
         self.volume.density
     }
 
+    /// The ground plane lit through the volume, if any.
+    pub fn ground(&self) -> Option<Ground> {
+        self.ground.map(|(g, _)| g)
+    }
+
     /// The march's step and termination.
     pub fn settings(&self) -> MarchSettings {
         self.settings

@@ -59,15 +59,16 @@ pub(super) fn report_bake(columns: Option<&gpu::GpuColumns>, report: &mut SceneR
 
 /// The GPU `device` asks for: under `gpu` any adapter; under `auto` one that is not
 /// itself run on the CPU (lavapipe, SwiftShader, WARP), which renders slower than murk's
-/// own CPU path; none under `cpu`. Why not, where there is none.
+/// own CPU path, unless `WGPU_ADAPTER_NAME` names it; none under `cpu`. Why not, where
+/// there is none.
 fn gpu_for(device: Device) -> std::result::Result<&'static gpu::Gpu, String> {
     match device {
         Device::Cpu => Err("--device cpu".into()),
         Device::Gpu => gpu::Gpu::shared(),
         Device::Auto => gpu::Gpu::shared().and_then(|g| {
-            if g.on_cpu {
+            if g.on_cpu && !g.named {
                 Err(format!(
-                    "the only adapter, {}, runs on the CPU, slower than murk's own CPU path (--device gpu uses it)",
+                    "the only adapter, {}, runs on the CPU, slower than murk's own CPU path (--device gpu or WGPU_ADAPTER_NAME uses it)",
                     g.name
                 ))
             } else {

@@ -4,6 +4,7 @@
 //! f32 from where each column's march starts, is marched by columns.wgsl (one invocation
 //! a column) and read back. What the bake decides stays on the CPU.
 
+use super::context::size_text;
 use super::context::{GROUPS_X, Gpu, WORKGROUP, entry};
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
 use crate::field::{Field, VoxelGrid};
@@ -84,10 +85,10 @@ impl GpuColumns {
         ] {
             if bytes as u64 > max {
                 return Err(format!(
-                    "{what} ({} MiB) exceed the largest buffer {} binds ({} MiB)",
-                    bytes >> 20,
+                    "{what} ({}) exceed the largest buffer {} binds ({})",
+                    size_text(bytes as u64),
                     self.gpu.name,
-                    max >> 20
+                    size_text(max)
                 ));
             }
         }
@@ -100,12 +101,23 @@ impl GpuColumns {
                     usage: wgpu::BufferUsages::STORAGE,
                 })
         };
-        Ok(GridOnGpu {
+        let oom = self
+            .gpu
+            .device
+            .push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let on_gpu = GridOnGpu {
             address: grid as *const VoxelGrid as usize,
             tree: make("tree", bytemuck::cast_slice(&arrays.tree)),
             vals: make("vals", bytemuck::cast_slice(&arrays.vals)),
             params,
-        })
+        };
+        match pollster::block_on(oom.pop()) {
+            Some(e) => Err(format!(
+                "{}: out of memory uploading the grid ({e})",
+                self.gpu.name
+            )),
+            None => Ok(on_gpu),
+        }
     }
 
     fn march_on_gpu(

@@ -18,8 +18,25 @@ pub struct Gpu {
     pub name: String,
     pub limits: wgpu::Limits,
     /// A device that runs on the CPU (Mesa's lavapipe, SwiftShader, WARP): `--device
-    /// auto` does not take it, as murk's own CPU path renders faster.
+    /// auto` does not take it, as murk's own CPU path renders faster, unless it was
+    /// asked for by name (`named`).
     pub on_cpu: bool,
+    /// The adapter was picked by name (`WGPU_ADAPTER_NAME`).
+    pub named: bool,
+}
+
+/// The environment variable that lowers the largest buffer the GPU binds to this many
+/// bytes: how a test makes a scene that fits any real GPU not fit.
+pub const MAX_BINDING_VAR: &str = "MURK_GPU_MAX_BINDING";
+
+/// `bytes` for a person: B, KiB, MiB or GiB.
+pub(super) fn size_text(bytes: u64) -> String {
+    match bytes {
+        b if b < 1 << 10 => format!("{b} B"),
+        b if b < 1 << 20 => format!("{:.1} KiB", b as f64 / 1024.0),
+        b if b < 1 << 30 => format!("{:.1} MiB", b as f64 / (1u64 << 20) as f64),
+        b => format!("{:.1} GiB", b as f64 / (1u64 << 30) as f64),
+    }
 }
 
 /// What the march and the column march share (WGSL has no include): the parameters,
@@ -28,12 +45,13 @@ pub struct Gpu {
 pub(super) const GRID_WGSL: &str = include_str!("grid.wgsl");
 
 /// The march's sources in the order they are compiled (the path tracer's follow).
-pub(super) const MARCH_WGSL: [&str; 5] = [
+pub(super) const MARCH_WGSL: [&str; 6] = [
     GRID_WGSL,
     include_str!("march.wgsl"),
     include_str!("dsm.wgsl"),
     include_str!("lattice.wgsl"),
     include_str!("emission.wgsl"),
+    include_str!("toward_light.wgsl"),
 ];
 
 /// Storage buffers the march binds.
@@ -60,23 +78,31 @@ impl Gpu {
             ..wgpu::InstanceDescriptor::new_without_display_handle()
         });
         // WGPU_ADAPTER_NAME picks an adapter by name; else the high-performance one.
-        let adapter = pollster::block_on(async {
+        let (adapter, named) = pollster::block_on(async {
             match wgpu::util::initialize_adapter_from_env(&instance, None).await {
-                Ok(a) => Ok(a),
-                Err(_) => {
-                    instance
-                        .request_adapter(&wgpu::RequestAdapterOptions {
-                            power_preference: wgpu::PowerPreference::HighPerformance,
-                            ..Default::default()
-                        })
-                        .await
-                }
+                Ok(a) => Ok((a, true)),
+                Err(_) => instance
+                    .request_adapter(&wgpu::RequestAdapterOptions {
+                        power_preference: wgpu::PowerPreference::HighPerformance,
+                        ..Default::default()
+                    })
+                    .await
+                    .map(|a| (a, false)),
             }
         })
         .map_err(|e| format!("no GPU adapter found ({e})"))?;
         let info = adapter.get_info();
         let name = format!("{} ({:?}, {:?})", info.name, info.device_type, info.backend);
-        let limits = adapter.limits();
+        let mut limits = adapter.limits();
+        if let Some(cap) = std::env::var(MAX_BINDING_VAR)
+            .ok()
+            .and_then(|v| v.trim().parse::<u64>().ok())
+        {
+            // Lower limits are always valid to ask a device for.
+            limits.max_storage_buffer_binding_size =
+                limits.max_storage_buffer_binding_size.min(cap);
+            limits.max_buffer_size = limits.max_buffer_size.min(cap);
+        }
         if limits.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
             return Err(format!(
                 "{name} binds {} storage buffers per shader, the march needs {STORAGE_BUFFERS}",
@@ -115,6 +141,7 @@ impl Gpu {
             name,
             limits,
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
+            named,
         })
     }
 
@@ -263,26 +290,30 @@ impl Gpu {
         Ok(values)
     }
 
-    /// Uploads a scene's buffers, checking each against the adapter's limits.
+    /// Uploads a scene's buffers, checking each against the adapter's limits first
+    /// (the shadow maps are already split, see [`Buffers::split_maps`]; the grid's
+    /// arrays are not), and the uploads against running out of memory.
     pub fn upload(&self, b: &Buffers) -> Result<Resident, String> {
         let max = self.max_binding();
         for (what, bytes) in b.sizes() {
             if bytes > max {
                 let total = match what {
                     "the shadow maps" => format!(
-                        "{} MiB, in {DSM_BUFFERS} buffers of {} MiB",
-                        (b.dsm.len() * 4) >> 20,
-                        bytes >> 20
+                        "{}, in {DSM_BUFFERS} buffers of {}",
+                        size_text(b.dsm.len() as u64 * 4),
+                        size_text(bytes)
                     ),
-                    _ => format!("{} MiB", bytes >> 20),
+                    _ => size_text(bytes),
                 };
                 return Err(format!(
-                    "{what} ({total}) exceed the largest buffer {} binds ({} MiB)",
+                    "{what} ({total}) exceed the largest buffer {} binds ({})",
                     self.name,
-                    max >> 20
+                    size_text(max)
                 ));
             }
         }
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let make = |label: &str, contents: &[u8]| {
             self.device
                 .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -291,14 +322,26 @@ impl Gpu {
                     usage: wgpu::BufferUsages::STORAGE,
                 })
         };
-        Ok(Resident {
+        let resident = Resident {
             tree: make("tree", bytemuck::cast_slice(&b.tree)),
             vals: make("vals", bytemuck::cast_slice(&b.vals)),
             dsm: std::array::from_fn(|k| make("dsm", bytemuck::cast_slice(&b.dsm_part(k)))),
             meta: make("meta", bytemuck::cast_slice(&b.meta)),
             params: b.params.clone(),
             stride: b.stride,
-        })
+        };
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(format!("{}: uploading the scene: {e}", self.name));
+        }
+        if let Some(e) = pollster::block_on(oom.pop()) {
+            let words = b.tree.len() + b.vals.len() + b.dsm.len() + b.meta.len();
+            return Err(format!(
+                "{}: out of memory uploading the scene ({}: {e})",
+                self.name,
+                size_text(words as u64 * 4)
+            ));
+        }
+        Ok(resident)
     }
 }
 

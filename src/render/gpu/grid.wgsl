@@ -49,6 +49,8 @@ struct Params {
     phase_grid: vec4<f32>,   // the phase table's nodes: θ₀ and δ of θᵢ = θ₀(e^{iδ} − 1),
                              // then from θ = z on steps of w (march.wgsl, phase_at)
     grids: array<Grid, 5>,
+    shadow: vec4<f32>,       // marched shadow rays: the midpoint step in voxels (0:
+                             // exact), ∫ρ ds past which a ray stops, 0, 0
 };
 
 // A grid beside the density, its nodes in `tree` and `vals` after the density's.

@@ -3,7 +3,7 @@
 // every level), segments of at most `step` voxels restarted in every cell (the first
 // shortened by the sample's jitter, longer where the cell is optically thin), each
 // segment's density from its exact integral (voxel by voxel, two-point Gauss–Legendre),
-// τ toward each light from its deep shadow map at the segment ends, early termination;
+// τ toward each light from its deep shadow map or a marched shadow ray at the segment ends, early termination;
 // under `--scattering fast` each segment also gathers the lattice's multiple scattering
 // (lattice.wgsl). Compiled after grid.wgsl (the parameters, tree lookups and cell walk).
 
@@ -11,7 +11,8 @@ struct Sample {
     world_origin: vec4<f32>, // xyz, w: jitter
     world_dir: vec4<f32>,
     index_origin: vec4<f32>, // xyz, w: t_min (the near clipping plane)
-    index_dir: vec4<f32>,
+    index_dir: vec4<f32>,    // xyz, w: where the ray meets the ground plane (0: not
+                             // seen; its sign: the side the camera is on)
 };
 
 @group(0) @binding(3) var<storage, read> dsm0: array<u32>;
@@ -242,7 +243,8 @@ fn incident(l: u32, x: vec3<f32>, irr: ptr<function, vec3<f32>>) -> vec3<f32> {
 // Results of one sample at results[i * stride]: optical depth (rgb) and 1 where the
 // march terminated, transmittance (rgb) and the half-opacity t (−1: none), the density
 // samples taken and the multiply scattered radiance of all lights (rgb), the emitted
-// radiance (rgb) and 0, then per light its scattered radiance (rgb, every order) and 0.
+// radiance (rgb) and 0, then per light its scattered radiance (rgb, every order) and 0;
+// then, where a ground plane is lit, the light it receives (ground_light).
 @compute @workgroup_size(64)
 fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x + id.y * 65535u * 64u;
@@ -355,9 +357,9 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
                         if (light_tau_ok[l] && last_end == a) {
                             tau0 = light_tau[l];
                         } else {
-                            tau0 = P.sigma_t.xyz * density_to_light(l, wo + wd * a);
+                            tau0 = P.sigma_t.xyz * light_depth(l, wo + wd * a, ray_at(r, a));
                         }
-                        let tau1 = P.sigma_t.xyz * density_to_light(l, wo + wd * b);
+                        let tau1 = P.sigma_t.xyz * light_depth(l, wo + wd * b, ray_at(r, b));
                         light_tau[l] = tau1;
                         light_tau_ok[l] = true;
                         var irr: vec3<f32>;
@@ -421,5 +423,10 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
         results[o] = per_light[l].x;
         results[o + 1u] = per_light[l].y;
         results[o + 2u] = per_light[l].z;
+    }
+    // A ground plane: its light after the lights' (toward_light.wgsl).
+    let ground_at = 16u + 4u * n_lights;
+    if (P.stride >= ground_at + 8u) {
+        ground_light(wo, wd, r, smp.index_dir.w, out + ground_at);
     }
 }

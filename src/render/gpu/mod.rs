@@ -5,7 +5,9 @@
 //! `--scattering fast` the multiple-scattering lattice, solved on the CPU, is uploaded
 //! too and gathered in the same march, per segment, as the CPU's march does. Emission,
 //! temperature and colour grids are packed after the density's nodes (grids.rs) and
-//! sampled as the CPU samples them (emission.wgsl).
+//! sampled as the CPU samples them (emission.wgsl). Shadows are the maps' lookups or
+//! shadow rays marched through the grid (`--shadows march`); the ground plane's light,
+//! where a camera ray meets it, is found in the same kernel.
 //!
 //! Under `--scattering path` the path tracer's paths are traced on the GPU (path.rs,
 //! path.wgsl) over the same uploaded grid and maps and the path tracer's majorants.
@@ -21,7 +23,7 @@ mod pixels;
 mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
-pub use context::Gpu;
+pub use context::{Gpu, MAX_BINDING_VAR};
 pub use path::render_path;
 
 use super::pixels::{PixelJob, PixelPasses};
@@ -30,6 +32,7 @@ use crate::integrate::ScatteringMode;
 use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::single::SingleScattering;
 use crate::scene::Scene;
+use crate::scene::light::LightKind;
 use crate::scene::lights::LightShadow;
 use crate::scene::plan::RenderPlan;
 use std::time::Instant;
@@ -69,9 +72,6 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
     if let Some(why) = grids::unsupported(&grids::Beside::of(&volume)) {
         return Some(why);
     }
-    if scene.ground.is_some() {
-        return Some("the ground plane (--ground)".into());
-    }
     if scene.motion.is_some() {
         return Some("motion blur from a velocity grid (--shutter)".into());
     }
@@ -84,16 +84,23 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
     if scene.lights.len() > upload::MAX_LIGHTS {
         return Some(format!("more than {} lights", upload::MAX_LIGHTS));
     }
+    // Shadow rays marched toward a point light: on lavapipe the kernel that marches
+    // them cut some camera rays short (their march stopped early), so they stay on the
+    // CPU until that is understood. Suns' marched rays match the CPU's. (The path
+    // tracer tracks its shadow rays itself.)
     let lights = scene.illumination();
-    // The path tracer tracks its shadow rays itself.
-    if scene.scatters
+    let marched_point = scene
+        .lights
+        .iter()
+        .zip(lights.shadows.iter())
+        .any(|(l, s)| {
+            matches!(s, LightShadow::Marched) && matches!(l.kind, LightKind::Point { .. })
+        });
+    if marched_point
         && plan.transport.mode != ScatteringMode::Path
-        && lights
-            .shadows
-            .iter()
-            .any(|s| matches!(s, LightShadow::Marched))
+        && (scene.scatters || scene.ground.is_some())
     {
-        return Some("marched shadow rays (--shadows march)".into());
+        return Some("shadow rays marched toward a point light (--shadows march)".into());
     }
     None
 }
@@ -147,6 +154,9 @@ pub fn render_pixels(
         settings: job.integrator.settings(),
         scatters: scene.scatters && scene.medium.scatters(),
         lattice,
+        ground: job.integrator.ground().is_some(),
+        quadrature: lights.quadrature,
+        enough: lights.enough,
         beside: grids::Beside::of(&volume),
         bounds: crate::field::Field::active_bounds(&traversal),
     })?;

@@ -78,6 +78,11 @@ pub fn render_path(
             color: None,
         },
         bounds: grid.active_bounds(),
+        // The path tracer finds no ground (refused with path) and marches no shadow ray
+        // of the march's kind.
+        ground: false,
+        quadrature: lights.quadrature,
+        enough: lights.enough,
     })?;
     // The majorant grid: the path tracer's, else one of the same blocks.
     let built;

@@ -3,13 +3,14 @@
 //! stratified grid), the same rays and jitter, generated here in f64; the GPU marches
 //! them in batches; each sample's result (with the fast mode's multiply scattered part
 //! of it, `indirect`) is written into the pixel's passes by [`SingleScattering::record`],
-//! as the CPU's are.
+//! as the CPU's are, with the light the ground plane receives where the ray meets it.
 
 use super::GpuTimes;
 use super::context::{Gpu, Resident};
-use super::upload::{RESULT_BASE, RESULT_EMISSION, SAMPLE_FLOATS};
+use super::upload::{GROUND_FLOATS, RESULT_BASE, RESULT_EMISSION, SAMPLE_FLOATS};
 use crate::field::IndexRay;
 use crate::integrate::RayResult;
+use crate::integrate::ground::GroundLight;
 use crate::integrate::integrator::{Integrator, SampleRng};
 use crate::integrate::pass::PassKind;
 use crate::integrate::single::SingleScattering;
@@ -70,15 +71,26 @@ fn render_picks(
     starts.push(total);
     let mut input = vec![0f32; total * SAMPLE_FLOATS];
     let mut depth_rates = vec![0f64; total];
+    // Where each sample's ray meets the ground plane (seen before the ray's end), as
+    // SingleScattering's own sample finds it.
+    let ground = integrator.ground();
+    let mut hits: Vec<Option<(f64, DVec3)>> = vec![None; total];
     input
         .par_chunks_mut(SAMPLE_FLOATS)
-        .zip(depth_rates.par_iter_mut())
+        .zip(depth_rates.par_iter_mut().zip(hits.par_iter_mut()))
         .enumerate()
-        .for_each(|(i, (out, rate))| {
+        .for_each(|(i, (out, (rate, hit)))| {
             let k = starts.partition_point(|&s| s <= i) - 1;
             let (p, (jx, jy, stream)) = (picks[k], points[k][i - starts[k]]);
             let sample = job.camera_sample(&frame, p.x, p.y, jx, jy, None);
-            let ray = sample.ray;
+            let mut ray = sample.ray;
+            *hit = ground.and_then(|g| g.hit(ray.origin, ray.dir).filter(|(t, _)| *t <= ray.t_max));
+            if let (Some(g), Some((t, _))) = (ground, *hit)
+                && g.visible
+            {
+                // The opaque floor ends the ray.
+                ray.t_max = t;
+            }
             let (sx, sy) = job.stream_pixel(p.x, p.y);
             let u = SampleRng::new(job.seed, sx, sy, stream).uniform();
             let index = IndexRay::new(density, ray.origin, ray.dir);
@@ -90,6 +102,8 @@ fn render_picks(
             out[8..11].copy_from_slice(&put(index.origin));
             out[11] = ray.t_min.min(f32::MAX as f64) as f32;
             out[12..15].copy_from_slice(&put(index.dir));
+            // The ground's distance, signed by the side of the plane the camera sees.
+            out[15] = hit.map_or(0.0, |(t, n)| (t * n.y) as f32);
             *rate = sample.depth_rate;
         });
     times.rays += clock.elapsed().as_secs_f64();
@@ -98,7 +112,7 @@ fn render_picks(
     times.kernel += clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let rs = scene.stride as usize;
-    let lights = (rs - RESULT_BASE) / 4;
+    let lights = (rs - RESULT_BASE - if ground.is_some() { GROUND_FLOATS } else { 0 }) / 4;
     let mut values = vec![0f32; picks.len() * stride];
     let samples: u64 = values
         .par_chunks_mut(stride)
@@ -113,6 +127,11 @@ fn render_picks(
                 for (l, pl) in per_light.iter_mut().enumerate() {
                     *pl = v(RESULT_BASE + 4 * l);
                 }
+                let hit = ground.zip(hits[i]).map(|(g, (t, _))| {
+                    let at = RESULT_BASE + 4 * lights;
+                    let (open, through) = (v(at), v(at + 4));
+                    (g, t, GroundLight::through(open, through))
+                });
                 let ray = RayResult {
                     transmittance: v(4),
                     optical_depth: if r[3] != 0.0 { DVec3::INFINITY } else { v(0) },
@@ -122,7 +141,7 @@ fn render_picks(
                     samples: r[8] as u64,
                 };
                 n_samples += ray.samples;
-                integrator.record(&ray, None, &per_light, v(9), depth_rates[i], &mut acc);
+                integrator.record(&ray, hit, &per_light, v(9), depth_rates[i], &mut acc);
             }
             finish_pixel(px, &acc, starts[k + 1] - starts[k], alpha_at, depth_at);
             n_samples

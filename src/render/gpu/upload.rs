@@ -12,6 +12,7 @@ use crate::integrate::phase::PhaseFunction;
 use crate::integrate::{MarchSettings, Medium};
 use crate::scene::light::{Light, LightKind};
 use crate::scene::lights::LightShadow;
+use crate::shadow::ShadowQuadrature;
 use crate::shadow::flat::FlatChart;
 use crate::shadow::map::ChartSelect;
 use glam::DVec3;
@@ -31,7 +32,10 @@ const DSM_CHUNK_AT: usize = 44;
 /// Words of the parameters before those of the grids beside the density.
 const DENSITY_PARAM_WORDS: usize = 56;
 /// Words of the parameters.
-const PARAM_WORDS: usize = DENSITY_PARAM_WORDS + super::grids::WORDS;
+const PARAM_WORDS: usize = DENSITY_PARAM_WORDS + super::grids::WORDS + 4;
+/// Floats of a result after the per-light radiance where the ground plane is seen: the
+/// irradiance the ground receives without the volume (rgb, 0) and through it (rgb, 0).
+pub const GROUND_FLOATS: usize = 8;
 /// Where the grid's parts begin in the parameters (`upper_base` in grid.wgsl).
 const GRID_BASES_AT: usize = 36;
 /// Where the grid's background value sits in the parameters.
@@ -125,6 +129,12 @@ pub struct SceneParts<'a> {
     pub scatters: bool,
     /// The fast mode's multiple scattering, gathered in the march.
     pub lattice: Option<&'a MsLattice>,
+    /// A ground plane is lit through the volume (its shadows are looked up even where
+    /// nothing scatters; each result carries [`GROUND_FLOATS`] more).
+    pub ground: bool,
+    /// How marched shadow rays integrate, and `∫ρ ds` past which they stop.
+    pub quadrature: ShadowQuadrature,
+    pub enough: f64,
     /// The emission, temperature and colour grids.
     pub beside: super::grids::Beside<'a>,
     /// The box of the cells a camera ray visits (the density's, and the emission and
@@ -333,25 +343,28 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
     let dsm_chunk = dsm.len();
     // meta: the lights, then the phase table.
     let mut meta = Vec::with_capacity(s.lights.len() * 16 + PHASE_ENTRIES * 4);
+    let to_index = crate::field::Field::transform(s.grid);
     for ((light, shadow), first) in s.lights.iter().zip(s.shadows).zip(&first_chart) {
-        let (kind, v) = match light.kind {
-            LightKind::Sun { toward } => (0.0, toward),
-            LightKind::Point { position } => (1.0, position),
+        // In index space, for marched shadow rays: the sun's direction (index units
+        // per world unit) or the point light's position.
+        let (kind, v, index) = match light.kind {
+            LightKind::Sun { toward } => (0.0, toward, to_index.world_dir_to_index(toward)),
+            LightKind::Point { position } => (1.0, position, to_index.world_to_index(position)),
         };
         let shadow = match shadow {
-            // Nothing scatters: the lights' shadows are never looked up.
-            _ if !s.scatters => 0.0,
+            // Nothing scatters and no ground: the lights' shadows are never looked up.
+            _ if !s.scatters && !s.ground => 0.0,
             LightShadow::Map(m) if matches!(m.select, ChartSelect::CubeFaces { .. }) => 2.0,
             LightShadow::Map(_) => 1.0,
             LightShadow::Unshadowed => 0.0,
-            LightShadow::Marched => return Err("--shadows march".into()),
+            LightShadow::Marched => 3.0,
         };
         let e = light.color * light.intensity;
         let header = (first * CHART_WORDS) as f32;
         meta.extend([kind, shadow, header, 0.0]);
         meta.extend([v.x as f32, v.y as f32, v.z as f32, 0.0]);
         meta.extend([e.x as f32, e.y as f32, e.z as f32, 0.0]);
-        meta.extend([0.0; 4]);
+        meta.extend([index.x as f32, index.y as f32, index.z as f32, 0.0]);
     }
     let (phase_base, phase) = phase_table(s.phase, &mut meta)?;
     let lattice = lattice_words(s, &mut meta)?;
@@ -362,7 +375,8 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
     let bounds = s.bounds;
     let sigma_t = s.medium.sigma_t();
     let sigma_s = s.medium.sigma_s_scaled();
-    let stride = (RESULT_BASE + 4 * s.lights.len()) as u32;
+    let ground = if s.ground { GROUND_FLOATS } else { 0 };
+    let stride = (RESULT_BASE + 4 * s.lights.len() + ground) as u32;
     let ivec = |v: glam::IVec3| [v.x as u32, v.y as u32, v.z as u32, 0];
     let fvec = |v: DVec3| [f(v.x), f(v.y), f(v.z), 0];
     let mut params = Vec::with_capacity(PARAM_WORDS);
@@ -392,6 +406,13 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
     params.extend(lattice);
     debug_assert_eq!(params.len(), DENSITY_PARAM_WORDS);
     params.extend(beside);
+    // Marched shadow rays: the midpoint rule's step in voxels (0: exact per voxel), and
+    // where they stop.
+    let shadow_step = match s.quadrature {
+        ShadowQuadrature::Step(v) => v.max(1e-6),
+        ShadowQuadrature::Exact => 0.0,
+    };
+    params.extend([f(shadow_step), f(s.enough.min(f32::MAX as f64)), 0, 0]);
     debug_assert_eq!(params.len(), PARAM_WORDS);
     debug_assert_eq!(params[DSM_CHUNK_AT] as usize, dsm_chunk);
     debug_assert_eq!(params[GRID_BASES_AT..GRID_BASES_AT + 6], bases);
