@@ -28,10 +28,13 @@ const MAX_CELLS: u32 = 1048576u;
 // ---- rays against the grid's bounds and cells ----
 
 fn clip_to_bounds(r: Ray, t_min: f32, t_max: f32) -> vec2<f32> {
+    return clip_to_box(r, P.bounds_lo.xyz, P.bounds_hi.xyz, t_min, t_max);
+}
+
+// [t0, t1] of the ray over [t_min, t_max] inside the box [lo, hi] ((0, 0): none).
+fn clip_to_box(r: Ray, lo: vec3<f32>, hi: vec3<f32>, t_min: f32, t_max: f32) -> vec2<f32> {
     var t0 = t_min;
     var t1 = t_max;
-    let lo = P.bounds_lo.xyz;
-    let hi = P.bounds_hi.xyz;
     if (any(lo > hi)) {
         return vec2<f32>(0.0, 0.0);
     }

@@ -40,20 +40,6 @@ use std::time::Instant;
 /// The first feature of the render that the GPU backend does not run, or `None` when
 /// it runs all of them.
 pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
-    // What the march may render but the path tracer's port does not.
-    if plan.transport.mode == ScatteringMode::Path {
-        if scene.scatters && !scene.phase.is_grey() {
-            return Some(
-                "a coloured phase function (--phase water-drop) under --scattering path".into(),
-            );
-        }
-        if scene.emits {
-            return Some("emission and temperature grids under --scattering path".into());
-        }
-        if scene.fields.color.is_some() && scene.scatters {
-            return Some("a colour grid under --scattering path".into());
-        }
-    }
     let Some(grid) = scene.fields.density.as_voxel_grid() else {
         return Some(if plan.volumes.is_some() {
             "several volumes ([[volume]] tables)".into()

@@ -13,10 +13,11 @@ use super::context::{GROUPS_X, Gpu, MARCH_WGSL, Resident, WORKGROUP, entry};
 use super::pixels::{Pick, assemble, sample_points};
 use super::upload::{self, N_SAMPLES_AT, SAMPLE_FLOATS};
 use crate::field::{Field, IndexRay};
+use crate::integrate::MarchSettings;
 use crate::integrate::integrator::{Integrator, SampleRng};
 use crate::integrate::pass::PassKind;
 use crate::integrate::path::PathTracer;
-use crate::integrate::{MarchSettings, phase::HenyeyGreenstein};
+use crate::integrate::phase::{HenyeyGreenstein, PhaseFunction};
 use crate::render::pixels::{PixelJob, PixelPasses, finish_pixel};
 use crate::scene::Scene;
 use crate::scene::lights::LightShadow;
@@ -27,8 +28,9 @@ use wgpu::util::DeviceExt;
 
 /// Floats a path sample takes in the input: the march's sample, then its key and flags.
 const PATH_SAMPLE_FLOATS: usize = 2 * SAMPLE_FLOATS;
-/// Floats of a result before the per-light radiance (8 a light: once, more than once).
-const PATH_RESULT_BASE: usize = 4;
+/// Floats of a result before the per-light radiance (8 a light: once, more than once):
+/// the camera ray's, then the emission seen directly, after one event and after more.
+const PATH_RESULT_BASE: usize = 16;
 /// The most samples one dispatch traces: a path's cost has no bound a march's has, and
 /// a long dispatch may be stopped by the driver's watchdog.
 const PATH_BATCH: usize = 1 << 18;
@@ -53,6 +55,8 @@ pub fn render_path(
         .nodes()
         .map_err(|_| "a density grid it cannot flatten")?;
     let lights = scene.illumination();
+    let traversal = scene.traversal();
+    let volume = scene.volume(&traversal);
     let parts = job.integrator.parts();
     // Shadow rays tracked on the GPU read no map.
     let unshadowed: Vec<LightShadow> = (0..scene.lights.len())
@@ -72,11 +76,9 @@ pub fn render_path(
         settings: MarchSettings::default(),
         scatters: parts.lights > 0,
         lattice: None,
-        // Emission and colour grids are refused under path.
-        beside: super::grids::Beside {
-            emission: None,
-            color: None,
-        },
+        // The emission, temperature and colour grids, as the march samples them.
+        beside: super::grids::Beside::of(&volume),
+        // The flights' blocks lie over the density's bounds.
         bounds: grid.active_bounds(),
         // The path tracer finds no ground (refused with path) and marches no shadow ray
         // of the march's kind.
@@ -100,6 +102,7 @@ pub fn render_path(
     buffers
         .meta
         .resize(buffers.meta.len().max(maj_base + 4), 0.0);
+    let phase = phase_sampling(scene.phase.as_ref(), &mut buffers.meta)?;
     if buffers.meta.len() as u64 >= u32::MAX as u64 {
         return Err("a majorant grid over 2^32 floats".into());
     }
@@ -144,6 +147,13 @@ pub fn render_path(
         f(radiance.z),
         f(if dome.is_some() { 1.0 } else { 0.0 }),
     ]);
+    // Emission past the density is gathered to the bounds of the grids traversed with it.
+    let emits = volume.emission.as_ref().is_some_and(|e| e.is_active());
+    let b = Field::active_bounds(&traversal);
+    let lo = b.min.as_dvec3();
+    params.extend([f(lo.x), f(lo.y), f(lo.z), f(if emits { 1.0 } else { 0.0 })]);
+    params.extend(col(b.max.as_dvec3()));
+    params.extend(phase);
     let path_params = PathBatch {
         params,
         stride,
@@ -287,6 +297,11 @@ fn trace_chunk(
                 }
                 n_samples += r[2] as u64;
                 let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
+                if parts.emits {
+                    passes.add_emission(&mut acc, v(4));
+                    passes.add_scattered_emission(&mut acc, 1, v(8));
+                    passes.add_scattered_emission(&mut acc, 2, v(12));
+                }
                 for l in 0..batch.layers {
                     let at = PATH_RESULT_BASE + 8 * l;
                     passes.add_scattered(&mut acc, l, 1, v(at));
@@ -394,6 +409,28 @@ fn dispatch(
     readback.unmap();
     values.truncate(count * batch.stride);
     Ok(values)
+}
+
+/// Appends to `meta` how the phase function is sampled where it is a table (water
+/// drops: per node the cumulative probability as two floats, hi + lo, `1 − cos θ` and
+/// its bin's density, as `WaterDrop::sample` draws θ); `PathParams.phase`: 1, where
+/// they start and the bins (all 0 for Henyey–Greenstein, sampled in closed form).
+fn phase_sampling(phase: &dyn PhaseFunction, meta: &mut Vec<f32>) -> Result<[u32; 4], String> {
+    let Some(t) = phase.table() else {
+        return Ok([0; 4]);
+    };
+    let n = t.cdf.len();
+    if n < 2 || t.one_minus_cos.len() != n || t.bin_pdf.len() + 1 != n {
+        return Err("a phase table whose sampling bins do not match its nodes".into());
+    }
+    let base = meta.len();
+    for i in 0..n {
+        let pdf = t.bin_pdf.get(i).copied().unwrap_or(0.0);
+        let hi = t.cdf[i] as f32;
+        let lo = (t.cdf[i] - hi as f64) as f32;
+        meta.extend([hi, lo, t.one_minus_cos[i] as f32, pdf as f32]);
+    }
+    Ok([1, base as u32, (n - 1) as u32, 0])
 }
 
 /// The path tracer's pipeline (path.wgsl and path_tracking.wgsl after the march's
