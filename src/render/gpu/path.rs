@@ -9,9 +9,9 @@
 //! own [`crate::integrate::scatter_passes::ScatterPasses`].
 
 use super::GpuTimes;
-use super::context::{GROUPS_X, Gpu, MARCH_WGSL, Resident, WORKGROUP, entry};
+use super::context::{Gpu, MARCH_WGSL, Resident};
 use super::pixels::{Pick, assemble, sample_points};
-use super::upload::{self, N_SAMPLES_AT, SAMPLE_FLOATS};
+use super::upload::{self, SAMPLE_FLOATS};
 use crate::field::{Field, IndexRay};
 use crate::integrate::MarchSettings;
 use crate::integrate::integrator::{Integrator, SampleRng};
@@ -24,7 +24,6 @@ use crate::scene::lights::LightShadow;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::time::Instant;
-use wgpu::util::DeviceExt;
 
 /// Floats a path sample takes in the input: the march's sample, then its key and flags.
 const PATH_SAMPLE_FLOATS: usize = 2 * SAMPLE_FLOATS;
@@ -328,87 +327,21 @@ fn dispatch(
     let d = &gpu.device;
     let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
     let oom = d.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-    let mut params = scene.params.clone();
-    params[N_SAMPLES_AT] = count as u32;
-    let uniform = |label: &str, words: &[u32]| {
-        d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytemuck::cast_slice(words),
-            usage: wgpu::BufferUsages::UNIFORM,
-        })
-    };
-    let params = uniform("params", &params);
-    let path_params = uniform("path params", &batch.params);
-    let input = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("path samples"),
-        contents: bytemuck::cast_slice(samples),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
-    let bytes = (count * batch.stride * 4).max(16) as u64;
-    let results = d.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("path results"),
-        size: bytes,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let readback = d.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("path readback"),
-        size: bytes,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("path"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            entry(0, &params),
-            entry(1, &scene.tree),
-            entry(2, &scene.vals),
-            entry(3, &scene.dsm[0]),
-            entry(4, &scene.meta),
-            entry(5, &input),
-            entry(6, &results),
-            entry(7, &scene.dsm[1]),
-            entry(8, &scene.dsm[2]),
-            entry(9, &path_params),
-        ],
-    });
-    let mut encoder = d.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        let groups = (count as u32).div_ceil(WORKGROUP);
-        pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
-    }
-    encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, bytes);
-    gpu.queue.submit([encoder.finish()]);
-    let (tx, rx) = std::sync::mpsc::channel();
-    readback.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    d.poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| format!("{}: {e}", gpu.name))?;
-    let mapped = rx
-        .recv()
-        .map_err(|e| e.to_string())
-        .and_then(|r| r.map_err(|e| e.to_string()));
+    let traced = gpu.dispatch(
+        pipeline,
+        scene,
+        samples,
+        count,
+        batch.stride,
+        &[&batch.params],
+    );
     if let Some(e) = pollster::block_on(oom.pop()) {
         return Err(format!("{}: out of memory ({e})", gpu.name));
     }
     if let Some(e) = pollster::block_on(scope.pop()) {
         return Err(format!("{}: {e}", gpu.name));
     }
-    mapped.map_err(|e| format!("{}: reading the paths back: {e}", gpu.name))?;
-    let view = readback
-        .slice(..)
-        .get_mapped_range()
-        .map_err(|e| format!("{}: reading the paths back: {e:?}", gpu.name))?;
-    let mut values: Vec<f32> = bytemuck::cast_slice(&view).to_vec();
-    drop(view);
-    readback.unmap();
-    values.truncate(count * batch.stride);
-    Ok(values)
+    traced
 }
 
 /// Appends to `meta` how the phase function is sampled where it is a table (water
@@ -437,32 +370,12 @@ fn phase_sampling(phase: &dyn PhaseFunction, meta: &mut Vec<f32>) -> Result<[u32
 /// sources), compiled on first use.
 fn path_pipeline(gpu: &Gpu) -> Result<&wgpu::ComputePipeline, String> {
     let compiled = gpu.path.get_or_init(|| {
-        let d = &gpu.device;
-        let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut sources = MARCH_WGSL.to_vec();
         sources.extend([
             include_str!("path.wgsl"),
             include_str!("path_tracking.wgsl"),
         ]);
-        let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("path"),
-            source: wgpu::ShaderSource::Wgsl(sources.join("\n").into()),
-        });
-        let pipeline = d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("path"),
-            layout: None,
-            module: &module,
-            entry_point: Some("path_samples"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        match pollster::block_on(scope.pop()) {
-            Some(e) => Err(format!(
-                "{}: the path tracer does not compile ({e})",
-                gpu.name
-            )),
-            None => Ok(pipeline),
-        }
+        gpu.compile("path tracer", &sources, "path_samples")
     });
     compiled.as_ref().map_err(Clone::clone)
 }
