@@ -2,7 +2,7 @@
 //! compute shader (path.wgsl, path_tracking.wgsl), one invocation per camera sample,
 //! over the march's uploaded grid and shadow maps and the path tracer's majorant grid
 //! (its blocks' maxima and minima appended to `meta`). Each sample carries its random
-//! streams' key ([`SampleRng::stream_key`]), so the GPU draws the CPU's numbers: where
+//! streams' key ([`crate::integrate::integrator::SampleRng::stream_key`]), so the GPU draws the CPU's numbers: where
 //! f32 and f64 agree on every decision a path is the CPU's path. The samples, their rays
 //! and the pixels' two passes are the single march's ([`super::pixels::assemble`]); each
 //! sample's values are written into the pixel's passes on the CPU by the path tracer's
@@ -10,11 +10,10 @@
 
 use super::GpuTimes;
 use super::context::{Gpu, MARCH_WGSL, Resident};
-use super::pixels::{Pick, assemble, sample_points};
+use super::pixels::{Pick, Placed, assemble, put_ray, sample_points};
 use super::upload::{self, SAMPLE_FLOATS};
-use crate::field::{Field, IndexRay};
-use crate::integrate::MarchSettings;
-use crate::integrate::integrator::{Integrator, SampleRng};
+use crate::field::Field;
+use crate::integrate::integrator::Integrator;
 use crate::integrate::pass::PassKind;
 use crate::integrate::path::PathTracer;
 use crate::integrate::phase::{HenyeyGreenstein, PhaseFunction};
@@ -45,14 +44,6 @@ pub fn render_path(
     let t = Instant::now();
     // Compiled before the samples are timed (a setup cost, as the upload is).
     path_pipeline(gpu)?;
-    let grid = scene
-        .fields
-        .density
-        .as_voxel_grid()
-        .ok_or("a density that is not a voxel grid")?;
-    let nodes = grid
-        .nodes()
-        .map_err(|_| "a density grid it cannot flatten")?;
     let lights = scene.illumination();
     let traversal = scene.traversal();
     let volume = scene.volume(&traversal);
@@ -61,29 +52,20 @@ pub fn render_path(
     let unshadowed: Vec<LightShadow> = (0..scene.lights.len())
         .map(|_| LightShadow::Unshadowed)
         .collect();
+    let base = super::scene_parts(scene, &lights, &volume)?;
+    let grid = base.grid;
     let mut buffers = upload::build(&upload::SceneParts {
-        grid,
-        nodes,
-        medium: scene.medium,
-        phase: scene.phase.as_ref(),
-        lights: &scene.lights,
         shadows: if parts.ratio_tracking {
             &unshadowed
         } else {
-            &lights.shadows
+            base.shadows
         },
-        settings: MarchSettings::default(),
         scatters: parts.lights > 0,
-        lattice: None,
-        // The emission, temperature and colour grids, as the march samples them.
-        beside: super::grids::Beside::of(&volume),
-        // The flights' blocks lie over the density's bounds.
+        // The flights' blocks lie over the density's bounds (emission past it is
+        // gathered to PathParams' bounds). The path tracer finds no ground and marches
+        // no shadow ray of the march's kind.
         bounds: grid.active_bounds(),
-        // The path tracer finds no ground (refused with path) and marches no shadow ray
-        // of the march's kind.
-        ground: false,
-        quadrature: lights.quadrature,
-        enough: lights.enough,
+        ..base
     })?;
     // The majorant grid: the path tracer's, else one of the same blocks.
     let built;
@@ -225,15 +207,8 @@ fn trace_chunk(
     let frame = job.camera.frame();
     let parts = integrator.parts();
     let density = parts.density;
-    let points: Vec<Vec<(f64, f64, u32)>> =
-        picks.par_iter().map(|&p| sample_points(job, p)).collect();
-    let mut starts = Vec::with_capacity(picks.len() + 1);
-    let mut total = 0;
-    for p in &points {
-        starts.push(total);
-        total += p.len();
-    }
-    starts.push(total);
+    let placed = Placed::new(job, picks);
+    let (starts, total) = (&placed.starts, placed.total());
     let mut input = vec![0f32; total * PATH_SAMPLE_FLOATS];
     // Per sample: its depth rate and the weight of its opacity (none: not computed).
     let mut extra = vec![(0f64, None::<f64>); total];
@@ -242,20 +217,8 @@ fn trace_chunk(
         .zip(extra.par_iter_mut())
         .enumerate()
         .for_each(|(i, (out, extra))| {
-            let k = starts.partition_point(|&s| s <= i) - 1;
-            let (p, (jx, jy, stream)) = (picks[k], points[k][i - starts[k]]);
-            let sample = job.camera_sample(&frame, p.x, p.y, jx, jy, None);
-            let ray = sample.ray;
-            let (sx, sy) = job.stream_pixel(p.x, p.y);
-            let rng = SampleRng::new(job.seed, sx, sy, stream);
-            let index = IndexRay::new(density, ray.origin, ray.dir);
-            let put = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
-            out[..3].copy_from_slice(&put(ray.origin));
-            out[4..7].copy_from_slice(&put(ray.dir));
-            out[7] = ray.t_max.min(f32::MAX as f64) as f32;
-            out[8..11].copy_from_slice(&put(index.origin));
-            out[11] = ray.t_min.min(f32::MAX as f64) as f32;
-            out[12..15].copy_from_slice(&put(index.dir));
+            let (_, sample, rng) = placed.sample(job, &frame, picks, i);
+            put_ray(out, &sample.ray, density);
             let key = rng.stream_key();
             for (q, o) in out[16..20].iter_mut().enumerate() {
                 *o = ((key >> (16 * q)) & 0xffff) as f32;
