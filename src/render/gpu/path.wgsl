@@ -115,13 +115,6 @@ fn to_index_dir(d: vec3<f32>) -> vec3<f32> {
     return Q.to_index_x.xyz * d.x + Q.to_index_y.xyz * d.y + Q.to_index_z.xyz * d.z;
 }
 
-// The density at local index point p (trilinear, as the CPU's value_at_index).
-fn density_at(p: vec3<f32>) -> f32 {
-    let c = floor(p);
-    let v = cell_corners(vec3<i32>(c));
-    return trilinear(vec4<f32>(v[0], v[1], v[2], v[3]), vec4<f32>(v[4], v[5], v[6], v[7]), p - c);
-}
-
 // ∫ρ dt over [a, b] of the ray, by a fresh walk.
 fn integral_over(r: Ray, a: f32, b: f32) -> f32 {
     if (!(b > a)) {
@@ -265,26 +258,16 @@ fn camera_ray(r: Ray, t_min: f32, t_max: f32, half: ptr<function, f32>, n: ptr<f
     if (!(speed > 0.0 && speed < BIG)) {
         return 0.0;
     }
-    let clip = clip_to_bounds(r, t_min, t_max);
-    var t = clip.x;
-    let t_end = clip.y;
-    let scale = max(max(abs(r.o.x), abs(r.o.y)), max(abs(r.o.z), 1.0));
-    let min_step = 1e-6 * scale / speed;
     var total = 0.0;
-    var cells = MAX_CELLS;
+    var cells = cells_start(r, t_min, t_max);
+    var cell: Cell;
+    var span: vec2<f32>;
     loop {
-        if (!(t < t_end) || cells == 0u) {
+        if (!cells_next(&cells, r, false, &cell, &span)) {
             break;
         }
-        cells -= 1u;
-        let cell = cell_at(voxel_ahead(r, t));
-        let exit = cell_exit(r, cell.origin, cell.size);
-        let t1 = min(max(exit, t + min_step), t_end);
-        let t0 = t;
-        t = t1;
-        if (cell.hi <= 0.0 && cell.lo >= 0.0) {
-            continue;
-        }
+        let t0 = span.x;
+        let t1 = span.y;
         var part: f32;
         if (cell.lo == cell.hi) {
             part = cell.hi * (t1 - t0);

@@ -275,7 +275,7 @@ fn fly(r: Ray, t_min: f32, t_max: f32, beta: ptr<function, vec3<f32>>,
                 break;
             }
             let p = ray_at(r, tt);
-            let rho = max(density_at(p), 0.0);
+            let rho = max(value_at(p), 0.0);
             *n += 1u;
             let st = P.sigma_t.xyz * rho;
             let sn = max(vec3<f32>(maj) - st, vec3<f32>(0.0));
@@ -346,7 +346,7 @@ fn ratio_tracking(x: vec3<f32>, toward: vec3<f32>, dist: f32, rng: ptr<function,
                 if (t >= span.y) {
                     break;
                 }
-                let rho = max(density_at(ray_at(r, t)), 0.0);
+                let rho = max(value_at(ray_at(r, t)), 0.0);
                 *n += 1u;
                 tr *= max(vec3<f32>(1.0) - st * (rho / maj), vec3<f32>(0.0));
                 let m = max3(tr);
