@@ -226,7 +226,6 @@ fn render_image_prepared(
             .map_or(&[], |d| d.aovs.as_slice()),
         holdout: holdout.as_ref().map(|h| h.depths.as_slice()),
     };
-    let mut kept = kept;
     let traversal = scene.traversal();
     let volume = scene.volume(&traversal);
     let lights = scene.illumination();
@@ -265,7 +264,7 @@ fn render_image_prepared(
                 cpu: &integrator,
             };
             render_on(
-                (&mut gpu, &mut device_note, kept.as_deref_mut()),
+                (&mut gpu, &mut device_note, kept),
                 on,
                 &scene,
                 plan,
@@ -300,7 +299,7 @@ fn render_image_prepared(
                 cpu: &integrator,
             };
             render_on(
-                (&mut gpu, &mut device_note, kept.as_deref_mut()),
+                (&mut gpu, &mut device_note, kept),
                 on,
                 &scene,
                 plan,
@@ -346,7 +345,7 @@ fn render_image_prepared(
                 cpu: &integrator,
             };
             render_on(
-                (&mut gpu, &mut device_note, kept.as_deref_mut()),
+                (&mut gpu, &mut device_note, kept),
                 on,
                 &scene,
                 plan,

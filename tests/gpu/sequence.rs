@@ -172,7 +172,7 @@ fn a_camera_moving_over_an_unchanged_cache_uploads_nothing_after_the_first_frame
     let plan = sequence_plan(&dir, &o, Device::Gpu);
     let (stats, summary) = render_frames(&plan, &frames);
     let up: Vec<u64> = stats.iter().map(|s| s.scene.gpu_upload_bytes).collect();
-    assert!(up[0] > 0 && &up[1..] == [0, 0], "{up:?}");
+    assert!(up[0] > 0 && up[1..] == [0, 0], "{up:?}");
     assert_eq!(summary.gpu_scenes_kept, 2);
     let paths = FramePaths::of(&plan);
     let out = |f| paths.plan(&plan, f).outputs.path;
