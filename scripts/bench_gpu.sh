@@ -100,7 +100,7 @@ n, dev, out = int(sys.argv[1]), sys.argv[2], sys.argv[3]
 st = [json.load(open(f'{out}/seq/{dev}-{f:04d}.json')) for f in range(1, n + 1)]
 wall = float(open(f'{out}/seq/{dev}.wall').read().split()[-1])
 first = st[0]['total_seconds']
-print(f'seq-{dev}: {n} frames in {wall:.2f} s wall, frame 1 {first:.3f} s, frames 2..{n} {(wall - first) / max(n - 1, 1):.3f} s a frame; bytes uploaded per frame', [s['gpu_upload_bytes'] for s in st])
+print(f'seq-{dev}: {n} frames in {wall:.2f} s wall, frame 1 {first:.3f} s, frames 2..{n} {(wall - first) / max(n - 1, 1):.3f} s a frame; bytes uploaded per frame', [s.get('gpu_upload_bytes', 'n/a') for s in st])
 " "$N" "$dev" "$OUT"
     done
 fi

@@ -192,3 +192,46 @@ fn on_the_cpu_a_sequence_uploads_nothing_and_counts_no_gpu_frames() {
         && s.device == "cpu"));
     assert_eq!(summary.gpu_scenes_kept, 0);
 }
+
+#[test]
+fn on_the_gpu_a_missing_frame_fails_alone_and_written_frames_are_skipped_in_order() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    let dir = scratch("gpu-sequence-missing");
+    frames_of(&dir, &["seq/fluid_0001.vdb", "seq/fluid_0003.vdb"]);
+    std::fs::rename(dir.join("in_0002.vdb"), dir.join("in_0004.vdb")).unwrap();
+    let plan = sequence_plan(&dir, &options("16x12"), Device::Gpu);
+    let paths = FramePaths::of(&plan);
+    let run = |skip_existing| {
+        let mut seen = Vec::new();
+        let summary = render_sequence::<RenderError>(
+            &plan,
+            &paths,
+            &[1, 2, 4],
+            SequenceOptions {
+                skip_existing,
+                piece: None,
+            },
+            &Silent,
+            &|_| Ok(()),
+            &mut |f, _, outcome| {
+                seen.push(match outcome {
+                    FrameOutcome::Written(_) => (f, "written"),
+                    FrameOutcome::Skipped => (f, "skipped"),
+                    FrameOutcome::Failed(e) => {
+                        assert!(e.to_string().contains("in_0002.vdb"), "{e}");
+                        (f, "failed")
+                    }
+                })
+            },
+        );
+        assert_eq!(summary.failed, [2]);
+        seen
+    };
+    assert_eq!(run(false), [(1, "written"), (2, "failed"), (4, "written")]);
+    let out = |f| paths.plan(&plan, f).outputs.path;
+    assert!(out(1).is_file() && !out(2).exists() && out(4).is_file());
+    let first = samples(&out(4));
+    assert_eq!(run(true), [(1, "skipped"), (2, "failed"), (4, "skipped")]);
+    assert_eq!(samples(&out(4)), first);
+}
