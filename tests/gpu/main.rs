@@ -222,4 +222,5 @@ mod fast;
 mod ground;
 mod memory;
 mod path;
+mod sequence;
 mod single;
