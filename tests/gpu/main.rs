@@ -223,4 +223,5 @@ mod ground;
 mod memory;
 mod path;
 mod path_features;
+mod sequence;
 mod single;
