@@ -223,3 +223,4 @@ mod ground;
 mod memory;
 mod path;
 mod single;
+mod sweep;

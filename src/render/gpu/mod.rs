@@ -20,11 +20,13 @@ mod context;
 mod grids;
 mod path;
 mod pixels;
+mod sweep;
 mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
 pub use context::{Gpu, MAX_BINDING_VAR};
 pub use path::render_path;
+pub use sweep::{GpuSweeper, SweepTimes, sweeps_lattice};
 
 use super::pixels::{PixelJob, PixelPasses};
 use crate::field::grid_nodes::FlatGridError;
