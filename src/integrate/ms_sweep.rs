@@ -155,9 +155,9 @@ pub(super) fn sweep<const C: usize>(
 pub struct SweepGeometry {
     /// The dominant axis `a`, the row axis `b` and the third `c`.
     pub axes: [usize; 3],
-    /// Bilinear weights at the characteristic's foot — the nodes (b, c) + (fb, fc),
-    /// + (fb + 1, fc), + (fb, fc + 1), + (fb + 1, fc + 1) of the plane behind — in that
-    /// order.
+    /// Bilinear weights at the characteristic's foot: of the plane behind's nodes
+    /// (b + fb, c + fc), (b + fb + 1, c + fc), (b + fb, c + fc + 1) and
+    /// (b + fb + 1, c + fc + 1), in that order.
     pub w: [f32; 4],
     pub fb: isize,
     pub fc: isize,
