@@ -36,11 +36,34 @@ impl LatticeDevice {
 
     /// From [`LatticeDevice::VAR`]; unset or empty is `Auto`.
     pub fn from_env() -> Result<LatticeDevice, String> {
-        match std::env::var(Self::VAR).as_deref().map(str::trim) {
-            Err(_) | Ok("" | "auto") => Ok(LatticeDevice::Auto),
-            Ok("cpu") => Ok(LatticeDevice::Cpu),
-            Ok("gpu") => Ok(LatticeDevice::Gpu),
-            Ok(other) => Err(format!("{}={other}: expected cpu, gpu or auto", Self::VAR)),
+        Self::parse(std::env::var(Self::VAR).ok().as_deref())
+    }
+
+    /// The variable's value (`None`: unset).
+    fn parse(value: Option<&str>) -> Result<LatticeDevice, String> {
+        match value.map(str::trim) {
+            None | Some("" | "auto") => Ok(LatticeDevice::Auto),
+            Some("cpu") => Ok(LatticeDevice::Cpu),
+            Some("gpu") => Ok(LatticeDevice::Gpu),
+            Some(other) => Err(format!("{}={other}: expected cpu, gpu or auto", Self::VAR)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::LatticeDevice;
+
+    #[test]
+    fn the_lattice_device_is_read_from_its_variable_and_a_bad_value_named() {
+        assert_eq!(LatticeDevice::parse(None), Ok(LatticeDevice::Auto));
+        assert_eq!(LatticeDevice::parse(Some(" ")), Ok(LatticeDevice::Auto));
+        assert_eq!(LatticeDevice::parse(Some("auto")), Ok(LatticeDevice::Auto));
+        assert_eq!(LatticeDevice::parse(Some("cpu")), Ok(LatticeDevice::Cpu));
+        assert_eq!(LatticeDevice::parse(Some("gpu ")), Ok(LatticeDevice::Gpu));
+        assert_eq!(
+            LatticeDevice::parse(Some("GPU")),
+            Err("MURK_GPU_LATTICE=GPU: expected cpu, gpu or auto".into())
+        );
     }
 }
