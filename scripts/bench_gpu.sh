@@ -15,14 +15,17 @@
 # one), with each one's paths per second (camera samples over the render stage) and the
 # GPU's over the CPU's: the GPU traces the CPU's paths (the same random streams), so its
 # noise at equal samples is the CPU's and that ratio is also the ratio of the times to
-# a given error.
+# a given error. Then a sequence (BENCH_SEQ_FRAMES copies of the cloud, fast) on the GPU
+# and the CPU: the time of frame 1 and of frames 2..N a frame, and each frame's
+# gpu_upload_bytes (0 where the scene's buffers stayed on the GPU).
 #
 #   scripts/bench_gpu.sh [CLOUD.vdb]    (made with make_cloud.py --size 192 if not given)
 #
 # Knobs: MURK (a murk binary; default: build this tree's), BENCH_THREADS (nproc),
 # BENCH_MODES ("single fast": the scattering modes timed),
 # BENCH_RES (960x540), BENCH_PATH_RES (BENCH_RES), BENCH_PATH_SPP (16), BENCH_PATH=0 (no
-# path runs), OUT (where images and stats go; a temporary folder).
+# path runs), BENCH_SEQ=0 (no sequence), BENCH_SEQ_FRAMES (5), OUT (where images and
+# stats go; a temporary folder).
 # On a machine without a GPU it measures lavapipe (Mesa's Vulkan on the CPU), if installed.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -89,5 +92,28 @@ if [[ "${BENCH_PATH:-1}" != 0 ]]; then
         read -r s _ < <(avg "$OUT/cpu-path.exr" --ch R,G,B,A --dup --mul)
         /usr/bin/python3 -c "import math,sys; d,da,s=map(float,sys.argv[1:]); print(f'GPU against CPU, path: radiance relative RMSE {math.sqrt(d/1e6/s):.2e} (the same paths), alpha RMSE {math.sqrt(da/1e6):.2e}')" "$d" "$da" "$s"
     fi
+fi
+if [[ "${BENCH_SEQ:-1}" != 0 ]]; then
+    # A sequence of BENCH_SEQ_FRAMES frames of the one cloud (copies), fast, on each
+    # device: frames 2..N reuse the shadow maps, and on the GPU keep the scene's buffers
+    # there (gpu_upload_bytes 0) while the next frame is read during the render.
+    N=${BENCH_SEQ_FRAMES:-5}
+    mkdir -p "$OUT/seq"
+    for f in $(seq 1 "$N"); do cp "$CLOUD" "$OUT/seq/cloud_$(printf %04d "$f").vdb"; done
+    for dev in gpu cpu; do
+        /usr/bin/time -o "$OUT/seq/$dev.wall" -f %e "$MURK" render "$OUT/seq/cloud_####.vdb" \
+            "${A[@]:2}" --res "$RES" --device $dev --threads "$THREADS" --frames "1-$N" \
+            -o "$OUT/seq/$dev-####.exr" --stats "$OUT/seq/$dev-####.json"
+        # Frames 2..N a frame: the run's wall time after frame 1's (a frame's own
+        # total_seconds counts its preparing, which on the GPU overlaps the frame before).
+        /usr/bin/python3 -c "
+import json, sys
+n, dev, out = int(sys.argv[1]), sys.argv[2], sys.argv[3]
+st = [json.load(open(f'{out}/seq/{dev}-{f:04d}.json')) for f in range(1, n + 1)]
+wall = float(open(f'{out}/seq/{dev}.wall').read().split()[-1])
+first = st[0]['total_seconds']
+print(f'seq-{dev}: {n} frames in {wall:.2f} s wall, frame 1 {first:.3f} s, frames 2..{n} {(wall - first) / max(n - 1, 1):.3f} s a frame; bytes uploaded per frame', [s.get('gpu_upload_bytes', 'n/a') for s in st])
+" "$N" "$dev" "$OUT"
+    done
 fi
 echo "images and stats in $OUT"

@@ -229,13 +229,17 @@ pub fn run_sequence_or_frame(
     );
     if !quiet {
         eprintln!(
-            "murk: {} frames: {} written, {} skipped, {} failed, in {:.2} s (shadow maps reused in {} frames)",
+            "murk: {} frames: {} written, {} skipped, {} failed, in {:.2} s (shadow maps reused in {} frames{})",
             frames.len(),
             summary.written,
             summary.skipped,
             summary.failed.len(),
             summary.seconds,
-            summary.shadow_maps_reused
+            summary.shadow_maps_reused,
+            match summary.gpu_scenes_kept {
+                0 => String::new(),
+                n => format!("; the scene's GPU buffers kept in {n}"),
+            }
         );
     }
     if !summary.failed.is_empty() {

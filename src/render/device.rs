@@ -142,11 +142,15 @@ pub(super) enum OnGpu<'a> {
     Path(&'a PathTracer<'a>, f64),
 }
 
-/// Renders the frame on the GPU `device.0` when there is one, else on the CPU; where the
-/// GPU fails under `--device auto`, on the CPU, with `device.1` the note saying why
-/// (and `device.0` none).
+/// Renders the frame on the GPU `device.0` when there is one (with the scene's buffers
+/// a sequence keeps there, `device.2`), else on the CPU; where the GPU fails under
+/// `--device auto`, on the CPU, with `device.1` the note saying why (and `device.0` none).
 pub(super) fn render_on<I: Integrator>(
-    device: (&mut Option<&'static gpu::Gpu>, &mut Option<String>),
+    device: (
+        &mut Option<&'static gpu::Gpu>,
+        &mut Option<String>,
+        Option<&mut gpu::KeptBuffers>,
+    ),
     on: Frontends<'_, I>,
     scene: &Scene,
     plan: &RenderPlan,
@@ -154,11 +158,11 @@ pub(super) fn render_on<I: Integrator>(
     progress: &dyn Progress,
     st: &mut RenderStats,
 ) -> Result<(Frame, f64, Option<DeepImage>)> {
-    let (gpu, note) = device;
+    let (gpu, note, kept) = device;
     let on_gpu = match gpu {
         Some(g) => {
             let rows = extent.rows.clone();
-            render_frame_gpu(g, on.gpu, scene, plan, rows, extent.holdout, st)?
+            render_frame_gpu((g, kept), on.gpu, scene, plan, rows, extent.holdout, st)?
         }
         None => Err(String::new()),
     };
@@ -174,12 +178,13 @@ pub(super) fn render_on<I: Integrator>(
     }
 }
 
-/// [`render_frame`] with the march on `gpu`: the stages `gpu_upload` and `render` (rays,
-/// march and readback) go in the stats. What failed on the GPU (a grid over its buffer
-/// limit, say) is an error under `--device gpu`, and the inner `Err` (the CPU renders
-/// instead) under `auto`.
+/// [`render_frame`] with the march on `gpu.0` (the scene's buffers kept there from a
+/// sequence's frame before where `gpu.1` holds them): the stages `gpu_upload` and
+/// `render` (rays, march and readback) go in the stats. What failed on the GPU (a grid
+/// over its buffer limit, say) is an error under `--device gpu`, and the inner `Err`
+/// (the CPU renders instead) under `auto`.
 fn render_frame_gpu(
-    gpu: &gpu::Gpu,
+    (gpu, kept): (&gpu::Gpu, Option<&mut gpu::KeptBuffers>),
     work: OnGpu,
     scene: &Scene,
     plan: &RenderPlan,
@@ -191,10 +196,11 @@ fn render_frame_gpu(
     let rendered = match work {
         OnGpu::March(single, lattice) => {
             let job = gpu_job(single, scene, plan, rows, holdout);
-            gpu::render_pixels(gpu, scene, lattice, &job)
+            gpu::render_pixels(gpu, scene, lattice, &job, kept)
         }
         OnGpu::Path(path, g) => {
-            gpu::render_path(gpu, scene, g, &gpu_job(path, scene, plan, rows, holdout))
+            let job = gpu_job(path, scene, plan, rows, holdout);
+            gpu::render_path(gpu, scene, g, &job, kept)
         }
     };
     let (passes, times) = match rendered {
@@ -215,6 +221,7 @@ fn render_frame_gpu(
         st.scene.stages.insert(name.into(), Stage::ran(seconds));
     }
     st.scene.gpu_memory_bytes = times.resident_bytes;
+    st.scene.gpu_upload_bytes = times.uploaded_bytes;
     st.rays = passes.rays;
     st.samples = passes.samples;
     st.samples_per_second = passes.samples as f64 / times.march.max(1e-9);

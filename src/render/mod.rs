@@ -10,6 +10,7 @@ pub mod error_budget;
 pub mod gpu;
 pub mod piece;
 pub mod pixels;
+mod prepare;
 pub mod sequence;
 pub mod stats;
 
@@ -28,9 +29,10 @@ use crate::scene::Scene;
 use crate::scene::plan::ShadowMode;
 use crate::scene::reuse::FrameReuse;
 pub use bake_file::bake_shadow_file;
-use device::{Frontends, OnGpu, build_scene, choose_device, render_on, report_bake, report_sweeps};
+use device::{Frontends, OnGpu, choose_device, render_on, report_bake, report_sweeps};
 pub use error::RenderError;
 use piece::Piece;
+use prepare::{PreparedFrame, prepare_frame};
 use stats::{RenderStats, Stage};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -86,23 +88,32 @@ pub fn run_frame(
     reuse: &mut FrameReuse,
     job: FrameJob,
 ) -> Result<RenderStats> {
-    on_plan_threads(plan, || run_frame_here(plan, progress, reuse, job))
+    on_plan_threads(plan, || {
+        check_output_dirs(plan)?;
+        let prepared = prepare_frame(plan, progress, reuse, job)?;
+        render_prepared(plan, prepared, progress, None, job)
+    })
 }
 
-fn run_frame_here(
+/// Renders a prepared frame of `plan` and writes its outputs (the scene's buffers kept
+/// on the GPU from a sequence's frame before where `kept` holds them). Returns the stats.
+fn render_prepared(
     plan: &RenderPlan,
+    prepared: PreparedFrame,
     progress: &dyn Progress,
-    reuse: &mut FrameReuse,
+    kept: Option<&mut gpu::KeptBuffers>,
     job: FrameJob,
 ) -> Result<RenderStats> {
-    let start = Instant::now();
+    let start = Instant::now()
+        .checked_sub(std::time::Duration::from_secs_f64(prepared.seconds))
+        .unwrap_or_else(Instant::now);
     check_output_dirs(plan)?;
     let RenderedImage {
         frame,
         mut exr,
         stats: mut st,
         deep,
-    } = render_image_frame_here(plan, progress, reuse, job)?;
+    } = render_image_prepared(plan, prepared, progress, kept, job)?;
     let t = Instant::now();
     exr.render_time_seconds = Some(start.elapsed().as_secs_f64());
     st.scene
@@ -183,36 +194,29 @@ fn render_image_frame_here(
     reuse: &mut FrameReuse,
     job: FrameJob,
 ) -> Result<RenderedImage> {
-    let start = Instant::now();
-    if plan.outputs.deep.is_some() && job.piece.is_some() {
-        return Err(RenderError::Flag(
-            "--deep is not rendered in pieces (a deep image is not stitched): render the whole frame".into(),
-        ));
-    }
+    let prepared = prepare_frame(plan, progress, reuse, job)?;
+    render_image_prepared(plan, prepared, progress, None, job)
+}
+
+/// [`render_image_frame`] of a prepared frame.
+fn render_image_prepared(
+    plan: &RenderPlan,
+    prepared: PreparedFrame,
+    progress: &dyn Progress,
+    kept: Option<&mut gpu::KeptBuffers>,
+    job: FrameJob,
+) -> Result<RenderedImage> {
+    let start = Instant::now()
+        .checked_sub(std::time::Duration::from_secs_f64(prepared.seconds))
+        .unwrap_or_else(Instant::now);
+    let PreparedFrame {
+        scene,
+        columns,
+        holdout,
+        rows,
+        ..
+    } = prepared;
     let deep = plan.outputs.deep.as_ref().map(|d| d.tolerance);
-    let rows = match job.piece {
-        Some(p) => {
-            p.check(plan.camera.height)?;
-            p.rows(plan.camera.height)
-        }
-        None => 0..plan.camera.height,
-    };
-    // The holdout first: a wrong one is refused before anything is built.
-    let holdout = match &plan.production.holdout {
-        Some(spec) => Some(
-            crate::scene::holdout::load(
-                spec,
-                plan.camera.width,
-                plan.camera.height,
-                plan.camera.overscan,
-            )
-            .map_err(|problem| RenderError::Input {
-                path: spec.path.clone(),
-                problem,
-            })?,
-        ),
-        None => None,
-    };
     let extent = Extent {
         rows: rows.clone(),
         deep,
@@ -223,7 +227,6 @@ fn render_image_frame_here(
             .map_or(&[], |d| d.aovs.as_slice()),
         holdout: holdout.as_ref().map(|h| h.depths.as_slice()),
     };
-    let (scene, columns) = build_scene(plan, progress, reuse)?;
     let traversal = scene.traversal();
     let volume = scene.volume(&traversal);
     let lights = scene.illumination();
@@ -264,7 +267,7 @@ fn render_image_frame_here(
                 cpu: &integrator,
             };
             render_on(
-                (&mut gpu, &mut device_note),
+                (&mut gpu, &mut device_note, kept),
                 on,
                 &scene,
                 plan,
@@ -299,7 +302,7 @@ fn render_image_frame_here(
                 cpu: &integrator,
             };
             render_on(
-                (&mut gpu, &mut device_note),
+                (&mut gpu, &mut device_note, kept),
                 on,
                 &scene,
                 plan,
@@ -353,7 +356,7 @@ fn render_image_frame_here(
                 cpu: &integrator,
             };
             render_on(
-                (&mut gpu, &mut device_note),
+                (&mut gpu, &mut device_note, kept),
                 on,
                 &scene,
                 plan,
@@ -412,10 +415,12 @@ fn render_image_frame_here(
         .map(|s| s.to_string())
         .collect();
     let gpu_stages = std::mem::take(&mut st.scene.stages);
-    let gpu_memory_bytes = st.scene.gpu_memory_bytes;
+    let (gpu_memory_bytes, gpu_upload_bytes) =
+        (st.scene.gpu_memory_bytes, st.scene.gpu_upload_bytes);
     st.scene = scene.report;
     st.scene.stages.extend(gpu_stages);
     st.scene.gpu_memory_bytes = gpu_memory_bytes;
+    st.scene.gpu_upload_bytes = gpu_upload_bytes;
     st.scene.notes.extend(device_note);
     report_bake(columns.as_deref(), &mut st.scene);
     report_sweeps(sweeps.as_ref(), &mut st.scene);

@@ -1,15 +1,19 @@
 //! Rendering a frame sequence: the frame patterns of every per-frame path (input, `-o`,
 //! `--preview`, `--stats`, `--shadow-cache`), which frames, and the frames rendered in
 //! order — each with the whole thread pool, what does not change carried from one to
-//! the next ([`FrameReuse`]), a failing frame reported and the others still written,
-//! frames already written left alone with `--skip-existing`.
+//! the next ([`FrameReuse`]; on the GPU its buffers, [`gpu::KeptBuffers`]), a failing
+//! frame reported and the others still written, frames already written left alone with
+//! `--skip-existing`; on the GPU the next frame prepared while one renders.
 
 use super::RenderError;
+use super::gpu;
 use super::piece::Piece;
+use super::prepare::{PreparedFrame, prepare_frame};
 use super::stats::RenderStats;
-use super::{FrameJob, run_frame};
+use super::{FrameJob, render_prepared};
 use crate::scene::RenderPlan;
 use crate::scene::frames::{FramePattern, FramesError, frame_ranges, parse_frames};
+use crate::scene::plan::Device;
 use crate::scene::progress::{Progress, Silent};
 use crate::scene::reuse::FrameReuse;
 use std::path::{Path, PathBuf};
@@ -249,6 +253,9 @@ pub struct SequenceSummary {
     pub failed: Vec<i64>,
     /// Frames whose shadow maps were reused from the frame before.
     pub shadow_maps_reused: usize,
+    /// Frames that uploaded none of the scene's buffers to the GPU: the frame before's
+    /// (the grids, the maps, the lights and tables) were all kept there.
+    pub gpu_scenes_kept: usize,
     pub seconds: f64,
 }
 
@@ -261,7 +268,9 @@ pub fn is_complete_exr(path: &Path) -> bool {
 
 /// Renders `frames` of `plan` in order, one progress bar over all of them (`progress`);
 /// `check` vets each frame's plan (outputs that would clobber an input); `on_frame`
-/// hears what became of each frame as it ends.
+/// hears what became of each frame as it ends. Under `--device gpu|auto` the scene's
+/// buffers stay on the GPU while unchanged ([`gpu::KeptBuffers`]), and the next frame is
+/// read and its scene built on another thread while the GPU renders one.
 pub fn render_sequence<E: From<RenderError>>(
     plan: &RenderPlan,
     paths: &FramePaths,
@@ -275,34 +284,142 @@ pub fn render_sequence<E: From<RenderError>>(
     let mut reuse = FrameReuse::across_frames();
     reuse.frame_box = sequence_box(plan, paths, frames);
     let mut summary = SequenceSummary::default();
-    progress.start("frames", frames.len() as u64, "frames");
-    for &frame in frames {
-        let fp = paths.plan(plan, frame);
-        progress.note(&format!("frame {frame}"));
-        let outcome = if options.skip_existing && frame_is_done(&fp) {
-            FrameOutcome::Skipped
-        } else {
-            let job = FrameJob {
-                frame: Some(frame),
-                piece: options.piece,
-            };
-            match check(&fp).and_then(|_| Ok(run_frame(&fp, &Silent, &mut reuse, job)?)) {
-                Ok(st) => FrameOutcome::Written(Box::new(st)),
-                Err(e) => FrameOutcome::Failed(e),
-            }
-        };
+    let mut kept = gpu::KeptBuffers::default();
+    let mut record = |frame: i64, fp: &RenderPlan, outcome: FrameOutcome<E>| {
         match &outcome {
             FrameOutcome::Written(_) => summary.written += 1,
             FrameOutcome::Skipped => summary.skipped += 1,
             FrameOutcome::Failed(_) => summary.failed.push(frame),
         }
-        on_frame(frame, &fp, &outcome);
+        on_frame(frame, fp, &outcome);
         progress.advance(1);
-    }
+    };
+    progress.start("frames", frames.len() as u64, "frames");
+    // With --threads, one pool that both threads of an overlapped sequence run on.
+    let pool = plan
+        .sampling
+        .threads
+        .and_then(|n| rayon::ThreadPoolBuilder::new().num_threads(n).build().ok());
+    let overlap = plan.sampling.device != Device::Cpu
+        && frames.len() > 1
+        && (pool.is_some() || plan.sampling.threads.is_none());
+    let job = |frame| FrameJob {
+        frame: Some(frame),
+        piece: options.piece,
+    };
+    let reused = if overlap {
+        let ahead = Ahead {
+            plan,
+            paths,
+            frames,
+            options,
+            pool: pool.as_ref(),
+        };
+        ahead.run(reuse, |frame, fp, prepared| {
+            progress.note(&format!("frame {frame}"));
+            let outcome = match prepared {
+                None => FrameOutcome::Skipped,
+                Some(prepared) => {
+                    let kept = Some(&mut kept);
+                    let render = |p| render_prepared(fp, p, &Silent, kept, job(frame));
+                    match check(fp).and_then(|_| Ok(on_pool(pool.as_ref(), || render(prepared?))?))
+                    {
+                        Ok(st) => FrameOutcome::Written(Box::new(st)),
+                        Err(e) => FrameOutcome::Failed(e),
+                    }
+                }
+            };
+            record(frame, fp, outcome);
+        })
+    } else {
+        for &frame in frames {
+            let fp = paths.plan(plan, frame);
+            progress.note(&format!("frame {frame}"));
+            let outcome = if options.skip_existing && frame_is_done(&fp) {
+                FrameOutcome::Skipped
+            } else {
+                let mut render = || {
+                    super::on_plan_threads(&fp, || {
+                        super::check_output_dirs(&fp)?;
+                        let prepared = prepare_frame(&fp, &Silent, &mut reuse, job(frame))?;
+                        render_prepared(&fp, prepared, &Silent, Some(&mut kept), job(frame))
+                    })
+                };
+                match check(&fp).and_then(|_| Ok(render()?)) {
+                    Ok(st) => FrameOutcome::Written(Box::new(st)),
+                    Err(e) => FrameOutcome::Failed(e),
+                }
+            };
+            record(frame, &fp, outcome);
+        }
+        reuse.shadow_maps_reused
+    };
     progress.finish();
-    summary.shadow_maps_reused = reuse.shadow_maps_reused;
+    summary.shadow_maps_reused = reused;
+    summary.gpu_scenes_kept = kept.frames_kept;
     summary.seconds = start.elapsed().as_secs_f64();
     summary
+}
+
+/// Runs `work` on `pool` where there is one, else here (on rayon's global pool).
+fn on_pool<T: Send>(pool: Option<&rayon::ThreadPool>, work: impl FnOnce() -> T + Send) -> T {
+    match pool {
+        Some(p) => p.install(work),
+        None => work(),
+    }
+}
+
+/// A frame as the preparing thread hands it over: its number, its plan, and its scene
+/// built (none: its outputs exist and `--skip-existing` leaves it).
+type Ready = (i64, RenderPlan, Option<Result<PreparedFrame, RenderError>>);
+
+/// The frames of a sequence rendered on the GPU, each next one prepared ahead.
+struct Ahead<'a> {
+    plan: &'a RenderPlan,
+    paths: &'a FramePaths,
+    frames: &'a [i64],
+    options: SequenceOptions,
+    /// The plan's threads (`--threads`); none: rayon's global pool.
+    pool: Option<&'a rayon::ThreadPool>,
+}
+
+impl Ahead<'_> {
+    /// A second thread reads each frame and builds its scene (on the plan's threads),
+    /// in order, while this one hands the frame before to `render` (which renders and
+    /// writes it). A prepared frame waits until the one before is written: one frame
+    /// ahead at most. Returns the frames whose shadow maps were reused.
+    fn run(
+        &self,
+        mut reuse: FrameReuse,
+        mut render: impl FnMut(i64, &RenderPlan, Option<Result<PreparedFrame, RenderError>>),
+    ) -> usize {
+        std::thread::scope(|s| {
+            let (tx, rx) = std::sync::mpsc::sync_channel::<Ready>(0);
+            let preparer = s.spawn(move || {
+                for &frame in self.frames {
+                    let fp = self.paths.plan(self.plan, frame);
+                    let prepared =
+                        (!(self.options.skip_existing && frame_is_done(&fp))).then(|| {
+                            let job = FrameJob {
+                                frame: Some(frame),
+                                piece: self.options.piece,
+                            };
+                            on_pool(self.pool, || prepare_frame(&fp, &Silent, &mut reuse, job))
+                        });
+                    if tx.send((frame, fp, prepared)).is_err() {
+                        break;
+                    }
+                }
+                reuse.shadow_maps_reused
+            });
+            for (frame, fp, prepared) in rx {
+                render(frame, &fp, prepared);
+            }
+            preparer
+                .join()
+                .unwrap_or_else(|e| std::panic::resume_unwind(e))
+        })
+    }
 }
 
 /// The box the default camera frames in every frame of a sequence rendered in one run:

@@ -63,6 +63,9 @@ pub struct SceneReport {
     /// the shadow maps, the lights, phase table, lattice and blackbody colours, the
     /// parameters), to compare with the two above; 0 on the CPU.
     pub gpu_memory_bytes: usize,
+    /// Of those, the bytes this render uploaded: all of them, but in a sequence only
+    /// those that differ from the frame before's (0: the frame before's were all kept).
+    pub gpu_upload_bytes: u64,
     pub notes: Vec<String>,
     /// What cost accuracy without being asked to (a budget that stopped a shadow map's
     /// refinement): printed on stderr as well, even with `--quiet`.

@@ -222,5 +222,6 @@ mod fast;
 mod ground;
 mod memory;
 mod path;
+mod sequence;
 mod single;
 mod sweep;

@@ -2,6 +2,7 @@
 //! limits the adapter reports, the march's compute pipeline, and one call that marches
 //! a batch of camera samples.
 
+use super::resident::{KeptBuffers, Making};
 use super::upload::{Buffers, DSM_BUFFERS, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
 
@@ -292,8 +293,14 @@ impl Gpu {
 
     /// Uploads a scene's buffers, checking each against the adapter's limits first
     /// (the shadow maps are already split, see [`Buffers::split_maps`]; the grid's
-    /// arrays are not), and the uploads against running out of memory.
-    pub fn upload(&self, b: &Buffers) -> Result<Resident, String> {
+    /// arrays are not), and the uploads against running out of memory. With `kept` (a
+    /// sequence's), a buffer whose bytes the frame before uploaded is bound as it is, and
+    /// this frame's buffers are kept for the next. Returns the bytes uploaded with them.
+    pub fn upload(
+        &self,
+        b: &Buffers,
+        kept: Option<&mut KeptBuffers>,
+    ) -> Result<(Resident, u64), String> {
         let max = self.max_binding();
         for (what, bytes) in b.sizes() {
             if bytes > max {
@@ -314,14 +321,8 @@ impl Gpu {
         }
         let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let make = |label: &str, contents: &[u8]| {
-            self.device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents,
-                    usage: wgpu::BufferUsages::STORAGE,
-                })
-        };
+        let mut making = Making::new(kept);
+        let mut make = |label: &str, contents: &[u8]| making.buffer(&self.device, label, contents);
         let resident = Resident {
             tree: make("tree", bytemuck::cast_slice(&b.tree)),
             vals: make("vals", bytemuck::cast_slice(&b.vals)),
@@ -341,7 +342,7 @@ impl Gpu {
                 size_text(words as u64 * 4)
             ));
         }
-        Ok(resident)
+        Ok((resident, making.finish()))
     }
 }
 

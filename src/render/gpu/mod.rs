@@ -20,12 +20,14 @@ mod context;
 mod grids;
 mod path;
 mod pixels;
+mod resident;
 mod sweep;
 mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
 pub use context::{Gpu, MAX_BINDING_VAR};
 pub use path::render_path;
+pub use resident::KeptBuffers;
 pub use sweep::{GpuSweeper, SweepTimes, sweeps_lattice};
 
 use super::pixels::{PixelJob, PixelPasses};
@@ -122,17 +124,22 @@ pub struct GpuTimes {
     pub kernel: f64,
     /// Of `march`: adding each sample's results into its pixel's passes on the CPU.
     pub record: f64,
-    /// Bytes of the scene's buffers uploaded (not the per-batch samples and results).
+    /// Bytes of the scene's buffers on the GPU (not the per-batch samples and results).
     pub resident_bytes: usize,
+    /// Of them, the bytes this frame uploaded: all of them, but in a sequence only those
+    /// that differ from the frame before's (see [`KeptBuffers`]).
+    pub uploaded_bytes: u64,
 }
 
 /// Renders the job's pixels on `gpu` (the scene passed [`unsupported`]), with the fast
-/// mode's multiple scattering from `lattice` where given (its lights the scene's).
+/// mode's multiple scattering from `lattice` where given (its lights the scene's); the
+/// scene's buffers kept from a sequence's frame before where `kept` holds them.
 pub fn render_pixels(
     gpu: &Gpu,
     scene: &Scene,
     lattice: Option<&MsLattice>,
     job: &PixelJob<SingleScattering>,
+    kept: Option<&mut KeptBuffers>,
 ) -> Result<(PixelPasses, GpuTimes), String> {
     let t = Instant::now();
     let grid = scene
@@ -165,7 +172,7 @@ pub fn render_pixels(
     let layout = t.elapsed().as_secs_f64();
     let resident_bytes = buffers.resident_bytes();
     buffers.split_maps(gpu.max_binding());
-    let resident = gpu.upload(&buffers)?;
+    let (resident, uploaded_bytes) = gpu.upload(&buffers, kept)?;
     drop(buffers);
     let upload = t.elapsed().as_secs_f64();
     let t = Instant::now();
@@ -173,6 +180,7 @@ pub fn render_pixels(
         upload,
         layout,
         resident_bytes,
+        uploaded_bytes,
         ..GpuTimes::default()
     };
     let passes = pixels::render_pixels(gpu, &resident, job, &mut times)?;

@@ -34,12 +34,14 @@ const PATH_RESULT_BASE: usize = 4;
 const PATH_BATCH: usize = 1 << 18;
 
 /// Renders the job's pixels by tracing `job.integrator`'s paths on `gpu` (the scene
-/// passed [`super::unsupported`]; `g`: its Henyey–Greenstein asymmetry).
+/// passed [`super::unsupported`]; `g`: its Henyey–Greenstein asymmetry), the scene's
+/// buffers kept from a sequence's frame before where `kept` holds them.
 pub fn render_path(
     gpu: &Gpu,
     scene: &Scene,
     g: f64,
     job: &PixelJob<PathTracer>,
+    kept: Option<&mut super::KeptBuffers>,
 ) -> Result<(PixelPasses, GpuTimes), String> {
     let t = Instant::now();
     // Compiled before the samples are timed (a setup cost, as the upload is).
@@ -106,7 +108,7 @@ pub fn render_path(
     let layout = t.elapsed().as_secs_f64();
     let resident_bytes = buffers.resident_bytes();
     buffers.split_maps(gpu.max_binding());
-    let resident = gpu.upload(&buffers)?;
+    let (resident, uploaded_bytes) = gpu.upload(&buffers, kept)?;
     drop(buffers);
     let (origin, dims) = majorants.lattice();
     let tr = grid.transform();
@@ -155,6 +157,7 @@ pub fn render_path(
         upload,
         layout,
         resident_bytes,
+        uploaded_bytes,
         ..GpuTimes::default()
     };
     let passes = assemble(job, |picks| {
