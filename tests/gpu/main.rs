@@ -224,3 +224,4 @@ mod memory;
 mod path;
 mod sequence;
 mod single;
+mod sweep;
