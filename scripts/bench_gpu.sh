@@ -2,10 +2,14 @@
 # murk --device gpu against --device cpu, side by side, per stage: the 192³ fBm cloud of
 # benches/make_cloud.py at 960x540 with the camera, medium and sun of scripts/bench.sh's
 # speed mode, with single scattering and with fast (the default: single scattering plus
-# the multiple-scattering lattice, solved on the CPU and gathered in the GPU's march).
+# the multiple-scattering lattice gathered in the GPU's march). Under fast the lattice's
+# sweeps run where MURK_GPU_LATTICE says: two more rows, gpu-fast-lattice-cpu (swept on
+# the CPU, gathered on the GPU) and gpu-fast-lattice-gpu (swept on the GPU too), each with
+# the lattice's solve seconds and where it was swept; gpu-fast is the automatic choice.
 # Prints each run's wall and CPU seconds, the device and the stages of its --stats
 # (gpu_upload: flattening and uploading the grid, maps and lattice; render: rays, march,
-# readback and passes; multiple_scattering: the lattice's solve), and per mode the image
+# readback and passes; multiple_scattering: the lattice's solve, of which gpu_lattice ran
+# on the GPU), and per mode the image
 # difference of the GPU's render against the CPU's (needs oiiotool). Then --scattering
 # path at BENCH_PATH_SPP samples a pixel, on the GPU and on the CPU (all threads and
 # one), with each one's paths per second (camera samples over the render stage) and the
@@ -18,6 +22,7 @@
 #   scripts/bench_gpu.sh [CLOUD.vdb]    (made with make_cloud.py --size 192 if not given)
 #
 # Knobs: MURK (a murk binary; default: build this tree's), BENCH_THREADS (nproc),
+# BENCH_MODES ("single fast": the scattering modes timed),
 # BENCH_RES (960x540), BENCH_PATH_RES (BENCH_RES), BENCH_PATH_SPP (16), BENCH_PATH=0 (no
 # path runs), BENCH_SEQ=0 (no sequence), BENCH_SEQ_FRAMES (5), OUT (where images and
 # stats go; a temporary folder).
@@ -41,20 +46,27 @@ run() { # NAME FLAGS...
     shift
     /usr/bin/time -f "$n: wall %e s, cpu %U+%S s" "$MURK" "${A[@]}" --res "${RUN_RES:-$RES}" -o "$OUT/$n.exr" \
         --stats "$OUT/$n.json" "$@" 2>&1 | tail -1
-    /usr/bin/python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print('  ', s['device'], {k: round(v['seconds'], 4) for k, v in s['stages'].items() if 'seconds' in v})" "$OUT/$n.json"
+    /usr/bin/python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print('  ', s['device'], {k: round(v['seconds'], 4) for k, v in s['stages'].items() if 'seconds' in v}); m=s.get('multiple_scattering'); m and print('   lattice', m['dims'], 'swept on', m['swept_on'], 'solve', round(m['solve_seconds'], 4), 's')" "$OUT/$n.json"
 }
+MODES=(${BENCH_MODES:-single fast})
 run warm --device gpu --scattering single >/dev/null
-for mode in single fast; do
+for mode in "${MODES[@]}"; do
     run "gpu-$mode" --device gpu --scattering $mode
     run "cpu-$mode" --device cpu --scattering $mode --threads "$THREADS"
     run "cpu1-$mode" --device cpu --scattering $mode --threads 1
+    if [[ $mode == fast ]]; then
+        for where in cpu gpu; do
+            MURK_GPU_LATTICE=$where run "gpu-fast-lattice-$where" --device gpu --scattering fast
+        done
+    fi
 done
 if command -v oiiotool >/dev/null; then
     avg() { oiiotool "$@" --printstats 2>&1 | awk '/Stats Avg/ {print $3, $6}'; }
-    for mode in single fast; do
+    for mode in "${MODES[@]}" $([[ " ${MODES[*]} " == *" fast "* ]] && echo fast-lattice-gpu || true); do
+        cpu=cpu-${mode%-lattice-gpu}
         # The difference × 1000 before squaring: --printstats prints six decimals.
-        read -r d da < <(avg "$OUT/gpu-$mode.exr" "$OUT/cpu-$mode.exr" --ch R,G,B,A --sub --mulc 1000 --dup --mul)
-        read -r s _ < <(avg "$OUT/cpu-$mode.exr" --ch R,G,B,A --dup --mul)
+        read -r d da < <(avg "$OUT/gpu-$mode.exr" "$OUT/$cpu.exr" --ch R,G,B,A --sub --mulc 1000 --dup --mul)
+        read -r s _ < <(avg "$OUT/$cpu.exr" --ch R,G,B,A --dup --mul)
         /usr/bin/python3 -c "import math,sys; d,da,s=map(float,sys.argv[2:]); print(f'GPU against CPU, {sys.argv[1]}: radiance relative RMSE {math.sqrt(d/1e6/s):.2e}, alpha RMSE {math.sqrt(da/1e6):.2e}')" "$mode" "$d" "$da" "$s"
     done
 fi

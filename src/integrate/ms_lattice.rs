@@ -41,7 +41,8 @@
 
 use super::march::{Illumination, Volume};
 use super::ms_orders::{Coefficients, Iteration, Sources, solve};
-use super::ms_sweep::Grid;
+use super::ms_sampling::{fibonacci_sphere, hg, mean_cosine, sub_offsets};
+use super::ms_sweep::{Grid, Sweeper};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -106,6 +107,9 @@ pub struct LatticeReport {
     pub sampling_seconds: f64,
     pub source_seconds: f64,
     pub solve_seconds: f64,
+    /// Where the orders' sweeps ran: "cpu", or the GPU that swept every order of every
+    /// light (a [`Sweeper`]'s name).
+    pub swept_on: String,
 }
 
 /// The multiply scattered in-radiance of every light on the lattice.
@@ -126,6 +130,17 @@ pub struct MsLattice {
 impl MsLattice {
     /// Solves the lattice for every light of `lights` in `vol`.
     pub fn build(vol: &Volume, lights: &dyn Illumination, s: &LatticeSettings) -> MsLattice {
+        Self::build_with(vol, lights, s, None)
+    }
+
+    /// [`MsLattice::build`] with each order's sweeps done by `sweeper` (a GPU) where it
+    /// takes them; the orders, sources and tails stay here.
+    pub fn build_with(
+        vol: &Volume,
+        lights: &dyn Illumination,
+        s: &LatticeSettings,
+        sweeper: Option<&dyn Sweeper>,
+    ) -> MsLattice {
         let start = std::time::Instant::now();
         let n_lights = lights.light_count();
         // Over where the density is non-zero, not its active bounds: a dense exported
@@ -291,6 +306,7 @@ impl MsLattice {
         let dirs_for = move |order: u32| fibonacci_sphere(n_dirs, order);
         let sampled = start.elapsed().as_secs_f64();
         let (mut source_seconds, mut solve_seconds) = (0.0, 0.0);
+        let mut all_elsewhere = true;
         for l in 0..n_lights {
             let at = std::time::Instant::now();
             // First scattering's source per node and channel: mean of ρ·E·T over the cell,
@@ -342,10 +358,11 @@ impl MsLattice {
                 dirs_for: &dirs_for,
                 diffusion: grown && s.diffusion_tail,
                 flux: g_mean != 0.0,
+                sweeper,
             };
             // A grey medium with no colour grid is one channel, scaled by the light's
             // colour; else the three are swept together.
-            let (total, swept, ratio) = if grey {
+            let (total, swept, ratio, elsewhere) = if grey {
                 let source: Vec<[f32; 1]> = first.par_iter().map(|(a, _)| [a[0]]).collect();
                 let sources = Sources {
                     rho: &rho,
@@ -372,6 +389,7 @@ impl MsLattice {
                 solve_moments(&grid, &sources, &coeffs, &iteration, [1.0; 3])
             };
             solve_seconds += at.elapsed().as_secs_f64();
+            all_elsewhere &= elsewhere;
             report.orders_swept.push(swept);
             report.tail_ratio.push(ratio);
             values.push(total);
@@ -380,6 +398,10 @@ impl MsLattice {
         report.sampling_seconds = sampled;
         report.source_seconds = source_seconds;
         report.solve_seconds = solve_seconds;
+        report.swept_on = match sweeper {
+            Some(sw) if all_elsewhere => sw.name(),
+            _ => "cpu".into(),
+        };
         MsLattice {
             origin,
             inv_h: 1.0 / h,
@@ -511,14 +533,15 @@ fn coefficients<const C: usize>(
 
 /// Solves `C` channels and stores each node's moments for red, green and blue: channel
 /// `ch` of `C` = 3, or the one channel of `C` = 1 for all three; each scaled by
-/// `scale[rgb]`. Returns them, the orders swept and the tail's ratio.
+/// `scale[rgb]`. Returns them, the orders swept, the tail's ratio and whether the
+/// iteration's sweeper swept every order.
 fn solve_moments<const C: usize>(
     grid: &Grid,
     sources: &Sources<C>,
     coeffs: &Coefficients<C>,
     iteration: &Iteration,
     scale: [f32; 3],
-) -> (Vec<[f32; MOMENTS]>, u32, f64) {
+) -> (Vec<[f32; MOMENTS]>, u32, f64, bool) {
     let solved = solve(grid, sources, coeffs, iteration);
     let total = (0..grid.len)
         .into_par_iter()
@@ -535,56 +558,7 @@ fn solve_moments<const C: usize>(
             t
         })
         .collect();
-    (total, solved.orders, solved.ratio)
-}
-
-/// Henyey–Greenstein with mean cosine `g` at `cos θ = mu`, times 4π (its mean over the
-/// sphere is 1).
-#[inline]
-fn hg(g: f64, mu: f64) -> f64 {
-    let g = g.clamp(-0.999, 0.999);
-    (1.0 - g * g) / (1.0 + g * g - 2.0 * g * mu).max(1e-12).powf(1.5)
-}
-
-/// Offsets of the sub-samples of a cell around its node.
-fn sub_offsets(h: f64, n: usize) -> Vec<DVec3> {
-    let at = |i: usize| ((i as f64 + 0.5) / n as f64 - 0.5) * h;
-    let mut v = Vec::with_capacity(n * n * n);
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                v.push(DVec3::new(at(i), at(j), at(k)));
-            }
-        }
-    }
-    v
-}
-
-/// The phase function's mean cosine `∫p(μ)·μ dω` (grey part: channel 0), by the
-/// midpoint rule over μ.
-fn mean_cosine(vol: &Volume) -> f64 {
-    let n = 2048;
-    let mut s = 0.0;
-    for i in 0..n {
-        let mu = -1.0 + (i as f64 + 0.5) * 2.0 / n as f64;
-        s += vol.phase.eval(mu).x * mu;
-    }
-    (s * 2.0 / n as f64 * 2.0 * std::f64::consts::PI).clamp(-0.99, 0.99)
-}
-
-/// `n` directions spread evenly over the sphere (a Fibonacci spiral), turned for order
-/// `turn` by `turn` golden angles about an axis that itself walks over the sphere, so
-/// successive orders use different sets.
-fn fibonacci_sphere(n: usize, turn: u32) -> Vec<DVec3> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    let spiral = |i: f64, n: f64| {
-        let z = 1.0 - (2.0 * i + 1.0) / n;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        DVec3::new(r * (golden * i).cos(), r * (golden * i).sin(), z)
-    };
-    let axis = spiral((turn % 61) as f64, 61.0);
-    let rot = glam::DQuat::from_axis_angle(axis.normalize(), golden * turn as f64);
-    (0..n).map(|i| rot * spiral(i as f64, n as f64)).collect()
+    (total, solved.orders, solved.ratio, solved.swept_elsewhere)
 }
 
 #[cfg(test)]

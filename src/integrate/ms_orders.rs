@@ -12,13 +12,10 @@
 //! coefficients, whose flux is the true one in the diffusive regime (Fick's law only
 //! sees `σs(1 − ḡ)`), so `G` is taken from them as it is.
 
-use super::ms_sweep::{Grid, sweep};
+use super::ms_sweep::{DIRECTION_GROUP, Grid, OrderJob, Sweeper, SweptLattice, sweep};
 use glam::DVec3;
 use rayon::prelude::*;
 
-/// Directions swept by one task: fixed, so the sum over directions is done in the same
-/// order for any thread count (same image whatever `--threads`).
-const DIRECTION_GROUP: usize = 4;
 /// An order whose density-weighted sum falls below this fraction of the total so far
 /// ends the iteration early (its tail is then negligible too).
 const CONVERGED: f64 = 1e-4;
@@ -73,6 +70,8 @@ pub(super) struct Solved<const C: usize> {
     pub orders: u32,
     /// The tail's ratio between orders, the largest over the channels.
     pub ratio: f64,
+    /// Every order was swept by the [`Iteration::sweeper`].
+    pub swept_elsewhere: bool,
 }
 
 /// The orders to sweep, how many directions, and how the tail is found.
@@ -84,6 +83,8 @@ pub(super) struct Iteration<'a> {
     /// Whether the flux `G` is wanted (a phase function that is not isotropic; with an
     /// isotropic one it scatters nothing and stays zero).
     pub flux: bool,
+    /// Where the orders' sweeps are done besides here (a GPU), if anywhere.
+    pub sweeper: Option<&'a dyn Sweeper>,
 }
 
 /// A group of directions' sums over the lattice, kept from order to order.
@@ -113,6 +114,7 @@ pub(super) fn solve<const C: usize>(
         g: vec![[[0f32; 3]; C]; grid.len],
         orders: 0,
         ratio: 0.0,
+        swept_elsewhere: false,
     };
     if it.orders == 0 || src.first.iter().flatten().all(|v| *v <= 0.0) {
         return out;
@@ -137,6 +139,13 @@ pub(super) fn solve<const C: usize>(
     // A source and a radiance buffer per direction swept at once: one per thread.
     let wave = rayon::current_num_threads().max(1);
     let mut swept: Vec<SweptBuffers<C>> = Vec::new();
+    let mut lattice: Option<Box<dyn SweptLattice + '_>> = it.sweeper.and_then(|s| {
+        let dirs = (0..it.orders)
+            .map(|o| (it.dirs_for)(o).len())
+            .max()
+            .unwrap_or(0);
+        s.open(grid.dims, rho, C, dirs).ok()
+    });
     for order in 0..it.orders {
         let dirs = (it.dirs_for)(order);
         let first = order == 0;
@@ -166,142 +175,201 @@ pub(super) fn solve<const C: usize>(
                 .collect()
         };
         let albedo = if first { c.albedo_first } else { c.albedo };
-        let n_groups = dirs.len().div_ceil(DIRECTION_GROUP);
-        while buffers.len() < n_groups {
-            buffers.push(GroupBuffers {
-                acc: vec![[0f32; C]; grid.len],
-                acc_g: if it.flux {
-                    vec![[[0f32; 3]; C]; grid.len]
-                } else {
-                    Vec::new()
-                },
-            });
-        }
-        // The source toward direction `k`: the true phase for the first order,
-        // isotropic after it.
-        let fill_source = |k: usize, s: &mut [[f32; C]]| {
-            if first {
-                let p_at = |n: usize| phases[n].weight(k);
-                let p0 = if uniform_travel { p_at(0) } else { 0.0 };
-                for (n, (s, v)) in s.iter_mut().zip(&rho_j).enumerate() {
-                    let p = if uniform_travel {
-                        p0
-                    } else if v.iter().any(|x| *x > 0.0) {
-                        p_at(n)
-                    } else {
-                        0.0
-                    };
-                    *s = v.map(|x| x * p);
-                }
+        std::mem::swap(&mut before, &mut last);
+        // The order elsewhere (a GPU) where a sweeper took the lattice; else, or where it
+        // failed, here.
+        let elsewhere = lattice.as_mut().map(|l| {
+            let weights: Vec<f32> = if !first {
+                vec![1.0; dirs.len()]
+            } else if uniform_travel {
+                (0..dirs.len()).map(|k| phases[0].weight(k)).collect()
             } else {
-                s.copy_from_slice(&rho_j);
-            }
-        };
-        // Directions are swept in waves of one per thread, each into its own buffer,
-        // then added to their groups' sums node by node in direction order: each sum is
-        // the same for any number of threads. Each sweep's planes are split over the
-        // threads too, so a thread whose direction is done takes rows of the others'
-        // (directions differ in cost, and a wave can be shorter than the threads).
-        let n = wave.min(dirs.len());
-        while swept.len() < n {
-            swept.push((
-                vec![[0f32; C]; grid.len],
-                vec![[0f32; C]; grid.len],
-                vec![[0f32; C]; grid.len],
-            ));
-        }
-        for buf in &mut buffers[..n_groups] {
-            buf.acc.par_iter_mut().for_each(|v| *v = [0.0; C]);
-            buf.acc_g.par_iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
-        }
-        for k0 in (0..dirs.len()).step_by(n) {
-            let k1 = (k0 + n).min(dirs.len());
-            swept[..k1 - k0]
-                .par_iter_mut()
-                .zip(&dirs[k0..k1])
-                .enumerate()
-                .for_each(|(i, ((s, radiance, planes), d))| {
-                    fill_source(k0 + i, s);
-                    let (sigma, h) = (c.sigma_t, c.h);
-                    sweep(grid, rho, s, *d, sigma, albedo, h, radiance, planes, wave);
-                });
-            let swept = &swept[..k1 - k0];
-            for (g, buf) in buffers[..n_groups].iter_mut().enumerate() {
-                let ks = (g * DIRECTION_GROUP).max(k0)..((g + 1) * DIRECTION_GROUP).min(k1);
-                if ks.is_empty() {
-                    continue;
+                (0..grid.len)
+                    .into_par_iter()
+                    .flat_map_iter(|n| {
+                        let lit = rho_j[n].iter().any(|x| *x > 0.0);
+                        let p = &phases[n];
+                        (0..dirs.len()).map(move |k| if lit { p.weight(k) } else { 0.0 })
+                    })
+                    .collect()
+            };
+            l.order(&OrderJob {
+                source: rho_j.as_flattened(),
+                weights: &weights,
+                weight_stride: if first && !uniform_travel {
+                    dirs.len()
+                } else {
+                    0
+                },
+                dirs: &dirs,
+                sigma_t: &c.sigma_t,
+                albedo: &albedo,
+                h: c.h,
+                flux: it.flux,
+            })
+        });
+        let swept_there = match elsewhere {
+            Some(Ok(m))
+                if m.j.len() == grid.len * C && (!it.flux || m.g.len() == 3 * m.j.len()) =>
+            {
+                last.par_iter_mut()
+                    .zip(m.j.par_chunks(C))
+                    .for_each(|(l, j)| l.copy_from_slice(j));
+                if it.flux {
+                    last_g
+                        .par_iter_mut()
+                        .zip(m.g.par_chunks(3 * C))
+                        .for_each(|(l, g)| {
+                            for (ch, v) in l.iter_mut().enumerate() {
+                                v.copy_from_slice(&g[3 * ch..3 * ch + 3]);
+                            }
+                        });
+                } else {
+                    last_g.par_iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
                 }
-                let GroupBuffers { acc, acc_g } = buf;
-                // Node `at`'s chunk of the group's sums, the wave's directions `ks` added.
-                let add = |at: usize, acc: &mut [[f32; C]], acc_g: &mut [[[f32; 3]; C]]| {
-                    for k in ks.clone() {
-                        let radiance = &swept[k - k0].1[at..at + acc.len()];
-                        for (a, r) in acc.iter_mut().zip(radiance) {
-                            for ch in 0..C {
-                                a[ch] += r[ch];
+                true
+            }
+            _ => false,
+        };
+        if !swept_there {
+            lattice = None;
+
+            let n_groups = dirs.len().div_ceil(DIRECTION_GROUP);
+            while buffers.len() < n_groups {
+                buffers.push(GroupBuffers {
+                    acc: vec![[0f32; C]; grid.len],
+                    acc_g: if it.flux {
+                        vec![[[0f32; 3]; C]; grid.len]
+                    } else {
+                        Vec::new()
+                    },
+                });
+            }
+            // The source toward direction `k`: the true phase for the first order,
+            // isotropic after it.
+            let fill_source = |k: usize, s: &mut [[f32; C]]| {
+                if first {
+                    let p_at = |n: usize| phases[n].weight(k);
+                    let p0 = if uniform_travel { p_at(0) } else { 0.0 };
+                    for (n, (s, v)) in s.iter_mut().zip(&rho_j).enumerate() {
+                        let p = if uniform_travel {
+                            p0
+                        } else if v.iter().any(|x| *x > 0.0) {
+                            p_at(n)
+                        } else {
+                            0.0
+                        };
+                        *s = v.map(|x| x * p);
+                    }
+                } else {
+                    s.copy_from_slice(&rho_j);
+                }
+            };
+            // Directions are swept in waves of one per thread, each into its own buffer,
+            // then added to their groups' sums node by node in direction order: each sum is
+            // the same for any number of threads. Each sweep's planes are split over the
+            // threads too, so a thread whose direction is done takes rows of the others'
+            // (directions differ in cost, and a wave can be shorter than the threads).
+            let n = wave.min(dirs.len());
+            while swept.len() < n {
+                swept.push((
+                    vec![[0f32; C]; grid.len],
+                    vec![[0f32; C]; grid.len],
+                    vec![[0f32; C]; grid.len],
+                ));
+            }
+            for buf in &mut buffers[..n_groups] {
+                buf.acc.par_iter_mut().for_each(|v| *v = [0.0; C]);
+                buf.acc_g.par_iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
+            }
+            for k0 in (0..dirs.len()).step_by(n) {
+                let k1 = (k0 + n).min(dirs.len());
+                swept[..k1 - k0]
+                    .par_iter_mut()
+                    .zip(&dirs[k0..k1])
+                    .enumerate()
+                    .for_each(|(i, ((s, radiance, planes), d))| {
+                        fill_source(k0 + i, s);
+                        let (sigma, h) = (c.sigma_t, c.h);
+                        sweep(grid, rho, s, *d, sigma, albedo, h, radiance, planes, wave);
+                    });
+                let swept = &swept[..k1 - k0];
+                for (g, buf) in buffers[..n_groups].iter_mut().enumerate() {
+                    let ks = (g * DIRECTION_GROUP).max(k0)..((g + 1) * DIRECTION_GROUP).min(k1);
+                    if ks.is_empty() {
+                        continue;
+                    }
+                    let GroupBuffers { acc, acc_g } = buf;
+                    // Node `at`'s chunk of the group's sums, the wave's directions `ks` added.
+                    let add = |at: usize, acc: &mut [[f32; C]], acc_g: &mut [[[f32; 3]; C]]| {
+                        for k in ks.clone() {
+                            let radiance = &swept[k - k0].1[at..at + acc.len()];
+                            for (a, r) in acc.iter_mut().zip(radiance) {
+                                for ch in 0..C {
+                                    a[ch] += r[ch];
+                                }
+                            }
+                            let df = dirs[k].as_vec3().to_array();
+                            for (ag, r) in acc_g.iter_mut().zip(radiance) {
+                                for ch in 0..C {
+                                    for (g, dk) in ag[ch].iter_mut().zip(df) {
+                                        *g += r[ch] * dk;
+                                    }
+                                }
                             }
                         }
-                        let df = dirs[k].as_vec3().to_array();
-                        for (ag, r) in acc_g.iter_mut().zip(radiance) {
+                    };
+                    if acc_g.is_empty() {
+                        acc.par_chunks_mut(ADD_CHUNK)
+                            .enumerate()
+                            .for_each(|(ci, acc)| add(ci * ADD_CHUNK, acc, &mut []));
+                    } else {
+                        acc.par_chunks_mut(ADD_CHUNK)
+                            .zip(acc_g.par_chunks_mut(ADD_CHUNK))
+                            .enumerate()
+                            .for_each(|(ci, (acc, acc_g))| add(ci * ADD_CHUNK, acc, acc_g));
+                    }
+                }
+            }
+            // Means over directions (in a fixed order of groups).
+            let inv = 1.0 / dirs.len() as f32;
+            let groups = &buffers[..n_groups];
+            last.par_chunks_mut(ADD_CHUNK)
+                .enumerate()
+                .for_each(|(ci, last)| {
+                    let at = ci * ADD_CHUNK;
+                    last.iter_mut().for_each(|v| *v = [0.0; C]);
+                    for buf in groups {
+                        for (l, v) in last.iter_mut().zip(&buf.acc[at..]) {
                             for ch in 0..C {
-                                for (g, dk) in ag[ch].iter_mut().zip(df) {
-                                    *g += r[ch] * dk;
+                                l[ch] += v[ch];
+                            }
+                        }
+                    }
+                    last.iter_mut().flatten().for_each(|v| *v *= inv);
+                });
+            last_g
+                .par_chunks_mut(ADD_CHUNK)
+                .enumerate()
+                .for_each(|(ci, last_g)| {
+                    let at = ci * ADD_CHUNK;
+                    last_g.iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
+                    for buf in groups {
+                        for (l, v) in last_g.iter_mut().zip(buf.acc_g.get(at..).unwrap_or(&[])) {
+                            for ch in 0..C {
+                                for k in 0..3 {
+                                    l[ch][k] += v[ch][k];
                                 }
                             }
                         }
                     }
-                };
-                if acc_g.is_empty() {
-                    acc.par_chunks_mut(ADD_CHUNK)
-                        .enumerate()
-                        .for_each(|(ci, acc)| add(ci * ADD_CHUNK, acc, &mut []));
-                } else {
-                    acc.par_chunks_mut(ADD_CHUNK)
-                        .zip(acc_g.par_chunks_mut(ADD_CHUNK))
-                        .enumerate()
-                        .for_each(|(ci, (acc, acc_g))| add(ci * ADD_CHUNK, acc, acc_g));
-                }
-            }
+                    last_g
+                        .iter_mut()
+                        .flatten()
+                        .flatten()
+                        .for_each(|v| *v *= inv);
+                });
         }
-        // Means over directions (in a fixed order of groups).
-        let inv = 1.0 / dirs.len() as f32;
-        std::mem::swap(&mut before, &mut last);
-        let groups = &buffers[..n_groups];
-        last.par_chunks_mut(ADD_CHUNK)
-            .enumerate()
-            .for_each(|(ci, last)| {
-                let at = ci * ADD_CHUNK;
-                last.iter_mut().for_each(|v| *v = [0.0; C]);
-                for buf in groups {
-                    for (l, v) in last.iter_mut().zip(&buf.acc[at..]) {
-                        for ch in 0..C {
-                            l[ch] += v[ch];
-                        }
-                    }
-                }
-                last.iter_mut().flatten().for_each(|v| *v *= inv);
-            });
-        last_g
-            .par_chunks_mut(ADD_CHUNK)
-            .enumerate()
-            .for_each(|(ci, last_g)| {
-                let at = ci * ADD_CHUNK;
-                last_g.iter_mut().for_each(|v| *v = [[0.0; 3]; C]);
-                for buf in groups {
-                    for (l, v) in last_g.iter_mut().zip(buf.acc_g.get(at..).unwrap_or(&[])) {
-                        for ch in 0..C {
-                            for k in 0..3 {
-                                l[ch][k] += v[ch][k];
-                            }
-                        }
-                    }
-                }
-                last_g
-                    .iter_mut()
-                    .flatten()
-                    .flatten()
-                    .for_each(|v| *v *= inv);
-            });
         out.orders += 1;
         if first {
             out.j1.par_iter_mut().zip(&last).for_each(|(o, l)| *o = *l);
@@ -341,6 +409,7 @@ pub(super) fn solve<const C: usize>(
                 }
             });
     }
+    out.swept_elsewhere = lattice.is_some();
     out.ratio = ratio.iter().fold(0.0, |m, r| r.max(m));
     if it.diffusion {
         for ch in (0..C).filter(|ch| ratio[*ch] > 0.0) {

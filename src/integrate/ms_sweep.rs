@@ -33,6 +33,66 @@ impl Grid {
     }
 }
 
+/// Directions whose radiances are added together before their sum joins the order's
+/// (a fixed grouping: the sum over directions is done in the same order for any thread
+/// count, and by a [`Sweeper`] too).
+pub const DIRECTION_GROUP: usize = 4;
+
+/// One order's sweeps in every direction, handed to a [`Sweeper`]'s lattice.
+pub struct OrderJob<'a> {
+    /// `ρ·J` per node, `channels` floats a node (x fastest).
+    pub source: &'a [f32],
+    /// Direction `k`'s source at node `n` is the source times
+    /// `weights[k + n·weight_stride]` (the first order's phase function; stride 0: one
+    /// weight per direction).
+    pub weights: &'a [f32],
+    pub weight_stride: usize,
+    /// The order's directions; each swept as [`geometry`] sets it up.
+    pub dirs: &'a [DVec3],
+    /// Per channel: reduced extinction per unit density and the albedo.
+    pub sigma_t: &'a [f64],
+    pub albedo: &'a [f64],
+    /// Cell side.
+    pub h: f64,
+    /// Whether the flux `G` is wanted.
+    pub flux: bool,
+}
+
+/// An order's means over its directions, per node: `J` (`channels` floats a node) and,
+/// where asked for, `G = ⟨L·d⟩` (`3·channels`: x y z per channel). Each sum over
+/// directions is done as [`sweep`]'s caller does it: groups of [`DIRECTION_GROUP`] in
+/// direction order, `L·d` with `d` in f32, then the groups in order, times
+/// `1/directions` in f32.
+pub struct OrderMoments {
+    pub j: Vec<f32>,
+    pub g: Vec<f32>,
+}
+
+/// The lattice's sweeps done outside this module (on a GPU): each order's directions
+/// swept and averaged there, what orders are swept and the tail decided here. The
+/// sweeper lives above `integrate` (the render's GPU backend) and is passed down to
+/// [`super::ms_lattice::MsLattice::build_with`], so `integrate` imports none of it.
+pub trait Sweeper: Send + Sync {
+    /// Takes a lattice of `dims` nodes with densities `rho`, swept `channels` at once
+    /// over at most `directions` directions an order; an error leaves it to the CPU.
+    fn open(
+        &self,
+        dims: [usize; 3],
+        rho: &[f32],
+        channels: usize,
+        directions: usize,
+    ) -> Result<Box<dyn SweptLattice + '_>, String>;
+
+    /// Where it sweeps, for the stats.
+    fn name(&self) -> String;
+}
+
+/// A lattice a [`Sweeper`] took.
+pub trait SweptLattice {
+    /// One order; an error leaves it and the orders after it to the CPU.
+    fn order(&mut self, job: &OrderJob) -> Result<OrderMoments, String>;
+}
+
 /// Fewest nodes of a plane one piece of it is given (below this a task costs more to
 /// hand out than to do).
 const MIN_PIECE_NODES: usize = 512;
@@ -89,6 +149,59 @@ pub(super) fn sweep<const C: usize>(
         });
 }
 
+/// A direction's sweep geometry (what [`sweep`] works out once per direction), for a
+/// sweep done elsewhere to step exactly as this one does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SweepGeometry {
+    /// The dominant axis `a`, the row axis `b` and the third `c`.
+    pub axes: [usize; 3],
+    /// Bilinear weights at the characteristic's foot: of the plane behind's nodes
+    /// (b + fb, c + fc), (b + fb + 1, c + fc), (b + fb, c + fc + 1) and
+    /// (b + fb + 1, c + fc + 1), in that order.
+    pub w: [f32; 4],
+    pub fb: isize,
+    pub fc: isize,
+    /// The planes are swept in increasing `a` (else decreasing).
+    pub forward: bool,
+    /// The characteristic's world length: a node's `σt·step` is `(σt·step) as f32`.
+    pub step: f64,
+}
+
+/// The sweep geometry of direction `d` on a lattice of cell side `h`.
+pub fn geometry(d: DVec3, h: f64) -> SweepGeometry {
+    let da = d.abs();
+    let a = if da.x >= da.y && da.x >= da.z {
+        0
+    } else if da.y >= da.z {
+        1
+    } else {
+        2
+    };
+    // The row axis b is the other axis with the smaller stride, so a row's nodes are
+    // near each other in memory.
+    let (b, cax) = if a == 0 { (1, 2) } else { (0, 3 - a) };
+    let dv = d.to_array();
+    let step = h / da[a]; // world length of the characteristic
+    // Upstream point, in nodes, relative to the node along b and c (|o| ≤ 1).
+    let ob = -step * dv[b] / h;
+    let oc = -step * dv[cax] / h;
+    let (fb, fc) = (ob.floor(), oc.floor());
+    let (wb, wc) = (ob - fb, oc - fc);
+    SweepGeometry {
+        axes: [a, b, cax],
+        w: [
+            ((1.0 - wb) * (1.0 - wc)) as f32,
+            (wb * (1.0 - wc)) as f32,
+            ((1.0 - wb) * wc) as f32,
+            (wb * wc) as f32,
+        ],
+        fb: fb as isize,
+        fc: fc as isize,
+        forward: dv[a] > 0.0,
+        step,
+    }
+}
+
 /// A sweep's geometry, worked out once.
 struct Setup<const C: usize> {
     /// The dominant axis, the row axis and the third.
@@ -110,31 +223,14 @@ struct Setup<const C: usize> {
 
 impl<const C: usize> Setup<C> {
     fn new(grid: &Grid, d: DVec3, sigma_t: [f64; C], albedo: [f64; C], h: f64) -> Self {
-        let da = d.abs();
-        let a = if da.x >= da.y && da.x >= da.z {
-            0
-        } else if da.y >= da.z {
-            1
-        } else {
-            2
-        };
-        // The row axis b is the other axis with the smaller stride, so a row's nodes are
-        // near each other in memory.
-        let (b, cax) = if a == 0 { (1, 2) } else { (0, 3 - a) };
-        let dv = d.to_array();
-        let step = h / da[a]; // world length of the characteristic
-        // Upstream point, in nodes, relative to the node along b and c (|o| ≤ 1).
-        let ob = -step * dv[b] / h;
-        let oc = -step * dv[cax] / h;
-        let (fb, fc) = (ob.floor(), oc.floor());
-        let (wb, wc) = (ob - fb, oc - fc);
-        let (fb, fc) = (fb as isize, fc as isize);
-        let w = [
-            ((1.0 - wb) * (1.0 - wc)) as f32,
-            (wb * (1.0 - wc)) as f32,
-            ((1.0 - wb) * wc) as f32,
-            (wb * wc) as f32,
-        ];
+        let SweepGeometry {
+            axes: [a, b, cax],
+            w,
+            fb,
+            fc,
+            forward,
+            step,
+        } = geometry(d, h);
         let dims = grid.dims;
         let nb = dims[b] as isize;
         // ib + fb ≥ 0 and ib + fb + 1 < nb.
@@ -147,7 +243,7 @@ impl<const C: usize> Setup<C> {
             w,
             fb,
             fc,
-            forward: dv[a] > 0.0,
+            forward,
             node: Node {
                 sigma_step: sigma_t.map(|s| (s * step) as f32),
                 albedo: albedo.map(|a| a as f32),

@@ -57,6 +57,24 @@ pub(super) fn report_bake(columns: Option<&gpu::GpuColumns>, report: &mut SceneR
     }
 }
 
+/// The lattice's sweeps on the GPU in the stats: `gpu_lattice` (uploads, sweeps,
+/// averages and readbacks, inside `multiple_scattering`), and a note where the GPU
+/// stopped sweeping.
+pub(super) fn report_sweeps(sweeper: Option<&gpu::GpuSweeper>, report: &mut SceneReport) {
+    let Some(s) = sweeper else { return };
+    let times = s.times();
+    if times.orders > 0 {
+        report
+            .stages
+            .insert("gpu_lattice".into(), Stage::ran(times.seconds));
+    }
+    if let Some(why) = s.failure() {
+        report.notes.push(format!(
+            "the multiple-scattering lattice was swept on the CPU: {why}"
+        ));
+    }
+}
+
 /// The GPU `device` asks for: under `gpu` any adapter; under `auto` one that is not
 /// itself run on the CPU (lavapipe, SwiftShader, WARP), which renders slower than murk's
 /// own CPU path, unless `WGPU_ADAPTER_NAME` names it; none under `cpu`. Why not, where

@@ -20,6 +20,7 @@ pub use crate::scene::{RenderOptions, RenderPlan};
 use crate::files::write_atomically;
 use crate::integrate::fast::{FastScattering, WithMultiple};
 use crate::integrate::ms_lattice::MsLattice;
+use crate::integrate::ms_sweep::Sweeper;
 use crate::integrate::path::{LightTransmittance, PathSettings, PathTracer};
 use crate::integrate::single::SingleScattering;
 use crate::integrate::{Illumination, Integrator, ScatteringMode};
@@ -28,7 +29,7 @@ use crate::scene::Scene;
 use crate::scene::plan::ShadowMode;
 use crate::scene::reuse::FrameReuse;
 pub use bake_file::bake_shadow_file;
-use device::{Frontends, OnGpu, choose_device, render_on, report_bake};
+use device::{Frontends, OnGpu, choose_device, render_on, report_bake, report_sweeps};
 pub use error::RenderError;
 use piece::Piece;
 use prepare::{PreparedFrame, prepare_frame};
@@ -243,6 +244,8 @@ fn render_image_prepared(
     };
     // Seconds the fast mode's lattice took (a stage of its own in the stats).
     let mut multiple_seconds = None;
+    // The fast mode's lattice swept on the GPU (for its times).
+    let mut sweeps = None;
     let (mut gpu, mut device_note) = choose_device(plan, &scene)?;
     // The integrator of the plan's scattering mode.
     let (frame, render_seconds, deep_image) = match plan.transport.mode {
@@ -320,9 +323,17 @@ fn render_image_prepared(
                 .lattice_nodes
                 .min(FAST_NODES_PER_PIXEL * plan.camera.width * plan.camera.height)
                 .max(FAST_MIN_NODES);
-            let lattice = lights_named.map(|(l, _)| MsLattice::build(&volume, l, &fast.lattice()));
+            // Its sweeps on the GPU the frame renders on, where that is faster.
+            let sweeper = gpu
+                .filter(|g| gpu::sweeps_lattice(g, plan))
+                .map(gpu::GpuSweeper::new);
+            let lattice = lights_named.map(|(l, _)| {
+                let sweeper = sweeper.as_ref().map(|s| s as &dyn Sweeper);
+                MsLattice::build_with(&volume, l, &fast.lattice(), sweeper)
+            });
             multiple_seconds = Some(t.elapsed().as_secs_f64());
             st.multiple_scattering = lattice.as_ref().map(|l| l.report.clone());
+            sweeps = sweeper;
             let with = lattice.as_ref().map(|lattice| WithMultiple {
                 direct: &lights,
                 lattice,
@@ -412,6 +423,7 @@ fn render_image_prepared(
     st.scene.gpu_upload_bytes = gpu_upload_bytes;
     st.scene.notes.extend(device_note);
     report_bake(columns.as_deref(), &mut st.scene);
+    report_sweeps(sweeps.as_ref(), &mut st.scene);
     st.device = match &gpu {
         Some(g) => format!("gpu: {}", g.name),
         None => "cpu".into(),

@@ -225,3 +225,4 @@ mod path;
 mod path_features;
 mod sequence;
 mod single;
+mod sweep;

@@ -21,12 +21,14 @@ mod grids;
 mod path;
 mod pixels;
 mod resident;
+mod sweep;
 mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
 pub use context::{Gpu, MAX_BINDING_VAR};
 pub use path::render_path;
 pub use resident::KeptBuffers;
+pub use sweep::{GpuSweeper, SweepTimes, sweeps_lattice};
 
 use super::pixels::{PixelJob, PixelPasses};
 use crate::field::grid_nodes::FlatGridError;

@@ -19,7 +19,7 @@ mod volumes;
 
 pub use camera::{CameraPlan, CameraRequest};
 pub use defaults::{MAX_FRAME_BYTES, MAX_LIGHTS, MAX_THREADS, MIN_STEP_VOXELS};
-pub use device::Device;
+pub use device::{Device, LatticeDevice};
 pub use lighting::{ShadowMode, ShadowPlan, safe_layer_name};
 pub use look::{EmissionPlan, GridChoice, GridRoles};
 pub use motion::{MAX_SHUTTER_FRAMES, MotionPlan};

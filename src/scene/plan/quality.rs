@@ -145,6 +145,8 @@ pub struct SamplingPlan {
     pub threads: Option<usize>,
     /// `--device`: where the pixels are computed.
     pub device: super::device::Device,
+    /// Where the fast mode's lattice is swept under a GPU render (`MURK_GPU_LATTICE`).
+    pub lattice: super::device::LatticeDevice,
 }
 
 impl SamplingPlan {
@@ -174,6 +176,7 @@ impl SamplingPlan {
             spp_given: o.spp.is_some(),
             threads: o.threads,
             device: o.device.unwrap_or_default(),
+            lattice: super::device::LatticeDevice::from_env()?,
         })
     }
 }
