@@ -28,10 +28,10 @@ fn auto_falls_back_to_the_cpu_with_a_note_and_gpu_refuses_in_one_line() {
     let dir = scratch("gpu-device");
     let cloud = fixture("cloud.vdb");
     let cloud = cloud.to_str().unwrap();
-    let args = |device: &'static str, mode: &'static str| {
+    fn render_args<'a>(input: &'a str, device: &'a str, mode: &'a str) -> Vec<&'a str> {
         vec![
             "render",
-            cloud,
+            input,
             "-o",
             "out.exr",
             "--res",
@@ -41,7 +41,8 @@ fn auto_falls_back_to_the_cpu_with_a_note_and_gpu_refuses_in_one_line() {
             "--scattering",
             mode,
         ]
-    };
+    }
+    let args = |device: &'static str, mode: &'static str| render_args(cloud, device, mode);
     // More lights than the march takes are refused too.
     let mut many = args("gpu", "single");
     for _ in 0..9 {
@@ -72,13 +73,18 @@ fn auto_falls_back_to_the_cpu_with_a_note_and_gpu_refuses_in_one_line() {
         ],
         "several volumes ([[volume]] tables)",
     );
-    // Path tracing through water drops runs on the CPU only.
-    let mut drops = args("gpu", "path");
-    drops.extend(["--phase", "water-drop"]);
+    // Motion blur (pyro.vdb's velocity grid, the shutter open) runs on the CPU only.
+    let pyro = fixture("pyro.vdb");
+    let pyro = pyro.to_str().unwrap();
+    let blur = |device: &'static str| {
+        let mut a = render_args(pyro, device, "path");
+        a.extend(["--shutter", "-0.25,0.25"]);
+        a
+    };
     refused(
         &dir,
-        &drops,
-        "--device gpu: the GPU backend does not render a coloured phase function (--phase water-drop) under --scattering path",
+        &blur("gpu"),
+        "--device gpu: the GPU backend does not render motion blur from a velocity grid (--shutter)",
     );
     // Under auto a device that runs on the CPU, as lavapipe does, is not taken: murk's
     // own CPU path renders faster. One note says so, naming the adapter.
@@ -95,14 +101,11 @@ fn auto_falls_back_to_the_cpu_with_a_note_and_gpu_refuses_in_one_line() {
         lines[0].contains("llvmpipe") && lines[0].contains("runs on the CPU"),
         "{err}"
     );
-    // Path tracing through water drops runs on the CPU only: named before any adapter
-    // is looked at.
-    let mut drops = args("auto", "path");
-    drops.extend(["--phase", "water-drop"]);
-    let err = ok(&dir, &drops);
+    // Motion blur runs on the CPU only: named before any adapter is looked at.
+    let err = ok(&dir, &blur("auto"));
     let lines = notes(&err);
     assert_eq!(lines.len(), 1, "{err}");
-    assert!(lines[0].contains("--scattering path"), "{err}");
+    assert!(lines[0].contains("motion blur"), "{err}");
     // The default render (fast scattering) of a density-only grid runs on the GPU, and
     // under auto it says why not (the adapter, not a feature).
     for (device, on) in [("gpu", "gpu: llvmpipe"), ("auto", "cpu")] {

@@ -7,7 +7,7 @@ use glam::{DMat4, DVec3, IVec3};
 use murk::vdb::{FloatGridOut, write_float_grids};
 
 /// The share of the CPU's beauty (R, G, B summed) that its `emission` layer is.
-fn emission_share(input: &str, o: &RenderOptions) -> f64 {
+pub(super) fn emission_share(input: &str, o: &RenderOptions) -> f64 {
     let cpu = render(input, o, Device::Cpu);
     let sum = |names: [&str; 3]| -> f64 {
         names
@@ -101,13 +101,11 @@ fn ball(name: &str, index_to_world: DMat4, centre: DVec3, radius: f64, peak: f32
     }
 }
 
-#[test]
-fn the_gpu_samples_flame_and_temperature_on_other_lattices_than_the_density() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
-    // Flame on a rotated, finer lattice; temperature on the density's voxel size
-    // shifted by a fraction of a voxel (no integer offset: sampled through the map
-    // between the lattices, at each segment's midpoint, as the CPU does).
+/// A VDB (written in a scratch folder `dir`) of a density ball, flame on a rotated,
+/// finer lattice and temperature on the density's voxel size shifted by a fraction of
+/// a voxel (no integer offset: sampled through the map between the lattices, at each
+/// segment's midpoint, as the CPU does).
+pub(super) fn three_lattices(dir: &str) -> PathBuf {
     let density = ball(
         "density",
         DMat4::from_scale(DVec3::splat(0.1)),
@@ -128,8 +126,16 @@ fn the_gpu_samples_flame_and_temperature_on_other_lattices_than_the_density() {
         0.6,
         2500.0,
     );
-    let path = scratch("gpu-lattices").join("lattices.vdb");
+    let path = scratch(dir).join("lattices.vdb");
     write_float_grids(&path, &[density, flame, temperature], &[]).unwrap();
+    path
+}
+
+#[test]
+fn the_gpu_samples_flame_and_temperature_on_other_lattices_than_the_density() {
+    need!(tools::LAVAPIPE);
+    use_lavapipe();
+    let path = three_lattices("gpu-lattices");
     let input = path.to_str().unwrap();
     let mut o = options("32x18");
     o.eye = Some("0,0,3".into());

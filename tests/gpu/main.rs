@@ -222,6 +222,7 @@ mod fast;
 mod ground;
 mod memory;
 mod path;
+mod path_features;
 mod sequence;
 mod single;
 mod sweep;

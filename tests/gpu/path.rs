@@ -7,7 +7,7 @@ use murk::render::piece::Piece;
 use murk::render::{FrameJob, Silent, render_image_frame};
 use murk::scene::reuse::FrameReuse;
 
-fn path(mut o: RenderOptions, spp: u32) -> RenderOptions {
+pub(super) fn path(mut o: RenderOptions, spp: u32) -> RenderOptions {
     o.scattering = Some(ScatteringMode::Path);
     o.spp = Some(spp);
     o
@@ -24,7 +24,12 @@ fn mean(p: &[f32]) -> f64 {
 /// CPU's under `same` (the streams are the CPU's: only paths where f32 and f64 decide
 /// differently differ), and far under the noise's. Returns (GPU/CPU relative RMSE, CPU
 /// seed-to-seed relative RMSE).
-fn gpu_traces_the_cpus_paths(input: &str, o: &RenderOptions, same: f64, pixel: f32) -> (f64, f64) {
+pub(super) fn gpu_traces_the_cpus_paths(
+    input: &str,
+    o: &RenderOptions,
+    same: f64,
+    pixel: f32,
+) -> (f64, f64) {
     let cpu = render(input, o, Device::Cpu);
     let gpu = render(input, o, Device::Gpu);
     let mut other = o.clone();

@@ -14,6 +14,8 @@ pub struct PathParts<'a> {
     pub lights: usize,
     /// A uniform dome lights the medium.
     pub environment: bool,
+    /// The volume emits (gathered along every flight).
+    pub emits: bool,
     /// The most scattering events of a path.
     pub bounces: u32,
     /// Free flights step through these blocks (`None`: through the tree's cells).
@@ -33,6 +35,7 @@ impl<'a> PathTracer<'a> {
             passes: &self.passes,
             lights: self.n_lights,
             environment: self.environment.is_some(),
+            emits: self.volume.emission.as_ref().is_some_and(|e| e.is_active()),
             bounces: self.settings.bounces,
             majorants: self.majorants.as_deref(),
             ratio_tracking: self.settings.transmittance == super::LightTransmittance::RatioTracking,

@@ -95,6 +95,12 @@ pub struct PhaseTable<'a> {
     pub nodes: &'a [f64],
     /// The phase function at each node, per channel.
     pub values: &'a [DVec3],
+    /// How [`PhaseFunction::sample`] draws θ: the cumulative probability at each node,
+    /// `1 − cos θ` at each node (linear in the probability within a bin), and the
+    /// sampling density of each bin (one fewer than the nodes), per steradian.
+    pub cdf: &'a [f64],
+    pub one_minus_cos: &'a [f64],
+    pub bin_pdf: &'a [f64],
 }
 
 /// A direction at angle `acos(cos_theta)` from the unit vector `axis`, at azimuth

@@ -437,6 +437,9 @@ impl PhaseFunction for WaterDrop {
             step: g.step,
             nodes: &g.nodes,
             values: &self.rgb,
+            cdf: &self.cdf,
+            one_minus_cos: &self.one_minus_cos,
+            bin_pdf: &self.bin_pdf,
         })
     }
 }

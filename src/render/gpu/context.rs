@@ -116,23 +116,7 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| format!("{name}: cannot open the device ({e})"))?;
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let source = MARCH_WGSL.join("\n");
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("march"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("march"),
-            layout: None,
-            module: &module,
-            entry_point: Some("march_samples"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(format!("{name}: the march does not compile ({e})"));
-        }
+        let pipeline = compile_on(&device, &name, "march", &MARCH_WGSL, "march_samples")?;
         Ok(Gpu {
             device,
             queue,
@@ -150,33 +134,21 @@ impl Gpu {
     /// first use.
     pub(super) fn columns_pipeline(&self) -> Result<&wgpu::ComputePipeline, String> {
         let compiled = self.columns.get_or_init(|| {
-            let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-            let source = [GRID_WGSL, include_str!("columns.wgsl")].join("\n");
-            let module = self
-                .device
-                .create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some("columns"),
-                    source: wgpu::ShaderSource::Wgsl(source.into()),
-                });
-            let pipeline = self
-                .device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some("columns"),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some("march_columns"),
-                    compilation_options: Default::default(),
-                    cache: None,
-                });
-            match pollster::block_on(scope.pop()) {
-                Some(e) => Err(format!(
-                    "{}: the column march does not compile ({e})",
-                    self.name
-                )),
-                None => Ok(pipeline),
-            }
+            let sources = [GRID_WGSL, include_str!("columns.wgsl")];
+            self.compile("column march", &sources, "march_columns")
         });
         compiled.as_ref().map_err(Clone::clone)
+    }
+
+    /// Compiles `sources` (WGSL, in this order) into a compute pipeline entered at
+    /// `entry`; `label` names it, and what does not compile in the error.
+    pub(super) fn compile(
+        &self,
+        label: &str,
+        sources: &[&str],
+        entry: &str,
+    ) -> Result<wgpu::ComputePipeline, String> {
+        compile_on(&self.device, &self.name, label, sources, entry)
     }
 
     /// The most bytes one storage buffer may bind.
@@ -218,20 +190,41 @@ impl Gpu {
         count: usize,
         stride: usize,
     ) -> Result<Vec<f32>, String> {
+        debug_assert!(RESULT_BASE <= stride);
+        self.dispatch(&self.pipeline, scene, samples, count, stride, &[])
+    }
+
+    /// Runs `pipeline` over `count` samples (`samples`, one invocation each) through the
+    /// uploaded scene, bound as the march binds it: the parameters (their `n_samples`
+    /// set) at 0, the scene's buffers, the samples at 5 and the results (`stride`
+    /// floats a sample) at 6; then `uniforms` from binding 9 on. Returns the results.
+    pub(super) fn dispatch(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        scene: &Resident,
+        samples: &[f32],
+        count: usize,
+        stride: usize,
+        uniforms: &[&[u32]],
+    ) -> Result<Vec<f32>, String> {
         let d = &self.device;
         let mut params = scene.params.clone();
         params[super::upload::N_SAMPLES_AT] = count as u32;
-        let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("params"),
-            contents: bytemuck::cast_slice(&params),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let uniform = |label: &str, words: &[u32]| {
+            d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::cast_slice(words),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        };
+        let params = uniform("params", &params);
+        let more: Vec<wgpu::Buffer> = uniforms.iter().map(|w| uniform("uniform", w)).collect();
         let input = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("samples"),
             contents: bytemuck::cast_slice(samples),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let bytes = (count * stride * 4) as u64;
+        let bytes = (count * stride * 4).max(16) as u64;
         let results = d.create_buffer(&wgpu::BufferDescriptor {
             label: Some("results"),
             size: bytes,
@@ -244,25 +237,27 @@ impl Gpu {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let mut entries = vec![
+            entry(0, &params),
+            entry(1, &scene.tree),
+            entry(2, &scene.vals),
+            entry(3, &scene.dsm[0]),
+            entry(4, &scene.meta),
+            entry(5, &input),
+            entry(6, &results),
+            entry(7, &scene.dsm[1]),
+            entry(8, &scene.dsm[2]),
+        ];
+        entries.extend((9..).zip(&more).map(|(k, b)| entry(k, b)));
         let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("march"),
-            layout: &self.pipeline.get_bind_group_layout(0),
-            entries: &[
-                entry(0, &params),
-                entry(1, &scene.tree),
-                entry(2, &scene.vals),
-                entry(3, &scene.dsm[0]),
-                entry(4, &scene.meta),
-                entry(5, &input),
-                entry(6, &results),
-                entry(7, &scene.dsm[1]),
-                entry(8, &scene.dsm[2]),
-            ],
+            label: Some("samples"),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
         });
         let mut encoder = d.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.pipeline);
+            pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bind, &[]);
             let groups = (count as u32).div_ceil(WORKGROUP);
             pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
@@ -284,10 +279,10 @@ impl Gpu {
             .slice(..)
             .get_mapped_range()
             .map_err(|e| format!("{}: reading the results back: {e:?}", self.name))?;
-        let values: Vec<f32> = bytemuck::cast_slice(&view).to_vec();
+        let mut values: Vec<f32> = bytemuck::cast_slice(&view).to_vec();
         drop(view);
         readback.unmap();
-        debug_assert!(RESULT_BASE <= stride);
+        values.truncate(count * stride);
         Ok(values)
     }
 
@@ -343,6 +338,33 @@ impl Gpu {
             ));
         }
         Ok((resident, making.finish()))
+    }
+}
+
+/// [`Gpu::compile`] on `device` (of the adapter `name`), before the [`Gpu`] is made.
+fn compile_on(
+    device: &wgpu::Device,
+    name: &str,
+    label: &str,
+    sources: &[&str],
+    entry: &str,
+) -> Result<wgpu::ComputePipeline, String> {
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(sources.join("\n").into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: None,
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    match pollster::block_on(scope.pop()) {
+        Some(e) => Err(format!("{name}: the {label} does not compile ({e})")),
+        None => Ok(pipeline),
     }
 }
 

@@ -28,10 +28,13 @@ const MAX_CELLS: u32 = 1048576u;
 // ---- rays against the grid's bounds and cells ----
 
 fn clip_to_bounds(r: Ray, t_min: f32, t_max: f32) -> vec2<f32> {
+    return clip_to_box(r, P.bounds_lo.xyz, P.bounds_hi.xyz, t_min, t_max);
+}
+
+// [t0, t1] of the ray over [t_min, t_max] inside the box [lo, hi] ((0, 0): none).
+fn clip_to_box(r: Ray, lo: vec3<f32>, hi: vec3<f32>, t_min: f32, t_max: f32) -> vec2<f32> {
     var t0 = t_min;
     var t1 = t_max;
-    let lo = P.bounds_lo.xyz;
-    let hi = P.bounds_hi.xyz;
     if (any(lo > hi)) {
         return vec2<f32>(0.0, 0.0);
     }
@@ -90,6 +93,50 @@ fn cell_exit(r: Ray, origin: vec3<i32>, size: i32) -> f32 {
         t_exit = min(t_exit, (face - r.o[a]) / d);
     }
     return t_exit;
+}
+
+// The cells a ray crosses over [t_min, t_max] inside the bounds, front to back: at most
+// MAX_CELLS of them, each at least a rounding step long (cells_next).
+struct Cells {
+    t: f32,
+    t_end: f32,
+    min_step: f32,
+    left: u32,
+};
+
+fn cells_start(r: Ray, t_min: f32, t_max: f32) -> Cells {
+    let clip = clip_to_bounds(r, t_min, t_max);
+    let scale = max(max(abs(r.o.x), abs(r.o.y)), max(abs(r.o.z), 1.0));
+    return Cells(clip.x, clip.y, 1e-6 * scale / length(r.d), MAX_CELLS);
+}
+
+// The next cell whose range is not all 0, in `cell`, and the ray's stretch [t0, t1] in
+// it, in `span`: the density's cells (cell_at), or with `beside` theirs with the grids
+// visited beside it (visited_cell); false past the end.
+fn cells_next(c: ptr<function, Cells>, r: Ray, beside: bool, cell: ptr<function, Cell>,
+              span: ptr<function, vec2<f32>>) -> bool {
+    loop {
+        if (!((*c).t < (*c).t_end) || (*c).left == 0u) {
+            break;
+        }
+        (*c).left -= 1u;
+        var here: Cell;
+        if (beside) {
+            here = visited_cell(voxel_ahead(r, (*c).t));
+        } else {
+            here = cell_at(voxel_ahead(r, (*c).t));
+        }
+        let exit = cell_exit(r, here.origin, here.size);
+        let t0 = (*c).t;
+        (*c).t = min(max(exit, t0 + (*c).min_step), (*c).t_end);
+        if (here.hi <= 0.0 && here.lo >= 0.0) {
+            continue;
+        }
+        *cell = here;
+        *span = vec2<f32>(t0, (*c).t);
+        return true;
+    }
+    return false;
 }
 
 // ---- exact density integrals: a walk over the voxel cells ----
@@ -278,26 +325,16 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     if (speed > 0.0 && speed < BIG) {
         let h = max(P.step_voxels, 1e-6) / speed;
         let st_max = max(max(P.sigma_t.x, P.sigma_t.y), P.sigma_t.z);
-        let clip = clip_to_bounds(r, smp.index_origin.w, t_max);
-        var t = clip.x;
-        let t_end = clip.y;
-        let scale = max(max(abs(r.o.x), abs(r.o.y)), max(abs(r.o.z), 1.0));
-        let min_step = 1e-6 * scale / speed;
-        var cells = MAX_CELLS;
+        var cells = cells_start(r, smp.index_origin.w, t_max);
+        var cell: Cell;
+        var span: vec2<f32>;
         var budget = 16777216u;
         loop {
-            if (!(t < t_end) || cells == 0u || terminated) {
+            if (terminated || !cells_next(&cells, r, true, &cell, &span)) {
                 break;
             }
-            cells -= 1u;
-            let cell = visited_cell(voxel_ahead(r, t));
-            let exit = cell_exit(r, cell.origin, cell.size);
-            let t1 = min(max(exit, t + min_step), t_end);
-            let t0 = t;
-            t = t1;
-            if (cell.hi <= 0.0 && cell.lo >= 0.0) {
-                continue;
-            }
+            let t0 = span.x;
+            let t1 = span.y;
             // One span [t0, t1]: segments of h_span, the first shortened by the jitter
             // (not longer in thin cells where something emits: flame does not follow
             // density). A cell of several grids' is never taken as constant.

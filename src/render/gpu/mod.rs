@@ -32,32 +32,18 @@ pub use sweep::{GpuSweeper, SweepTimes, sweeps_lattice};
 
 use super::pixels::{PixelJob, PixelPasses};
 use crate::field::grid_nodes::FlatGridError;
-use crate::integrate::ScatteringMode;
 use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::single::SingleScattering;
+use crate::integrate::{MarchSettings, ScatteringMode, Volume};
 use crate::scene::Scene;
 use crate::scene::light::LightKind;
-use crate::scene::lights::LightShadow;
+use crate::scene::lights::{LightShadow, SceneLights};
 use crate::scene::plan::RenderPlan;
 use std::time::Instant;
 
 /// The first feature of the render that the GPU backend does not run, or `None` when
 /// it runs all of them.
 pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
-    // What the march may render but the path tracer's port does not.
-    if plan.transport.mode == ScatteringMode::Path {
-        if scene.scatters && !scene.phase.is_grey() {
-            return Some(
-                "a coloured phase function (--phase water-drop) under --scattering path".into(),
-            );
-        }
-        if scene.emits {
-            return Some("emission and temperature grids under --scattering path".into());
-        }
-        if scene.fields.color.is_some() && scene.scatters {
-            return Some("a colour grid under --scattering path".into());
-        }
-    }
     let Some(grid) = scene.fields.density.as_voxel_grid() else {
         return Some(if plan.volumes.is_some() {
             "several volumes ([[volume]] tables)".into()
@@ -109,6 +95,42 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
     None
 }
 
+/// What the march and the path tracer upload alike of `scene` (its lights `lights`,
+/// its volume `volume`): the density's grid and nodes, the medium, the phase function,
+/// the lights with their shadows, the grids beside the density and the bounds of the
+/// cells a camera ray visits; the rest as a march without the fast mode's lattice or a
+/// ground takes it, for the caller to set.
+fn scene_parts<'a>(
+    scene: &'a Scene,
+    lights: &'a SceneLights,
+    volume: &'a Volume<'a>,
+) -> Result<upload::SceneParts<'a>, String> {
+    let grid = scene
+        .fields
+        .density
+        .as_voxel_grid()
+        .ok_or("a density that is not a voxel grid")?;
+    let nodes = grid
+        .nodes()
+        .map_err(|_| "a density grid it cannot flatten")?;
+    Ok(upload::SceneParts {
+        grid,
+        nodes,
+        medium: scene.medium,
+        phase: scene.phase.as_ref(),
+        lights: &scene.lights,
+        shadows: &lights.shadows,
+        settings: MarchSettings::default(),
+        scatters: scene.scatters && scene.medium.scatters(),
+        lattice: None,
+        ground: false,
+        quadrature: lights.quadrature,
+        enough: lights.enough,
+        beside: grids::Beside::of(volume),
+        bounds: crate::field::Field::active_bounds(volume.traversal),
+    })
+}
+
 /// Seconds the GPU's stages took.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct GpuTimes {
@@ -142,32 +164,14 @@ pub fn render_pixels(
     kept: Option<&mut KeptBuffers>,
 ) -> Result<(PixelPasses, GpuTimes), String> {
     let t = Instant::now();
-    let grid = scene
-        .fields
-        .density
-        .as_voxel_grid()
-        .ok_or("a density that is not a voxel grid")?;
-    let nodes = grid
-        .nodes()
-        .map_err(|_| "a density grid it cannot flatten")?;
     let lights = scene.illumination();
     let traversal = scene.traversal();
     let volume = scene.volume(&traversal);
     let mut buffers = upload::build(&upload::SceneParts {
-        grid,
-        nodes,
-        medium: scene.medium,
-        phase: scene.phase.as_ref(),
-        lights: &scene.lights,
-        shadows: &lights.shadows,
         settings: job.integrator.settings(),
-        scatters: scene.scatters && scene.medium.scatters(),
         lattice,
         ground: job.integrator.ground().is_some(),
-        quadrature: lights.quadrature,
-        enough: lights.enough,
-        beside: grids::Beside::of(&volume),
-        bounds: crate::field::Field::active_bounds(&traversal),
+        ..scene_parts(scene, &lights, &volume)?
     })?;
     let layout = t.elapsed().as_secs_f64();
     let resident_bytes = buffers.resident_bytes();

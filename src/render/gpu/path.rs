@@ -2,33 +2,33 @@
 //! compute shader (path.wgsl, path_tracking.wgsl), one invocation per camera sample,
 //! over the march's uploaded grid and shadow maps and the path tracer's majorant grid
 //! (its blocks' maxima and minima appended to `meta`). Each sample carries its random
-//! streams' key ([`SampleRng::stream_key`]), so the GPU draws the CPU's numbers: where
+//! streams' key ([`crate::integrate::integrator::SampleRng::stream_key`]), so the GPU draws the CPU's numbers: where
 //! f32 and f64 agree on every decision a path is the CPU's path. The samples, their rays
 //! and the pixels' two passes are the single march's ([`super::pixels::assemble`]); each
 //! sample's values are written into the pixel's passes on the CPU by the path tracer's
 //! own [`crate::integrate::scatter_passes::ScatterPasses`].
 
 use super::GpuTimes;
-use super::context::{GROUPS_X, Gpu, MARCH_WGSL, Resident, WORKGROUP, entry};
-use super::pixels::{Pick, assemble, sample_points};
-use super::upload::{self, N_SAMPLES_AT, SAMPLE_FLOATS};
-use crate::field::{Field, IndexRay};
-use crate::integrate::integrator::{Integrator, SampleRng};
+use super::context::{Gpu, MARCH_WGSL, Resident};
+use super::pixels::{Pick, Placed, assemble, put_ray, sample_points};
+use super::upload::{self, SAMPLE_FLOATS};
+use crate::field::Field;
+use crate::integrate::integrator::Integrator;
 use crate::integrate::pass::PassKind;
 use crate::integrate::path::PathTracer;
-use crate::integrate::{MarchSettings, phase::HenyeyGreenstein};
+use crate::integrate::phase::{HenyeyGreenstein, PhaseFunction};
 use crate::render::pixels::{PixelJob, PixelPasses, finish_pixel};
 use crate::scene::Scene;
 use crate::scene::lights::LightShadow;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::time::Instant;
-use wgpu::util::DeviceExt;
 
 /// Floats a path sample takes in the input: the march's sample, then its key and flags.
 const PATH_SAMPLE_FLOATS: usize = 2 * SAMPLE_FLOATS;
-/// Floats of a result before the per-light radiance (8 a light: once, more than once).
-const PATH_RESULT_BASE: usize = 4;
+/// Floats of a result before the per-light radiance (8 a light: once, more than once):
+/// the camera ray's, then the emission seen directly, after one event and after more.
+const PATH_RESULT_BASE: usize = 16;
 /// The most samples one dispatch traces: a path's cost has no bound a march's has, and
 /// a long dispatch may be stopped by the driver's watchdog.
 const PATH_BATCH: usize = 1 << 18;
@@ -46,45 +46,28 @@ pub fn render_path(
     let t = Instant::now();
     // Compiled before the samples are timed (a setup cost, as the upload is).
     path_pipeline(gpu)?;
-    let grid = scene
-        .fields
-        .density
-        .as_voxel_grid()
-        .ok_or("a density that is not a voxel grid")?;
-    let nodes = grid
-        .nodes()
-        .map_err(|_| "a density grid it cannot flatten")?;
     let lights = scene.illumination();
+    let traversal = scene.traversal();
+    let volume = scene.volume(&traversal);
     let parts = job.integrator.parts();
     // Shadow rays tracked on the GPU read no map.
     let unshadowed: Vec<LightShadow> = (0..scene.lights.len())
         .map(|_| LightShadow::Unshadowed)
         .collect();
+    let base = super::scene_parts(scene, &lights, &volume)?;
+    let grid = base.grid;
     let mut buffers = upload::build(&upload::SceneParts {
-        grid,
-        nodes,
-        medium: scene.medium,
-        phase: scene.phase.as_ref(),
-        lights: &scene.lights,
         shadows: if parts.ratio_tracking {
             &unshadowed
         } else {
-            &lights.shadows
+            base.shadows
         },
-        settings: MarchSettings::default(),
         scatters: parts.lights > 0,
-        lattice: None,
-        // Emission and colour grids are refused under path.
-        beside: super::grids::Beside {
-            emission: None,
-            color: None,
-        },
+        // The flights' blocks lie over the density's bounds (emission past it is
+        // gathered to PathParams' bounds). The path tracer finds no ground and marches
+        // no shadow ray of the march's kind.
         bounds: grid.active_bounds(),
-        // The path tracer finds no ground (refused with path) and marches no shadow ray
-        // of the march's kind.
-        ground: false,
-        quadrature: lights.quadrature,
-        enough: lights.enough,
+        ..base
     })?;
     // The majorant grid: the path tracer's, else one of the same blocks.
     let built;
@@ -102,6 +85,7 @@ pub fn render_path(
     buffers
         .meta
         .resize(buffers.meta.len().max(maj_base + 4), 0.0);
+    let phase = phase_sampling(scene.phase.as_ref(), &mut buffers.meta)?;
     if buffers.meta.len() as u64 >= u32::MAX as u64 {
         return Err("a majorant grid over 2^32 floats".into());
     }
@@ -146,6 +130,13 @@ pub fn render_path(
         f(radiance.z),
         f(if dome.is_some() { 1.0 } else { 0.0 }),
     ]);
+    // Emission past the density is gathered to the bounds of the grids traversed with it.
+    let emits = volume.emission.as_ref().is_some_and(|e| e.is_active());
+    let b = Field::active_bounds(&traversal);
+    let lo = b.min.as_dvec3();
+    params.extend([f(lo.x), f(lo.y), f(lo.z), f(if emits { 1.0 } else { 0.0 })]);
+    params.extend(col(b.max.as_dvec3()));
+    params.extend(phase);
     let path_params = PathBatch {
         params,
         stride,
@@ -219,15 +210,8 @@ fn trace_chunk(
     let frame = job.camera.frame();
     let parts = integrator.parts();
     let density = parts.density;
-    let points: Vec<Vec<(f64, f64, u32)>> =
-        picks.par_iter().map(|&p| sample_points(job, p)).collect();
-    let mut starts = Vec::with_capacity(picks.len() + 1);
-    let mut total = 0;
-    for p in &points {
-        starts.push(total);
-        total += p.len();
-    }
-    starts.push(total);
+    let placed = Placed::new(job, picks);
+    let (starts, total) = (&placed.starts, placed.total());
     let mut input = vec![0f32; total * PATH_SAMPLE_FLOATS];
     // Per sample: its depth rate and the weight of its opacity (none: not computed).
     let mut extra = vec![(0f64, None::<f64>); total];
@@ -236,20 +220,8 @@ fn trace_chunk(
         .zip(extra.par_iter_mut())
         .enumerate()
         .for_each(|(i, (out, extra))| {
-            let k = starts.partition_point(|&s| s <= i) - 1;
-            let (p, (jx, jy, stream)) = (picks[k], points[k][i - starts[k]]);
-            let sample = job.camera_sample(&frame, p.x, p.y, jx, jy, None);
-            let ray = sample.ray;
-            let (sx, sy) = job.stream_pixel(p.x, p.y);
-            let rng = SampleRng::new(job.seed, sx, sy, stream);
-            let index = IndexRay::new(density, ray.origin, ray.dir);
-            let put = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
-            out[..3].copy_from_slice(&put(ray.origin));
-            out[4..7].copy_from_slice(&put(ray.dir));
-            out[7] = ray.t_max.min(f32::MAX as f64) as f32;
-            out[8..11].copy_from_slice(&put(index.origin));
-            out[11] = ray.t_min.min(f32::MAX as f64) as f32;
-            out[12..15].copy_from_slice(&put(index.dir));
+            let (_, sample, rng) = placed.sample(job, &frame, picks, i);
+            put_ray(out, &sample.ray, density);
             let key = rng.stream_key();
             for (q, o) in out[16..20].iter_mut().enumerate() {
                 *o = ((key >> (16 * q)) & 0xffff) as f32;
@@ -290,6 +262,11 @@ fn trace_chunk(
                 }
                 n_samples += r[2] as u64;
                 let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
+                if parts.emits {
+                    passes.add_emission(&mut acc, v(4));
+                    passes.add_scattered_emission(&mut acc, 1, v(8));
+                    passes.add_scattered_emission(&mut acc, 2, v(12));
+                }
                 for l in 0..batch.layers {
                     let at = PATH_RESULT_BASE + 8 * l;
                     passes.add_scattered(&mut acc, l, 1, v(at));
@@ -316,119 +293,55 @@ fn dispatch(
     let d = &gpu.device;
     let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
     let oom = d.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-    let mut params = scene.params.clone();
-    params[N_SAMPLES_AT] = count as u32;
-    let uniform = |label: &str, words: &[u32]| {
-        d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytemuck::cast_slice(words),
-            usage: wgpu::BufferUsages::UNIFORM,
-        })
-    };
-    let params = uniform("params", &params);
-    let path_params = uniform("path params", &batch.params);
-    let input = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("path samples"),
-        contents: bytemuck::cast_slice(samples),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
-    let bytes = (count * batch.stride * 4).max(16) as u64;
-    let results = d.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("path results"),
-        size: bytes,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let readback = d.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("path readback"),
-        size: bytes,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("path"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            entry(0, &params),
-            entry(1, &scene.tree),
-            entry(2, &scene.vals),
-            entry(3, &scene.dsm[0]),
-            entry(4, &scene.meta),
-            entry(5, &input),
-            entry(6, &results),
-            entry(7, &scene.dsm[1]),
-            entry(8, &scene.dsm[2]),
-            entry(9, &path_params),
-        ],
-    });
-    let mut encoder = d.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        let groups = (count as u32).div_ceil(WORKGROUP);
-        pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
-    }
-    encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, bytes);
-    gpu.queue.submit([encoder.finish()]);
-    let (tx, rx) = std::sync::mpsc::channel();
-    readback.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    d.poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| format!("{}: {e}", gpu.name))?;
-    let mapped = rx
-        .recv()
-        .map_err(|e| e.to_string())
-        .and_then(|r| r.map_err(|e| e.to_string()));
+    let traced = gpu.dispatch(
+        pipeline,
+        scene,
+        samples,
+        count,
+        batch.stride,
+        &[&batch.params],
+    );
     if let Some(e) = pollster::block_on(oom.pop()) {
         return Err(format!("{}: out of memory ({e})", gpu.name));
     }
     if let Some(e) = pollster::block_on(scope.pop()) {
         return Err(format!("{}: {e}", gpu.name));
     }
-    mapped.map_err(|e| format!("{}: reading the paths back: {e}", gpu.name))?;
-    let view = readback
-        .slice(..)
-        .get_mapped_range()
-        .map_err(|e| format!("{}: reading the paths back: {e:?}", gpu.name))?;
-    let mut values: Vec<f32> = bytemuck::cast_slice(&view).to_vec();
-    drop(view);
-    readback.unmap();
-    values.truncate(count * batch.stride);
-    Ok(values)
+    traced
+}
+
+/// Appends to `meta` how the phase function is sampled where it is a table (water
+/// drops: per node the cumulative probability as two floats, hi + lo, `1 − cos θ` and
+/// its bin's density, as `WaterDrop::sample` draws θ); `PathParams.phase`: 1, where
+/// they start and the bins (all 0 for Henyey–Greenstein, sampled in closed form).
+fn phase_sampling(phase: &dyn PhaseFunction, meta: &mut Vec<f32>) -> Result<[u32; 4], String> {
+    let Some(t) = phase.table() else {
+        return Ok([0; 4]);
+    };
+    let n = t.cdf.len();
+    if n < 2 || t.one_minus_cos.len() != n || t.bin_pdf.len() + 1 != n {
+        return Err("a phase table whose sampling bins do not match its nodes".into());
+    }
+    let base = meta.len();
+    for i in 0..n {
+        let pdf = t.bin_pdf.get(i).copied().unwrap_or(0.0);
+        let hi = t.cdf[i] as f32;
+        let lo = (t.cdf[i] - hi as f64) as f32;
+        meta.extend([hi, lo, t.one_minus_cos[i] as f32, pdf as f32]);
+    }
+    Ok([1, base as u32, (n - 1) as u32, 0])
 }
 
 /// The path tracer's pipeline (path.wgsl and path_tracking.wgsl after the march's
 /// sources), compiled on first use.
 fn path_pipeline(gpu: &Gpu) -> Result<&wgpu::ComputePipeline, String> {
     let compiled = gpu.path.get_or_init(|| {
-        let d = &gpu.device;
-        let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut sources = MARCH_WGSL.to_vec();
         sources.extend([
             include_str!("path.wgsl"),
             include_str!("path_tracking.wgsl"),
         ]);
-        let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("path"),
-            source: wgpu::ShaderSource::Wgsl(sources.join("\n").into()),
-        });
-        let pipeline = d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("path"),
-            layout: None,
-            module: &module,
-            entry_point: Some("path_samples"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        match pollster::block_on(scope.pop()) {
-            Some(e) => Err(format!(
-                "{}: the path tracer does not compile ({e})",
-                gpu.name
-            )),
-            None => Ok(pipeline),
-        }
+        gpu.compile("path tracer", &sources, "path_samples")
     });
     compiled.as_ref().map_err(Clone::clone)
 }

@@ -27,6 +27,11 @@ struct PathParams {
     ratio: u32,              // 1: shadow rays by ratio tracking, else the lights' maps
     _pad: u32,
     environment: vec4<f32>,  // a uniform dome's radiance, w: 1 where there is one
+    emit_lo: vec4<f32>,      // where emission is gathered to past the density: the
+    emit_hi: vec4<f32>,      // traversed grids' bounds (local index); emit_lo.w: 1 where
+                             // something emits
+    phase: vec4<u32>,        // 1 where the phase function is a table (water drops), its
+                             // sampling bins' start in meta_ and their number, 0
 };
 
 @group(0) @binding(9) var<uniform> Q: PathParams;
@@ -79,6 +84,17 @@ fn next_f(s: ptr<function, vec2<u32>>) -> f32 {
     return f32(mix64(*s).y >> 8u) * (1.0 / 16777216.0);
 }
 
+// The next number to 48 of the CPU's 53 bits, as hi + lo (hi: next_f's): where a
+// weight depends on where in a bin the number falls (the water drops' θ), 24 bits
+// would move it by up to 2^-24 of the bin's probability away from the CPU's.
+fn next_f_fine(s: ptr<function, vec2<u32>>) -> vec2<f32> {
+    *s = add64(*s, vec2<u32>(0x7F4A7C15u, 0x9E3779B9u));
+    let z = mix64(*s);
+    let hi = f32(z.y >> 8u) * (1.0 / 16777216.0);
+    let lo = f32(((z.y & 0xffu) << 16u) | (z.x >> 16u)) * (1.0 / 281474976710656.0);
+    return vec2<f32>(hi, lo);
+}
+
 // ---- helpers ----
 
 fn max3(v: vec3<f32>) -> f32 {
@@ -97,13 +113,6 @@ fn to_index(x: vec3<f32>) -> vec3<f32> {
 
 fn to_index_dir(d: vec3<f32>) -> vec3<f32> {
     return Q.to_index_x.xyz * d.x + Q.to_index_y.xyz * d.y + Q.to_index_z.xyz * d.z;
-}
-
-// The density at local index point p (trilinear, as the CPU's value_at_index).
-fn density_at(p: vec3<f32>) -> f32 {
-    let c = floor(p);
-    let v = cell_corners(vec3<i32>(c));
-    return trilinear(vec4<f32>(v[0], v[1], v[2], v[3]), vec4<f32>(v[4], v[5], v[6], v[7]), p - c);
 }
 
 // ∫ρ dt over [a, b] of the ray, by a fresh walk.
@@ -135,13 +144,72 @@ fn hg_inverse_cdf(xi: f32, g: f32) -> f32 {
 // A unit direction at angle acos(c) from the unit `axis`, azimuth `phi` (frame_around).
 fn frame_around(axis: vec3<f32>, c0: f32, phi: f32) -> vec3<f32> {
     let c = clamp(c0, -1.0, 1.0);
-    let s = sqrt(max(1.0 - c * c, 0.0));
+    return frame_around_cs(axis, c, sqrt(max(1.0 - c * c, 0.0)), phi);
+}
+
+// frame_around() at the angle whose cosine is c and sine s.
+fn frame_around_cs(axis: vec3<f32>, c: f32, s: f32, phi: f32) -> vec3<f32> {
     let sgn = select(1.0, -1.0, axis.z < 0.0);
     let a = -1.0 / (sgn + axis.z);
     let b = axis.x * axis.y * a;
     let t1 = vec3<f32>(1.0 + sgn * axis.x * axis.x * a, sgn * b, -sgn * axis.x);
     let t2 = vec3<f32>(b, sgn + axis.y * axis.y * a, -axis.y);
     return normalize(axis * c + (t1 * cos(phi) + t2 * sin(phi)) * s);
+}
+
+// ---- the phase function: Henyey–Greenstein, or the water drops' table ----
+
+// The phase function between the direction light travels and the one toward the
+// camera (unit vectors), per channel.
+fn path_phase(travel: vec3<f32>, toward: vec3<f32>) -> vec3<f32> {
+    if (Q.phase.x != 0u) {
+        return phase_between(travel, toward);
+    }
+    return vec3<f32>(hg(dot(travel, toward), Q.g));
+}
+
+// A direction light travelling along `incoming` scatters into, drawn from (u0, u1) as
+// PhaseFunction::sample draws it (u0 to 48 bits: next_f_fine), with its weight p/pdf per
+// channel in `weight`. A table's θ: the last bin whose cumulative probability starts at
+// or below u0, 1 − cos θ linear in the probability within it (taken from 1 − cos θ
+// itself: f32's cosine cannot tell the drops' forward peak apart). Its nodes: the
+// cumulative probability as hi + lo, 1 − cos θ, the bin's density.
+fn sample_phase(incoming: vec3<f32>, u0: vec2<f32>, u1: f32, weight: ptr<function, vec3<f32>>) -> vec3<f32> {
+    let phi = 6.283185307179586 * u1;
+    if (Q.phase.x == 0u) {
+        *weight = vec3<f32>(1.0);
+        return frame_around(incoming, hg_inverse_cdf(u0.x, Q.g), phi);
+    }
+    let base = Q.phase.y;
+    let bins = Q.phase.z;
+    var lo = 0u;
+    var hi = bins + 1u;
+    while (lo < hi) {
+        let m = (lo + hi) / 2u;
+        if (past_cdf(u0, base + 4u * m) >= 0.0) {
+            lo = m + 1u;
+        } else {
+            hi = m;
+        }
+    }
+    let at = base + 4u * min(max(lo, 1u) - 1u, bins - 1u);
+    let width = (meta_[at + 4u] - meta_[at]) + (meta_[at + 5u] - meta_[at + 1u]);
+    var v = 0.5;
+    if (width > 0.0) {
+        v = clamp(past_cdf(u0, at) / width, 0.0, 1.0);
+    }
+    let omc = clamp(meta_[at + 2u] + v * (meta_[at + 6u] - meta_[at + 2u]), 0.0, 2.0);
+    let pdf = meta_[at + 3u];
+    *weight = vec3<f32>(0.0);
+    if (pdf > 0.0) {
+        *weight = phase_at(2.0 * asin(sqrt(0.5 * omc))) / pdf;
+    }
+    return frame_around_cs(incoming, 1.0 - omc, sqrt(omc * (2.0 - omc)), phi);
+}
+
+// u − the cumulative probability stored (hi, lo) at meta_[at].
+fn past_cdf(u: vec2<f32>, at: u32) -> f32 {
+    return (u.x - meta_[at]) + (u.y - meta_[at + 1u]);
 }
 
 // ---- the camera ray's opacity (path/camera.rs) ----
@@ -190,26 +258,16 @@ fn camera_ray(r: Ray, t_min: f32, t_max: f32, half: ptr<function, f32>, n: ptr<f
     if (!(speed > 0.0 && speed < BIG)) {
         return 0.0;
     }
-    let clip = clip_to_bounds(r, t_min, t_max);
-    var t = clip.x;
-    let t_end = clip.y;
-    let scale = max(max(abs(r.o.x), abs(r.o.y)), max(abs(r.o.z), 1.0));
-    let min_step = 1e-6 * scale / speed;
     var total = 0.0;
-    var cells = MAX_CELLS;
+    var cells = cells_start(r, t_min, t_max);
+    var cell: Cell;
+    var span: vec2<f32>;
     loop {
-        if (!(t < t_end) || cells == 0u) {
+        if (!cells_next(&cells, r, false, &cell, &span)) {
             break;
         }
-        cells -= 1u;
-        let cell = cell_at(voxel_ahead(r, t));
-        let exit = cell_exit(r, cell.origin, cell.size);
-        let t1 = min(max(exit, t + min_step), t_end);
-        let t0 = t;
-        t = t1;
-        if (cell.hi <= 0.0 && cell.lo >= 0.0) {
-            continue;
-        }
+        let t0 = span.x;
+        let t1 = span.y;
         var part: f32;
         if (cell.lo == cell.hi) {
             part = cell.hi * (t1 - t0);
@@ -234,7 +292,8 @@ fn event_stream(key: vec2<u32>, events: u32, lo: u32) -> vec2<u32> {
 
 // Results of sample i at results[i * Q.stride]: the camera ray's ∫ρ (0 where its
 // opacity is not computed), the half-opacity t (−1: none), the density samples taken,
-// 0; then per light (the environment last) its light scattered once (rgb, 0) and more
+// 0; the emission seen directly, after one scattering event and after more (rgb, 0
+// each); then per light (the environment last) its light scattered once (rgb, 0) and more
 // than once (rgb, 0). The samples: two `Sample`s each, the march's, then the key of its
 // random streams in four 16-bit parts (world_origin) and 1 where its opacity is
 // computed (world_dir.x).
@@ -267,16 +326,23 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     let n_lights = min(Q.n_lights, MAX_LIGHTS);
     let env = Q.environment.w != 0.0;
     let n_layers = n_lights + select(0u, 1u, env);
+    let emits = Q.emit_lo.w != 0.0;
+    var glow: array<vec3<f32>, 3>;
+    for (var k = 0; k < 3; k++) {
+        glow[k] = vec3<f32>(0.0);
+    }
     var wo = smp.world_origin.xyz;
     var wd = smp.world_dir.xyz;
     var beta = vec3<f32>(1.0);
     var events = 0u;
     loop {
-        if (n_layers == 0u) {
+        if (n_layers == 0u && !emits) {
             break;
         }
         var rng = event_stream(key, events, 0u);
-        let t = fly(r, t_min, t_max, &beta, &rng, &n);
+        var emitted = vec3<f32>(0.0);
+        let t = fly(r, t_min, t_max, &beta, &rng, &n, &emitted);
+        glow[min(events, 2u)] += emitted;
         if (t < 0.0) {
             // Escaped: the dome's light, after at least one event.
             if (env && events > 0u) {
@@ -308,7 +374,7 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
             } else {
                 tr = exp(-P.sigma_t.xyz * max(density_to_light(l, x), 0.0));
             }
-            let v = beta * hg(dot(travel, -wd), Q.g) * irr * tr;
+            let v = beta * path_phase(travel, -wd) * irr * tr;
             if (finite3(v)) {
                 if (events == 1u) {
                     once[l] += v;
@@ -321,11 +387,12 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
             // The last event: the dome's light through it, by ratio tracking along a
             // phase-sampled direction.
             if (env) {
-                let u0 = next_f(&rng);
+                let u0 = next_f_fine(&rng);
                 let u1 = next_f(&rng);
-                let d = frame_around(wd, hg_inverse_cdf(u0, Q.g), 6.283185307179586 * u1);
+                var w: vec3<f32>;
+                let d = sample_phase(wd, u0, u1, &w);
                 var sh = event_stream(key, events, 1u + n_lights);
-                let v = beta * ratio_tracking(x, d, BIG, &sh, &n) * Q.environment.xyz;
+                let v = beta * w * ratio_tracking(x, d, BIG, &sh, &n) * Q.environment.xyz;
                 if (events == 1u) {
                     once[n_lights] += v;
                 } else {
@@ -343,9 +410,11 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
                 beta /= q;
             }
         }
-        let u0 = next_f(&rng);
+        let u0 = next_f_fine(&rng);
         let u1 = next_f(&rng);
-        wd = frame_around(wd, hg_inverse_cdf(u0, Q.g), 6.283185307179586 * u1);
+        var w: vec3<f32>;
+        wd = sample_phase(wd, u0, u1, &w);
+        beta *= w;
         if (!(max3(beta) > 0.0) || !finite3(beta)) {
             break;
         }
@@ -358,8 +427,15 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     results[out + 1u] = half;
     results[out + 2u] = f32(n);
     results[out + 3u] = 0.0;
+    for (var k = 0u; k < 3u; k++) {
+        let o = out + 4u + 4u * k;
+        results[o] = glow[k].x;
+        results[o + 1u] = glow[k].y;
+        results[o + 2u] = glow[k].z;
+        results[o + 3u] = 0.0;
+    }
     for (var l = 0u; l < n_layers; l++) {
-        let o = out + 4u + 8u * l;
+        let o = out + 16u + 8u * l;
         results[o] = once[l].x;
         results[o + 1u] = once[l].y;
         results[o + 2u] = once[l].z;

@@ -32,10 +32,11 @@ fn mis_weight(q: vec3<f32>, w: vec3<f32>, i: f32) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-// A free flight over the dense span [t0, t1]: the collision's t with `beta` multiplied
-// by its weight (σs included), or −1 when it passes the span (`beta` weighted for that).
+// A free flight over the dense span [t0, t1]: the collision's t with in `w` the factor
+// the throughput takes there (without σs, which the caller takes at the point, tinted),
+// or −1 when it passes the span (`beta` weighted for that).
 fn dense_flight(r: Ray, t0: f32, t1: f32, maj: f32, beta: ptr<function, vec3<f32>>,
-                rng: ptr<function, vec2<u32>>, n: ptr<function, u32>) -> f32 {
+                rng: ptr<function, vec2<u32>>, n: ptr<function, u32>, w: ptr<function, vec3<f32>>) -> f32 {
     let total = (*beta).x + (*beta).y + (*beta).z;
     if (!(total > 0.0)) {
         return -1.0;
@@ -113,7 +114,7 @@ fn dense_flight(r: Ray, t0: f32, t1: f32, maj: f32, beta: ptr<function, vec3<f32
     }
     let t = 0.5 * (a + b);
     *n += 1u;
-    *beta *= P.sigma_s.xyz * mis_weight(q, st, max(integral_over(r, t0, t), 0.0));
+    *w = mis_weight(q, st, max(integral_over(r, t0, t), 0.0));
     return t;
 }
 
@@ -204,13 +205,46 @@ fn blocks_next(b: ptr<function, Blocks>, span: ptr<function, vec4<f32>>) -> bool
     return false;
 }
 
+// ---- emission along a flight ----
+
+// ∫ε dt over [a, b] of the ray, in pieces of at most a voxel, each piece's emission
+// coefficient the march's segment's (emitted(): the emission grid's exact mean, the
+// temperature at the midpoint), as PathTracer::emission_over.
+fn emission_over(r: Ray, a: f32, b: f32) -> vec3<f32> {
+    let n = u32(clamp(ceil((b - a) * max(length(r.d), 1e-30)), 1.0, 65536.0));
+    let h = (b - a) / f32(n);
+    var w = walk_start(r, a);
+    if (P.emit_grids.y != 0u) {
+        let o = vec3<f32>(grid_shift(grid_of(P.emit_grids.x)));
+        w = walk_start(Ray(r.o + o, r.d), a);
+    }
+    var budget = 16777216u;
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < n; i++) {
+        let s0 = a + h * f32(i);
+        let s1 = a + h * f32(i + 1u);
+        sum += emitted(r, &w, s0, s1, ray_at(r, 0.5 * (s0 + s1)), &budget) * h;
+    }
+    return sum;
+}
+
+// Adds to `sum` the emission over [a, b] weighted by the throughput `beta`.
+fn gather(r: Ray, a: f32, b: f32, beta: vec3<f32>, sum: ptr<function, vec3<f32>>) {
+    if (Q.emit_lo.w != 0.0 && b > a) {
+        *sum += beta * emission_over(r, a, b);
+    }
+}
+
 // ---- free flights ----
 
 // Flies along `r` over [t_min, t_max]: the first scattering event's t, with `beta`
-// weighted for it, or −1 when the path leaves the volume.
+// weighted for it, or −1 when the path leaves the volume. The emission along the
+// flight (between its tentative collisions, times the throughput there) is added to
+// `emitted`.
 fn fly(r: Ray, t_min: f32, t_max: f32, beta: ptr<function, vec3<f32>>,
-       rng: ptr<function, vec2<u32>>, n: ptr<function, u32>) -> f32 {
+       rng: ptr<function, vec2<u32>>, n: ptr<function, u32>, emitted: ptr<function, vec3<f32>>) -> f32 {
     let st_max = max3(P.sigma_t.xyz);
+    var piece = t_min;
     var blocks = blocks_start(r, t_min, t_max);
     var span: vec4<f32>;
     loop {
@@ -226,8 +260,11 @@ fn fly(r: Ray, t_min: f32, t_max: f32, beta: ptr<function, vec3<f32>>,
         var tries = 0u;
         loop {
             if (too_many(tries, maj * (t1 - tt))) {
-                let tc = dense_flight(r, tt, t1, maj, beta, rng, n);
+                var w: vec3<f32>;
+                let tc = dense_flight(r, tt, t1, maj, beta, rng, n, &w);
                 if (tc >= 0.0) {
+                    gather(r, piece, tc, *beta, emitted);
+                    *beta *= P.sigma_s.xyz * tint(ray_at(r, tc)) * w;
                     return tc;
                 }
                 break;
@@ -237,7 +274,8 @@ fn fly(r: Ray, t_min: f32, t_max: f32, beta: ptr<function, vec3<f32>>,
             if (tt >= t1) {
                 break;
             }
-            let rho = max(density_at(ray_at(r, tt)), 0.0);
+            let p = ray_at(r, tt);
+            let rho = max(value_at(p), 0.0);
             *n += 1u;
             let st = P.sigma_t.xyz * rho;
             let sn = max(vec3<f32>(maj) - st, vec3<f32>(0.0));
@@ -249,14 +287,25 @@ fn fly(r: Ray, t_min: f32, t_max: f32, beta: ptr<function, vec3<f32>>,
             }
             p_real = clamp(p_real, 0.0, 1.0);
             let u = next_f(rng);
+            gather(r, piece, tt, *beta, emitted);
+            piece = tt;
             if (u < p_real) {
-                *beta *= P.sigma_s.xyz * rho / (maj * p_real);
+                *beta *= P.sigma_s.xyz * tint(p) * rho / (maj * p_real);
                 return tt;
             }
             if (Q.grey == 0u) {
                 *beta *= sn / (maj * (1.0 - p_real));
             }
         }
+    }
+    if (Q.emit_lo.w != 0.0) {
+        // Past the density, emission on its lattice may still glow.
+        let c = clip_to_box(r, Q.emit_lo.xyz, Q.emit_hi.xyz, t_min, t_max);
+        var end = piece;
+        if (c.y > c.x) {
+            end = c.y;
+        }
+        gather(r, piece, end, *beta, emitted);
     }
     return -1.0;
 }
@@ -297,7 +346,7 @@ fn ratio_tracking(x: vec3<f32>, toward: vec3<f32>, dist: f32, rng: ptr<function,
                 if (t >= span.y) {
                     break;
                 }
-                let rho = max(density_at(ray_at(r, t)), 0.0);
+                let rho = max(value_at(ray_at(r, t)), 0.0);
                 *n += 1u;
                 tr *= max(vec3<f32>(1.0) - st * (rho / maj), vec3<f32>(0.0));
                 let m = max3(tr);

@@ -8,13 +8,15 @@
 use super::GpuTimes;
 use super::context::{Gpu, Resident};
 use super::upload::{GROUND_FLOATS, RESULT_BASE, RESULT_EMISSION, SAMPLE_FLOATS};
-use crate::field::IndexRay;
+use crate::field::{Field, IndexRay};
 use crate::integrate::RayResult;
+use crate::integrate::WorldRay;
 use crate::integrate::ground::GroundLight;
-use crate::integrate::integrator::{Integrator, SampleRng};
+use crate::integrate::integrator::{CameraSample, Integrator, SampleRng};
 use crate::integrate::pass::PassKind;
 use crate::integrate::single::SingleScattering;
 use crate::render::pixels::{EDGE_ALPHA, PixelJob, PixelPasses, finish_pixel};
+use crate::scene::camera::CameraFrame;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -41,6 +43,62 @@ pub(super) fn sample_points<I: Integrator>(job: &PixelJob<I>, p: Pick) -> Vec<(f
         .collect()
 }
 
+/// Every sample of some picks, in pick order: each pick's samples (their jitter and
+/// stream, [`sample_points`]) and where each pick's samples start (the total last).
+pub(super) struct Placed {
+    points: Vec<Vec<(f64, f64, u32)>>,
+    pub starts: Vec<usize>,
+}
+
+impl Placed {
+    pub fn new<I: Integrator>(job: &PixelJob<I>, picks: &[Pick]) -> Self {
+        let points: Vec<Vec<(f64, f64, u32)>> =
+            picks.par_iter().map(|&p| sample_points(job, p)).collect();
+        let mut starts = Vec::with_capacity(picks.len() + 1);
+        let mut total = 0;
+        for p in &points {
+            starts.push(total);
+            total += p.len();
+        }
+        starts.push(total);
+        Placed { points, starts }
+    }
+
+    /// The samples in all.
+    pub fn total(&self) -> usize {
+        self.starts.last().copied().unwrap_or(0)
+    }
+
+    /// Sample `i`'s pick (of `picks`), its camera sample and its random numbers.
+    pub fn sample<I: Integrator>(
+        &self,
+        job: &PixelJob<I>,
+        frame: &CameraFrame,
+        picks: &[Pick],
+        i: usize,
+    ) -> (Pick, CameraSample, SampleRng) {
+        let k = self.starts.partition_point(|&s| s <= i) - 1;
+        let (p, (jx, jy, stream)) = (picks[k], self.points[k][i - self.starts[k]]);
+        let sample = job.camera_sample(frame, p.x, p.y, jx, jy, None);
+        let (sx, sy) = job.stream_pixel(p.x, p.y);
+        (p, sample, SampleRng::new(job.seed, sx, sy, stream))
+    }
+}
+
+/// Writes `ray` into a sample's floats as the march's `Sample` holds it: the world
+/// origin, direction and end, then in `density`'s index space the origin, the near
+/// end and the direction (floats 3 and 15 are the caller's).
+pub(super) fn put_ray(out: &mut [f32], ray: &WorldRay, density: &dyn Field) {
+    let index = IndexRay::new(density, ray.origin, ray.dir);
+    let put = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
+    out[..3].copy_from_slice(&put(ray.origin));
+    out[4..7].copy_from_slice(&put(ray.dir));
+    out[7] = ray.t_max.min(f32::MAX as f64) as f32;
+    out[8..11].copy_from_slice(&put(index.origin));
+    out[11] = ray.t_min.min(f32::MAX as f64) as f32;
+    out[12..15].copy_from_slice(&put(index.dir));
+}
+
 /// Renders `picks` on the GPU: each pixel's `stride` values, the mean of its samples as
 /// [`crate::render::pixels::render_pixels`] takes it. Returns them and the march
 /// samples the rays took.
@@ -59,16 +117,9 @@ fn render_picks(
     let depth_at = layout.offset_of_kind(PassKind::Depth);
     let frame = job.camera.frame();
     let density = integrator.density();
-    // Every sample's ray, in pick order; and where each pick's samples start.
-    let points: Vec<Vec<(f64, f64, u32)>> =
-        picks.par_iter().map(|&p| sample_points(job, p)).collect();
-    let mut starts = Vec::with_capacity(picks.len() + 1);
-    let mut total = 0;
-    for p in &points {
-        starts.push(total);
-        total += p.len();
-    }
-    starts.push(total);
+    // Every sample's ray, in pick order.
+    let placed = Placed::new(job, picks);
+    let (starts, total) = (&placed.starts, placed.total());
     let mut input = vec![0f32; total * SAMPLE_FLOATS];
     let mut depth_rates = vec![0f64; total];
     // Where each sample's ray meets the ground plane (seen before the ray's end), as
@@ -80,9 +131,7 @@ fn render_picks(
         .zip(depth_rates.par_iter_mut().zip(hits.par_iter_mut()))
         .enumerate()
         .for_each(|(i, (out, (rate, hit)))| {
-            let k = starts.partition_point(|&s| s <= i) - 1;
-            let (p, (jx, jy, stream)) = (picks[k], points[k][i - starts[k]]);
-            let sample = job.camera_sample(&frame, p.x, p.y, jx, jy, None);
+            let (_, sample, mut rng) = placed.sample(job, &frame, picks, i);
             let mut ray = sample.ray;
             *hit = ground.and_then(|g| g.hit(ray.origin, ray.dir).filter(|(t, _)| *t <= ray.t_max));
             if let (Some(g), Some((t, _))) = (ground, *hit)
@@ -91,17 +140,8 @@ fn render_picks(
                 // The opaque floor ends the ray.
                 ray.t_max = t;
             }
-            let (sx, sy) = job.stream_pixel(p.x, p.y);
-            let u = SampleRng::new(job.seed, sx, sy, stream).uniform();
-            let index = IndexRay::new(density, ray.origin, ray.dir);
-            let put = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
-            out[..3].copy_from_slice(&put(ray.origin));
-            out[3] = u as f32;
-            out[4..7].copy_from_slice(&put(ray.dir));
-            out[7] = ray.t_max.min(f32::MAX as f64) as f32;
-            out[8..11].copy_from_slice(&put(index.origin));
-            out[11] = ray.t_min.min(f32::MAX as f64) as f32;
-            out[12..15].copy_from_slice(&put(index.dir));
+            put_ray(out, &ray, density);
+            out[3] = rng.uniform() as f32;
             // The ground's distance, signed by the side of the plane the camera sees.
             out[15] = hit.map_or(0.0, |(t, n)| (t * n.y) as f32);
             *rate = sample.depth_rate;

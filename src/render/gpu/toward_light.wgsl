@@ -32,31 +32,21 @@ fn march_to_light(l: u32, pw: vec3<f32>, pi: vec3<f32>) -> f32 {
     if (!(speed > 0.0) || !(speed < BIG)) {
         return 0.0;
     }
-    let clip = clip_to_bounds(r, 0.0, dist);
-    var t = clip.x;
-    let t_end = clip.y;
-    let scale = max(max(abs(r.o.x), abs(r.o.y)), max(abs(r.o.z), 1.0));
-    let min_step = 1e-6 * scale / speed;
     var h = 0.0;
     if (P.shadow.x > 0.0) {
         h = P.shadow.x / speed;
     }
     var sum = 0.0;
-    var cells = MAX_CELLS;
+    var cells = cells_start(r, 0.0, dist);
+    var cell: Cell;
+    var span: vec2<f32>;
     var budget = 16777216u;
     loop {
-        if (!(t < t_end) || cells == 0u || budget == 0u) {
+        if (budget == 0u || !cells_next(&cells, r, false, &cell, &span)) {
             break;
         }
-        cells -= 1u;
-        let cell = cell_at(voxel_ahead(r, t));
-        let exit = cell_exit(r, cell.origin, cell.size);
-        let t1 = min(max(exit, t + min_step), t_end);
-        let t0 = t;
-        t = t1;
-        if (cell.hi <= 0.0 && cell.lo >= 0.0) {
-            continue;
-        }
+        let t0 = span.x;
+        let t1 = span.y;
         let len = t1 - t0;
         if (cell.lo == cell.hi) {
             sum += cell.hi * len;
