@@ -4,7 +4,7 @@
 //! next frame prepared on another thread while one renders.
 
 use super::*;
-use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
+use common::camera::samples;
 use murk::render::sequence::{
     FrameOutcome, FramePaths, SequenceOptions, SequenceSummary, render_sequence,
 };
@@ -47,24 +47,6 @@ fn render_frames(plan: &RenderPlan, frames: &[i64]) -> (Vec<RenderStats>, Sequen
     );
     assert_eq!(summary.written, frames.len());
     (stats, summary)
-}
-
-/// The samples of every channel of an EXR, as bits.
-fn samples(exr: &Path) -> Vec<(String, Vec<u32>)> {
-    let img = read_all_flat_layers_from_file(exr).unwrap();
-    img.layer_data[0]
-        .channel_data
-        .list
-        .iter()
-        .map(|c| {
-            let bits = match &c.sample_data {
-                FlatSamples::F16(v) => v.iter().map(|h| h.to_bits() as u32).collect(),
-                FlatSamples::F32(v) => v.iter().map(|f| f.to_bits()).collect(),
-                FlatSamples::U32(v) => v.clone(),
-            };
-            (c.name.to_string(), bits)
-        })
-        .collect()
 }
 
 /// Every frame of the sequence `plan` wrote is, sample for sample, the frame rendered
