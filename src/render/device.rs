@@ -213,6 +213,7 @@ fn render_frame_gpu(
         .stages
         .insert("gpu_upload".into(), Stage::ran(times.upload));
     for (name, seconds) in [
+        ("gpu_compile", gpu.take_compile_seconds()),
         ("gpu_layout", times.layout),
         ("gpu_rays", times.rays),
         ("gpu_march", times.kernel),

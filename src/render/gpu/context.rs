@@ -24,6 +24,10 @@ pub struct Gpu {
     pub on_cpu: bool,
     /// The adapter was picked by name (`WGPU_ADAPTER_NAME`).
     pub named: bool,
+    /// Seconds spent compiling pipelines (the march's when the GPU was opened, and each
+    /// compiled on first use since) that no render has reported yet: a render's stats
+    /// take them as `gpu_compile` ([`Gpu::take_compile_seconds`]).
+    compile_seconds: std::sync::Mutex<f64>,
 }
 
 /// The environment variable that lowers the largest buffer the GPU binds to this many
@@ -116,7 +120,9 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| format!("{name}: cannot open the device ({e})"))?;
+        let clock = std::time::Instant::now();
         let pipeline = compile_on(&device, &name, "march", &MARCH_WGSL, "march_samples")?;
+        let compiled = clock.elapsed().as_secs_f64();
         Ok(Gpu {
             device,
             queue,
@@ -127,7 +133,18 @@ impl Gpu {
             limits,
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
             named,
+            compile_seconds: std::sync::Mutex::new(compiled),
         })
+    }
+
+    /// The seconds spent compiling pipelines since the last call (the first call's
+    /// include the march's, compiled when the GPU was opened): what a render reports as
+    /// its `gpu_compile` stage, apart from the stages it times.
+    pub fn take_compile_seconds(&self) -> f64 {
+        self.compile_seconds
+            .lock()
+            .map(|mut s| std::mem::take(&mut *s))
+            .unwrap_or(0.0)
     }
 
     /// The shadow bake's column march (columns.wgsl, after grid.wgsl), compiled on
@@ -141,14 +158,20 @@ impl Gpu {
     }
 
     /// Compiles `sources` (WGSL, in this order) into a compute pipeline entered at
-    /// `entry`; `label` names it, and what does not compile in the error.
+    /// `entry`; `label` names it, and what does not compile in the error. Its seconds
+    /// go to the next render's `gpu_compile` ([`Gpu::take_compile_seconds`]).
     pub(super) fn compile(
         &self,
         label: &str,
         sources: &[&str],
         entry: &str,
     ) -> Result<wgpu::ComputePipeline, String> {
-        compile_on(&self.device, &self.name, label, sources, entry)
+        let clock = std::time::Instant::now();
+        let compiled = compile_on(&self.device, &self.name, label, sources, entry);
+        if let Ok(mut s) = self.compile_seconds.lock() {
+            *s += clock.elapsed().as_secs_f64();
+        }
+        compiled
     }
 
     /// The most bytes one storage buffer may bind.

@@ -152,7 +152,7 @@ fn load_corners_in(k: u32, w: ptr<function, Walk>) {
     }
     var v: array<f32, 8>;
     if (k == 0u) {
-        v = cell_corners((*w).cell);
+        v = walk_corners(w);
     } else {
         v = cell_corners_in(grid_of(k), (*w).cell, 0u);
     }
