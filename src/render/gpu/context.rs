@@ -1,16 +1,17 @@
 //! The GPU: an adapter found through wgpu (Vulkan, Metal or DX12), its device with the
-//! limits the adapter reports, the march's compute pipeline, and one call that marches
+//! limits the adapter reports, the march's compute pipelines, and one call that marches
 //! a batch of camera samples.
 
 use super::resident::{KeptBuffers, Making};
-use super::upload::{Buffers, DSM_BUFFERS, RESULT_BASE, SAMPLE_FLOATS};
+use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
 
-/// An opened GPU with the march compiled for it.
+/// An opened GPU and the pipelines compiled for it.
 pub struct Gpu {
     pub(super) device: wgpu::Device,
     pub(super) queue: wgpu::Queue,
-    pipeline: wgpu::ComputePipeline,
+    /// The march, compiled on first use for each set of the parts a scene uses.
+    marches: std::sync::Mutex<Vec<(MarchFeatures, wgpu::ComputePipeline)>>,
     /// The shadow bake's column march, compiled on first use.
     columns: std::sync::OnceLock<Result<wgpu::ComputePipeline, String>>,
     /// The path tracer (path.wgsl), compiled on first use.
@@ -24,9 +25,9 @@ pub struct Gpu {
     pub on_cpu: bool,
     /// The adapter was picked by name (`WGPU_ADAPTER_NAME`).
     pub named: bool,
-    /// Seconds spent compiling pipelines (the march's when the GPU was opened, and each
-    /// compiled on first use since) that no render has reported yet: a render's stats
-    /// take them as `gpu_compile` ([`Gpu::take_compile_seconds`]).
+    /// Seconds spent compiling pipelines (each compiled on first use) that no render
+    /// has reported yet: a render's stats take them as `gpu_compile`
+    /// ([`Gpu::take_compile_seconds`]).
     compile_seconds: std::sync::Mutex<f64>,
 }
 
@@ -68,8 +69,9 @@ pub(super) const WORKGROUP: u32 = 64;
 pub(super) const GROUPS_X: u32 = 65535;
 
 impl Gpu {
-    /// The process's GPU, opened (and its march compiled) on first use and kept for every
-    /// later render: a sequence's frames, or a test binary's renders, open it once.
+    /// The process's GPU, opened on first use and kept for every later render (with the
+    /// pipelines compiled for it): a sequence's frames, or a test binary's renders, open
+    /// it once.
     pub fn shared() -> Result<&'static Gpu, String> {
         static GPU: std::sync::OnceLock<Result<Gpu, String>> = std::sync::OnceLock::new();
         GPU.get_or_init(Gpu::open).as_ref().map_err(Clone::clone)
@@ -120,31 +122,55 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| format!("{name}: cannot open the device ({e})"))?;
-        let clock = std::time::Instant::now();
-        let pipeline = compile_on(&device, &name, "march", &MARCH_WGSL, "march_samples")?;
-        let compiled = clock.elapsed().as_secs_f64();
         Ok(Gpu {
             device,
             queue,
-            pipeline,
+            marches: std::sync::Mutex::new(Vec::new()),
             columns: std::sync::OnceLock::new(),
             path: std::sync::OnceLock::new(),
             name,
             limits,
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
             named,
-            compile_seconds: std::sync::Mutex::new(compiled),
+            compile_seconds: std::sync::Mutex::new(0.0),
         })
     }
 
-    /// The seconds spent compiling pipelines since the last call (the first call's
-    /// include the march's, compiled when the GPU was opened): what a render reports as
-    /// its `gpu_compile` stage, apart from the stages it times.
+    /// The seconds spent compiling pipelines since the last call: what a render reports
+    /// as its `gpu_compile` stage, apart from the stages it times.
     pub fn take_compile_seconds(&self) -> f64 {
         self.compile_seconds
             .lock()
             .map(|mut s| std::mem::take(&mut *s))
             .unwrap_or(0.0)
+    }
+
+    /// The march compiled for the parts `features` (march.wgsl's overrides), on first
+    /// use.
+    pub(super) fn march_pipeline(
+        &self,
+        features: MarchFeatures,
+    ) -> Result<wgpu::ComputePipeline, String> {
+        let mut held = self.marches.lock().map_err(|_| "a poisoned lock")?;
+        if let Some((_, p)) = held.iter().find(|(f, _)| *f == features) {
+            return Ok(p.clone());
+        }
+        let constants = features.constants();
+        let clock = std::time::Instant::now();
+        let compiled = compile_with(
+            &self.device,
+            &self.name,
+            "march",
+            &MARCH_WGSL,
+            "march_samples",
+            &constants,
+        );
+        if let Ok(mut s) = self.compile_seconds.lock() {
+            *s += clock.elapsed().as_secs_f64();
+        }
+        let pipeline = compiled?;
+        held.push((features, pipeline.clone()));
+        Ok(pipeline)
     }
 
     /// The shadow bake's column march (columns.wgsl, after grid.wgsl), compiled on
@@ -214,7 +240,8 @@ impl Gpu {
         stride: usize,
     ) -> Result<Vec<f32>, String> {
         debug_assert!(RESULT_BASE <= stride);
-        self.dispatch(&self.pipeline, scene, samples, count, stride, &[])
+        let pipeline = self.march_pipeline(scene.features)?;
+        self.dispatch(&pipeline, scene, samples, count, stride, &[])
     }
 
     /// Runs `pipeline` over `count` samples (`samples`, one invocation each) through the
@@ -348,6 +375,7 @@ impl Gpu {
             meta: make("meta", bytemuck::cast_slice(&b.meta)),
             params: b.params.clone(),
             stride: b.stride,
+            features: b.features,
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!("{}: uploading the scene: {e}", self.name));
@@ -364,13 +392,26 @@ impl Gpu {
     }
 }
 
-/// [`Gpu::compile`] on `device` (of the adapter `name`), before the [`Gpu`] is made.
+/// [`Gpu::compile`] on `device` (of the adapter `name`).
 fn compile_on(
     device: &wgpu::Device,
     name: &str,
     label: &str,
     sources: &[&str],
     entry: &str,
+) -> Result<wgpu::ComputePipeline, String> {
+    compile_with(device, name, label, sources, entry, &[])
+}
+
+/// [`compile_on`] with the sources' overrides set to `constants` (the others keep
+/// their defaults).
+fn compile_with(
+    device: &wgpu::Device,
+    name: &str,
+    label: &str,
+    sources: &[&str],
+    entry: &str,
+    constants: &[(&str, f64)],
 ) -> Result<wgpu::ComputePipeline, String> {
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -382,7 +423,10 @@ fn compile_on(
         layout: None,
         module: &module,
         entry_point: Some(entry),
-        compilation_options: Default::default(),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            ..Default::default()
+        },
         cache: None,
     });
     match pollster::block_on(scope.pop()) {
@@ -408,4 +452,6 @@ pub struct Resident {
     pub(super) params: Vec<u32>,
     /// Floats per sample in the results.
     pub stride: u32,
+    /// The march's parts the scene uses (the pipeline it is marched with).
+    pub(super) features: MarchFeatures,
 }
