@@ -192,9 +192,6 @@ fn render_frame_gpu(
     holdout: Option<&[f32]>,
     st: &mut RenderStats,
 ) -> Result<std::result::Result<(Frame, f64), String>> {
-    // Pipelines compiled since the last render (the bake's column march), then those
-    // compiled in this one, which its `render` seconds leave out: `gpu_compile`.
-    let compiled_before = gpu.take_compile_seconds();
     let t = Instant::now();
     let rendered = match work {
         OnGpu::March(single, lattice) => {
@@ -211,13 +208,13 @@ fn render_frame_gpu(
         Err(why) if plan.sampling.device == Device::Auto => return Ok(Err(why)),
         Err(why) => return Err(RenderError::Device(format!("--device gpu: {why}"))),
     };
-    let compiled = gpu.take_compile_seconds();
-    let render_seconds = (t.elapsed().as_secs_f64() - compiled).max(0.0);
+    // The pipeline's compile is its own stage, not the render's.
+    let render_seconds = (t.elapsed().as_secs_f64() - times.compile).max(0.0);
     st.scene
         .stages
         .insert("gpu_upload".into(), Stage::ran(times.upload));
     for (name, seconds) in [
-        ("gpu_compile", compiled_before + compiled),
+        ("gpu_compile", times.compile),
         ("gpu_layout", times.layout),
         ("gpu_rays", times.rays),
         ("gpu_march", times.kernel),

@@ -126,8 +126,6 @@ impl GpuColumns {
         jobs: &[ColumnJob],
         depths: &[f64],
     ) -> Result<MarchedColumns, String> {
-        // Compiled before anything is timed: its seconds are the stats' `gpu_compile`.
-        self.gpu.columns_pipeline()?;
         let mut held = self.grid.lock().map_err(|_| "a poisoned lock")?;
         let address = grid as *const VoxelGrid as usize;
         if held.as_ref().is_none_or(|g| g.address != address) {

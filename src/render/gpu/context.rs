@@ -25,10 +25,6 @@ pub struct Gpu {
     pub on_cpu: bool,
     /// The adapter was picked by name (`WGPU_ADAPTER_NAME`).
     pub named: bool,
-    /// Seconds spent compiling pipelines (each compiled on first use) that no render
-    /// has reported yet: a render's stats take them as `gpu_compile`
-    /// ([`Gpu::take_compile_seconds`]).
-    compile_seconds: std::sync::Mutex<f64>,
 }
 
 /// The environment variable that lowers the largest buffer the GPU binds to this many
@@ -132,17 +128,7 @@ impl Gpu {
             limits,
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
             named,
-            compile_seconds: std::sync::Mutex::new(0.0),
         })
-    }
-
-    /// The seconds spent compiling pipelines since the last call: what a render reports
-    /// as its `gpu_compile` stage, apart from the stages it times.
-    pub fn take_compile_seconds(&self) -> f64 {
-        self.compile_seconds
-            .lock()
-            .map(|mut s| std::mem::take(&mut *s))
-            .unwrap_or(0.0)
     }
 
     /// The march compiled for the parts `features` (march.wgsl's overrides), on first
@@ -156,19 +142,14 @@ impl Gpu {
             return Ok(p.clone());
         }
         let constants = features.constants();
-        let clock = std::time::Instant::now();
-        let compiled = compile_with(
+        let pipeline = compile_with(
             &self.device,
             &self.name,
             "march",
             &MARCH_WGSL,
             "march_samples",
             &constants,
-        );
-        if let Ok(mut s) = self.compile_seconds.lock() {
-            *s += clock.elapsed().as_secs_f64();
-        }
-        let pipeline = compiled?;
+        )?;
         held.push((features, pipeline.clone()));
         Ok(pipeline)
     }
@@ -184,20 +165,14 @@ impl Gpu {
     }
 
     /// Compiles `sources` (WGSL, in this order) into a compute pipeline entered at
-    /// `entry`; `label` names it, and what does not compile in the error. Its seconds
-    /// go to the next render's `gpu_compile` ([`Gpu::take_compile_seconds`]).
+    /// `entry`; `label` names it, and what does not compile in the error.
     pub(super) fn compile(
         &self,
         label: &str,
         sources: &[&str],
         entry: &str,
     ) -> Result<wgpu::ComputePipeline, String> {
-        let clock = std::time::Instant::now();
-        let compiled = compile_on(&self.device, &self.name, label, sources, entry);
-        if let Ok(mut s) = self.compile_seconds.lock() {
-            *s += clock.elapsed().as_secs_f64();
-        }
-        compiled
+        compile_on(&self.device, &self.name, label, sources, entry)
     }
 
     /// The most bytes one storage buffer may bind.
