@@ -49,7 +49,11 @@ run() { # NAME FLAGS...
     /usr/bin/python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print('  ', s['device'], {k: round(v['seconds'], 4) for k, v in s['stages'].items() if 'seconds' in v}); m=s.get('multiple_scattering'); m and print('   lattice', m['dims'], 'swept on', m['swept_on'], 'solve', round(m['solve_seconds'], 4), 's')" "$OUT/$n.json"
 }
 MODES=(${BENCH_MODES:-single fast})
+# Warm-up runs: a new process compiles each pipeline it uses (seconds on some drivers,
+# kept on disk by them for the next), which no timed run should pay.
 run warm --device gpu --scattering single >/dev/null
+RUN_RES=64x36 run warm-fast --device gpu --scattering fast >/dev/null
+[[ "${BENCH_PATH:-1}" == 0 ]] || RUN_RES=64x36 run warm-path --device gpu --scattering path --spp 1 >/dev/null
 for mode in "${MODES[@]}"; do
     run "gpu-$mode" --device gpu --scattering $mode
     run "cpu-$mode" --device cpu --scattering $mode --threads "$THREADS"

@@ -38,24 +38,7 @@ struct Pipelines {
 }
 
 fn compile(gpu: &Gpu, entry_point: &str) -> Result<wgpu::ComputePipeline, String> {
-    let d = &gpu.device;
-    let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("sweep"),
-        source: wgpu::ShaderSource::Wgsl(include_str!("sweep.wgsl").into()),
-    });
-    let pipeline = d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry_point),
-        layout: None,
-        module: &module,
-        entry_point: Some(entry_point),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    match pollster::block_on(scope.pop()) {
-        Some(e) => Err(format!("{}: the sweep does not compile ({e})", gpu.name)),
-        None => Ok(pipeline),
-    }
+    gpu.compile("sweep", &[include_str!("sweep.wgsl")], entry_point)
 }
 
 /// The pipelines of `gpu` (a process's GPU lives as long as it: compiled once each).
