@@ -116,8 +116,17 @@ struct Cells {
 
 fn cells_start(r: Ray, t_min: f32, t_max: f32) -> Cells {
     let clip = clip_to_bounds(r, t_min, t_max);
-    let scale = max(max(abs(r.o.x), abs(r.o.y)), max(abs(r.o.z), 1.0));
-    return Cells(clip.x, clip.y, 1e-6 * scale / length(r.d), MAX_CELLS);
+    // The least progress must move t and the ray's point past f32's rounding wherever
+    // the walk is: scaled by the largest coordinate at the origin and at either end of
+    // the stretch, and by t's own size. (From the origin alone, a ray starting near index
+    // 0 rounds t + min_step back to t far from it, where a cell's exit computes a hair
+    // short of the point it reaches: the walk spins there until MAX_CELLS.)
+    let p0 = abs(ray_at(r, clip.x));
+    let p1 = abs(ray_at(r, clip.y));
+    let far = max(max(abs(r.o), p0), p1);
+    let scale = max(max(far.x, far.y), max(far.z, 1.0));
+    let min_step = max(1e-6 * scale / length(r.d), 1e-6 * max(abs(clip.x), abs(clip.y)));
+    return Cells(clip.x, clip.y, min_step, MAX_CELLS);
 }
 
 // The next cell whose range is not all 0, in `cell`, and the ray's stretch [t0, t1] in

@@ -34,10 +34,9 @@ use super::pixels::{PixelJob, PixelPasses};
 use crate::field::grid_nodes::FlatGridError;
 use crate::integrate::ms_lattice::MsLattice;
 use crate::integrate::single::SingleScattering;
-use crate::integrate::{MarchSettings, ScatteringMode, Volume};
+use crate::integrate::{MarchSettings, Volume};
 use crate::scene::Scene;
-use crate::scene::light::LightKind;
-use crate::scene::lights::{LightShadow, SceneLights};
+use crate::scene::lights::SceneLights;
 use crate::scene::plan::RenderPlan;
 use std::time::Instant;
 
@@ -73,24 +72,6 @@ pub fn unsupported(plan: &RenderPlan, scene: &Scene) -> Option<String> {
     }
     if scene.lights.len() > upload::MAX_LIGHTS {
         return Some(format!("more than {} lights", upload::MAX_LIGHTS));
-    }
-    // Shadow rays marched toward a point light: on lavapipe the kernel that marches
-    // them cut some camera rays short (their march stopped early), so they stay on the
-    // CPU until that is understood. Suns' marched rays match the CPU's. (The path
-    // tracer tracks its shadow rays itself.)
-    let lights = scene.illumination();
-    let marched_point = scene
-        .lights
-        .iter()
-        .zip(lights.shadows.iter())
-        .any(|(l, s)| {
-            matches!(s, LightShadow::Marched) && matches!(l.kind, LightKind::Point { .. })
-        });
-    if marched_point
-        && plan.transport.mode != ScatteringMode::Path
-        && (scene.scatters || scene.ground.is_some())
-    {
-        return Some("shadow rays marched toward a point light (--shadows march)".into());
     }
     None
 }
