@@ -208,11 +208,13 @@ fn render_frame_gpu(
         Err(why) if plan.sampling.device == Device::Auto => return Ok(Err(why)),
         Err(why) => return Err(RenderError::Device(format!("--device gpu: {why}"))),
     };
-    let render_seconds = t.elapsed().as_secs_f64();
+    // The pipeline's compile is its own stage, not the render's.
+    let render_seconds = (t.elapsed().as_secs_f64() - times.compile).max(0.0);
     st.scene
         .stages
         .insert("gpu_upload".into(), Stage::ran(times.upload));
     for (name, seconds) in [
+        ("gpu_compile", times.compile),
         ("gpu_layout", times.layout),
         ("gpu_rays", times.rays),
         ("gpu_march", times.kernel),

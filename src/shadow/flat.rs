@@ -7,6 +7,7 @@ use super::brick::BrickForm;
 use super::chart::{ChartKind, LateralBlend};
 use super::map::{ChartMap, NO_BRICK};
 use glam::{DVec3, IVec3};
+use rayon::prelude::*;
 
 /// Words per brick in [`FlatChart::bricks`]: key x, y, z (i32 bits), `level | form << 8`
 /// (form: 0 Hermite, 1 Linear, 2 Constant), offset of its first sample, then its four
@@ -70,17 +71,18 @@ impl ChartMap {
             bricks.extend(b.scales.map(f32::to_bits));
         }
         let half = |v: i16| u32::from(v as u16);
-        let hermite = self
-            .samples
-            .iter()
-            .flat_map(|s| {
-                [
+        // Sized at once and packed on every thread: a map's samples run to 10⁸ bytes.
+        let mut hermite = vec![0u32; self.samples.len() * SAMPLE_WORDS];
+        hermite
+            .par_chunks_mut(SAMPLE_WORDS)
+            .zip(self.samples.par_iter())
+            .for_each(|(out, s)| {
+                out.copy_from_slice(&[
                     s.tau.to_bits(),
                     half(s.rest[0]) | half(s.rest[1]) << 16,
                     half(s.rest[2]) | half(s.rest[3]) << 16,
-                ]
-            })
-            .collect();
+                ])
+            });
         FlatChart {
             perspective,
             point,

@@ -1,16 +1,17 @@
 //! The GPU: an adapter found through wgpu (Vulkan, Metal or DX12), its device with the
-//! limits the adapter reports, the march's compute pipeline, and one call that marches
+//! limits the adapter reports, the march's compute pipelines, and one call that marches
 //! a batch of camera samples.
 
 use super::resident::{KeptBuffers, Making};
-use super::upload::{Buffers, DSM_BUFFERS, RESULT_BASE, SAMPLE_FLOATS};
+use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
 
-/// An opened GPU with the march compiled for it.
+/// An opened GPU and the pipelines compiled for it.
 pub struct Gpu {
     pub(super) device: wgpu::Device,
     pub(super) queue: wgpu::Queue,
-    pipeline: wgpu::ComputePipeline,
+    /// The march, compiled on first use for each set of the parts a scene uses.
+    marches: std::sync::Mutex<Vec<(MarchFeatures, wgpu::ComputePipeline)>>,
     /// The shadow bake's column march, compiled on first use.
     columns: std::sync::OnceLock<Result<wgpu::ComputePipeline, String>>,
     /// The path tracer (path.wgsl), compiled on first use.
@@ -64,8 +65,9 @@ pub(super) const WORKGROUP: u32 = 64;
 pub(super) const GROUPS_X: u32 = 65535;
 
 impl Gpu {
-    /// The process's GPU, opened (and its march compiled) on first use and kept for every
-    /// later render: a sequence's frames, or a test binary's renders, open it once.
+    /// The process's GPU, opened on first use and kept for every later render (with the
+    /// pipelines compiled for it): a sequence's frames, or a test binary's renders, open
+    /// it once.
     pub fn shared() -> Result<&'static Gpu, String> {
         static GPU: std::sync::OnceLock<Result<Gpu, String>> = std::sync::OnceLock::new();
         GPU.get_or_init(Gpu::open).as_ref().map_err(Clone::clone)
@@ -116,11 +118,10 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| format!("{name}: cannot open the device ({e})"))?;
-        let pipeline = compile_on(&device, &name, "march", &MARCH_WGSL, "march_samples")?;
         Ok(Gpu {
             device,
             queue,
-            pipeline,
+            marches: std::sync::Mutex::new(Vec::new()),
             columns: std::sync::OnceLock::new(),
             path: std::sync::OnceLock::new(),
             name,
@@ -128,6 +129,29 @@ impl Gpu {
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
             named,
         })
+    }
+
+    /// The march compiled for the parts `features` (march.wgsl's overrides), on first
+    /// use.
+    pub(super) fn march_pipeline(
+        &self,
+        features: MarchFeatures,
+    ) -> Result<wgpu::ComputePipeline, String> {
+        let mut held = self.marches.lock().map_err(|_| "a poisoned lock")?;
+        if let Some((_, p)) = held.iter().find(|(f, _)| *f == features) {
+            return Ok(p.clone());
+        }
+        let constants = features.constants();
+        let pipeline = compile_with(
+            &self.device,
+            &self.name,
+            "march",
+            &MARCH_WGSL,
+            "march_samples",
+            &constants,
+        )?;
+        held.push((features, pipeline.clone()));
+        Ok(pipeline)
     }
 
     /// The shadow bake's column march (columns.wgsl, after grid.wgsl), compiled on
@@ -191,7 +215,8 @@ impl Gpu {
         stride: usize,
     ) -> Result<Vec<f32>, String> {
         debug_assert!(RESULT_BASE <= stride);
-        self.dispatch(&self.pipeline, scene, samples, count, stride, &[])
+        let pipeline = self.march_pipeline(scene.features)?;
+        self.dispatch(&pipeline, scene, samples, count, stride, &[])
     }
 
     /// Runs `pipeline` over `count` samples (`samples`, one invocation each) through the
@@ -325,6 +350,7 @@ impl Gpu {
             meta: make("meta", bytemuck::cast_slice(&b.meta)),
             params: b.params.clone(),
             stride: b.stride,
+            features: b.features,
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!("{}: uploading the scene: {e}", self.name));
@@ -341,13 +367,26 @@ impl Gpu {
     }
 }
 
-/// [`Gpu::compile`] on `device` (of the adapter `name`), before the [`Gpu`] is made.
+/// [`Gpu::compile`] on `device` (of the adapter `name`).
 fn compile_on(
     device: &wgpu::Device,
     name: &str,
     label: &str,
     sources: &[&str],
     entry: &str,
+) -> Result<wgpu::ComputePipeline, String> {
+    compile_with(device, name, label, sources, entry, &[])
+}
+
+/// [`compile_on`] with the sources' overrides set to `constants` (the others keep
+/// their defaults).
+fn compile_with(
+    device: &wgpu::Device,
+    name: &str,
+    label: &str,
+    sources: &[&str],
+    entry: &str,
+    constants: &[(&str, f64)],
 ) -> Result<wgpu::ComputePipeline, String> {
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -359,7 +398,10 @@ fn compile_on(
         layout: None,
         module: &module,
         entry_point: Some(entry),
-        compilation_options: Default::default(),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            ..Default::default()
+        },
         cache: None,
     });
     match pollster::block_on(scope.pop()) {
@@ -385,4 +427,6 @@ pub struct Resident {
     pub(super) params: Vec<u32>,
     /// Floats per sample in the results.
     pub stride: u32,
+    /// The march's parts the scene uses (the pipeline it is marched with).
+    pub(super) features: MarchFeatures,
 }

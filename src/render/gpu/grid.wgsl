@@ -178,6 +178,9 @@ struct Walk {
     corners0: vec4<f32>,  // corners 0..3 (x = 0)
     corners1: vec4<f32>,  // corners 4..7 (x = 1)
     has: bool,
+    leaf: vec3<i32>,      // the density's leaf (global voxel >> 3) last looked up,
+    slot: u32,            // its slot (lookup), valid when leaf_ok (walk_corners)
+    leaf_ok: bool,
 };
 
 fn face_t(r: Ray, w: Walk, a: i32) -> f32 {
@@ -204,6 +207,7 @@ fn walk_start(r: Ray, t0: f32) -> Walk {
     w.step = vec3<i32>(sign(r.d));
     w.inv = 1.0 / r.d;
     w.has = false;
+    w.leaf_ok = false;
     for (var a = 0; a < 3; a++) {
         w.next[a] = face_t(r, w, a);
     }
@@ -235,6 +239,43 @@ fn cell_corners(c: vec3<i32>) -> array<f32, 8> {
     } else {
         for (var k = 0; k < 8; k++) {
             v[k] = voxel(g + vec3<i32>((k >> 2u) & 1, (k >> 1u) & 1, k & 1));
+        }
+    }
+    return v;
+}
+
+// cell_corners() of the density at the walk's cell, each leaf's slot looked up once
+// rather than once per cell or corner: the walk keeps the slot of the leaf its cell was
+// last in (a ray crosses several voxel cells of a leaf, each a descent of the tree
+// otherwise), and a cell on a leaf's last voxel looks up each leaf its corners lie in
+// once. The same values as cell_corners().
+fn walk_corners(w: ptr<function, Walk>) -> array<f32, 8> {
+    let g = (*w).cell + P.offset.xyz;
+    let key = g >> vec3<u32>(3u);
+    if (!(*w).leaf_ok || any(key != (*w).leaf)) {
+        (*w).slot = lookup(g);
+        (*w).leaf = key;
+        (*w).leaf_ok = true;
+    }
+    // Corner k lies in leaf j = k & across: across the axes where the cell is on its
+    // leaf's last voxel.
+    let edge = (g & vec3<i32>(7)) == vec3<i32>(7);
+    let across = select(0, 4, edge.x) | select(0, 2, edge.y) | select(0, 1, edge.z);
+    var slots: array<u32, 8>;
+    slots[0] = (*w).slot;
+    for (var j = 1; j < 8; j++) {
+        if ((j & across) == j) {
+            slots[j] = lookup(g + vec3<i32>((j >> 2u) & 1, (j >> 1u) & 1, j & 1));
+        }
+    }
+    var v: array<f32, 8>;
+    for (var k = 0; k < 8; k++) {
+        let s = slots[k & across];
+        if ((s & CHILD) == 0u) {
+            v[k] = vals[P.tile_base + s];
+        } else {
+            let c = g + vec3<i32>((k >> 2u) & 1, (k >> 1u) & 1, k & 1);
+            v[k] = vals[(s & ~CHILD) * 512u + leaf_off(c)];
         }
     }
     return v;

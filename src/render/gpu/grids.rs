@@ -21,6 +21,10 @@ pub const WORDS: usize = GRIDS_AT + MAX_GRIDS * HEADER_WORDS;
 const GRIDS_AT: usize = 36;
 /// Where, in those words, the phase table's number of log-spaced bins sits (`flags.z`).
 pub const PHASE_N_LOG: usize = 18;
+/// Where, in those words, 1 says something emits (`flags.x`).
+pub const EMITS_AT: usize = 16;
+/// Where, in those words, the red tint's grid sits (`color_grids.x`; 0: no tint).
+pub const TINT_AT: usize = 20;
 /// Where the phase table's placing sits (`phase_grid`).
 pub const PHASE_GRID: usize = 32;
 
@@ -156,7 +160,7 @@ pub fn pack(
             f(e.temperature_offset),
             f(e.blackbody_intensity),
         ]);
-        words[16] = 1;
+        words[EMITS_AT] = 1;
         if let Some(c) = &e.grid {
             let g = walkable(c.field, "an emission grid")?;
             let k = add(g, true, &mut words)?;

@@ -23,6 +23,16 @@ struct Sample {
 @group(0) @binding(8) var<storage, read> dsm2: array<u32>;
 
 const MAX_LIGHTS: u32 = 8u;
+
+// The march's optional parts, each false where the scene does not use it (the host sets
+// them: upload.rs, MarchFeatures), so that its code, and the registers it holds, are
+// left out of the pipeline; the defaults keep every part (the path tracer's pipeline,
+// compiled from these sources too, sets none).
+override EMITS: bool = true;    // something emits
+override TINTED: bool = true;   // a colour grid tints σs
+override MULTIPLE: bool = true; // the fast mode's lattice is gathered
+override MARCHED: bool = true;  // some light's shadow rays are marched
+override GROUND: bool = true;   // camera rays may meet a ground plane
 const MAX_CELLS: u32 = 1048576u;
 
 // ---- rays against the grid's bounds and cells ----
@@ -161,7 +171,7 @@ fn load_corners_in(k: u32, w: ptr<function, Walk>) {
     }
     var v: array<f32, 8>;
     if (k == 0u) {
-        v = cell_corners((*w).cell);
+        v = walk_corners(w);
     } else {
         v = cell_corners_in(grid_of(k), (*w).cell, 0u);
     }
@@ -296,6 +306,14 @@ fn incident(l: u32, x: vec3<f32>, irr: ptr<function, vec3<f32>>) -> vec3<f32> {
 
 // ---- the march ----
 
+// light_depth() (toward_light.wgsl), its marched shadow rays left out without MARCHED.
+fn depth_to_light(l: u32, pw: vec3<f32>, pi: vec3<f32>) -> f32 {
+    if (MARCHED) {
+        return light_depth(l, pw, pi);
+    }
+    return density_to_light(l, pw);
+}
+
 // Results of one sample at results[i * stride]: optical depth (rgb) and 1 where the
 // march terminated, transmittance (rgb) and the half-opacity t (−1: none), the density
 // samples taken and the multiply scattered radiance of all lights (rgb), the emitted
@@ -330,6 +348,14 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
         light_tau_ok[l] = false;
     }
     let n_lights = min(P.n_lights, MAX_LIGHTS);
+    // A sun's phase toward the camera is the same all along the ray: found once.
+    var sun_phase: array<vec3<f32>, 8>;
+    for (var l = 0u; l < n_lights; l++) {
+        if (P.scatters != 0u && light_f(l, 0u) == 0.0) {
+            var irr: vec3<f32>;
+            sun_phase[l] = phase_between(incident(l, wo, &irr), -wd);
+        }
+    }
     var last_end = -BIG;
     if (speed > 0.0 && speed < BIG) {
         let h = max(P.step_voxels, 1e-6) / speed;
@@ -355,7 +381,7 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             var walk = walk_start(r, t0);
             var emission_walk = walk;
-            if (P.emit_grids.y != 0u) {
+            if (EMITS && P.emit_grids.y != 0u) {
                 let o = vec3<f32>(grid_shift(grid_of(P.emit_grids.x)));
                 emission_walk = walk_start(Ray(r.o + o, r.d), t0);
             }
@@ -388,7 +414,7 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
                 n += 1u;
                 let st = P.sigma_t.xyz * rho;
                 let p_mid = ray_at(r, mid);
-                if (P.flags.x != 0u) {
+                if (EMITS && P.flags.x != 0u) {
                     let eps = emitted(r, &emission_walk, a, b, p_mid, &budget);
                     if (max(max(eps.x, eps.y), eps.z) > 0.0) {
                         let w = ds * vec3<f32>(phi(st.x * ds), phi(st.y * ds), phi(st.z * ds));
@@ -397,26 +423,34 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
                 }
                 if (P.scatters != 0u && rho > 0.0) {
                     let xw = wo + wd * mid;
-                    let sigma_s_here = P.sigma_s.xyz * tint(p_mid);
+                    var sigma_s_here = P.sigma_s.xyz;
+                    if (TINTED) {
+                        sigma_s_here *= tint(p_mid);
+                    }
                     for (var l = 0u; l < n_lights; l++) {
                         var tau0: vec3<f32>;
                         if (light_tau_ok[l] && last_end == a) {
                             tau0 = light_tau[l];
                         } else {
-                            tau0 = P.sigma_t.xyz * light_depth(l, wo + wd * a, ray_at(r, a));
+                            tau0 = P.sigma_t.xyz * depth_to_light(l, wo + wd * a, ray_at(r, a));
                         }
-                        let tau1 = P.sigma_t.xyz * light_depth(l, wo + wd * b, ray_at(r, b));
+                        let tau1 = P.sigma_t.xyz * depth_to_light(l, wo + wd * b, ray_at(r, b));
                         light_tau[l] = tau1;
                         light_tau_ok[l] = true;
                         var irr: vec3<f32>;
                         let travel = incident(l, xw, &irr);
-                        let ph = phase_between(travel, -wd);
+                        var ph: vec3<f32>;
+                        if (light_f(l, 0u) == 0.0) {
+                            ph = sun_phase[l];
+                        } else {
+                            ph = phase_between(travel, -wd);
+                        }
                         let weight = vec3<f32>(
                             exp_source_weight(st.x, tau0.x, tau1.x, ds),
                             exp_source_weight(st.y, tau0.y, tau1.y, ds),
                             exp_source_weight(st.z, tau0.z, tau1.z, ds));
                         per_light[l] += t_now * sigma_s_here * rho * ph * irr * weight;
-                        if (P.multiple != 0u) {
+                        if (MULTIPLE && P.multiple != 0u) {
                             // Multiply scattered light toward the camera, constant over
                             // the segment: the segment's own weight.
                             let w = ds * vec3<f32>(phi(st.x * ds), phi(st.y * ds), phi(st.z * ds));
@@ -472,7 +506,7 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     // A ground plane: its light after the lights' (toward_light.wgsl).
     let ground_at = 16u + 4u * n_lights;
-    if (P.stride >= ground_at + 8u) {
+    if (GROUND && P.stride >= ground_at + 8u) {
         ground_light(wo, wd, r, smp.index_dir.w, out + ground_at);
     }
 }

@@ -115,6 +115,9 @@ fn scene_parts<'a>(
 /// Seconds the GPU's stages took.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct GpuTimes {
+    /// Compiling the render's pipeline (the march's for the scene's parts, or the path
+    /// tracer's) where this render was the first to need it: in no other stage.
+    pub compile: f64,
     /// Flattening the grid and the maps, and uploading them.
     pub upload: f64,
     /// Generating the rays, marching them and reading the results back.
@@ -160,8 +163,14 @@ pub fn render_pixels(
     let (resident, uploaded_bytes) = gpu.upload(&buffers, kept)?;
     drop(buffers);
     let upload = t.elapsed().as_secs_f64();
+    // The march compiled for the scene's parts before the march is timed (on first
+    // use; else found): the stats' `gpu_compile`.
+    let t = Instant::now();
+    gpu.march_pipeline(resident.features)?;
+    let compile = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut times = GpuTimes {
+        compile,
         upload,
         layout,
         resident_bytes,

@@ -43,9 +43,11 @@ pub fn render_path(
     job: &PixelJob<PathTracer>,
     kept: Option<&mut super::KeptBuffers>,
 ) -> Result<(PixelPasses, GpuTimes), String> {
+    // Compiled before anything else is timed: the stats' `gpu_compile`.
     let t = Instant::now();
-    // Compiled before the samples are timed (a setup cost, as the upload is).
     path_pipeline(gpu)?;
+    let compile = t.elapsed().as_secs_f64();
+    let t = Instant::now();
     let lights = scene.illumination();
     let traversal = scene.traversal();
     let volume = scene.volume(&traversal);
@@ -145,6 +147,7 @@ pub fn render_path(
     let upload = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut times = GpuTimes {
+        compile,
         upload,
         layout,
         resident_bytes,

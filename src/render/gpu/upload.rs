@@ -16,6 +16,7 @@ use crate::shadow::ShadowQuadrature;
 use crate::shadow::flat::FlatChart;
 use crate::shadow::map::ChartSelect;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Floats per camera sample uploaded: world origin and jitter, world direction and
 /// `t_max`, index origin and `t_min`, index direction and 0 (`t_min`, `t_max`: the
@@ -61,6 +62,48 @@ pub struct Buffers {
     pub meta: Vec<f32>,
     pub params: Vec<u32>,
     pub stride: u32,
+    /// The march's parts the scene uses.
+    pub features: MarchFeatures,
+}
+
+/// The march's optional parts (march.wgsl's overrides) a scene uses: the march's
+/// pipeline is compiled for them, the code of the others left out (with the registers
+/// it holds, which on a GPU bound how many invocations run at once).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MarchFeatures {
+    /// Something emits (`EMITS`).
+    pub emits: bool,
+    /// A colour grid tints σs (`TINTED`).
+    pub tinted: bool,
+    /// The fast mode's lattice is gathered (`MULTIPLE`).
+    pub multiple: bool,
+    /// Some light's shadow rays are marched (`MARCHED`).
+    pub marched: bool,
+    /// Camera rays may meet a ground plane (`GROUND`).
+    pub ground: bool,
+}
+
+impl MarchFeatures {
+    /// Every part: the march as written, without overrides.
+    pub const ALL: MarchFeatures = MarchFeatures {
+        emits: true,
+        tinted: true,
+        multiple: true,
+        marched: true,
+        ground: true,
+    };
+
+    /// The overrides' values (march.wgsl), 1 or 0.
+    pub fn constants(self) -> [(&'static str, f64); 5] {
+        let b = |on: bool| if on { 1.0 } else { 0.0 };
+        [
+            ("EMITS", b(self.emits)),
+            ("TINTED", b(self.tinted)),
+            ("MULTIPLE", b(self.multiple)),
+            ("MARCHED", b(self.marched)),
+            ("GROUND", b(self.ground)),
+        ]
+    }
 }
 
 impl Buffers {
@@ -305,10 +348,21 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
             if m.charts.len() != want {
                 return Err("a shadow map without all its charts".into());
             }
-            charts.extend(m.charts.iter().map(|c| c.flat()));
+            charts.extend(m.charts.par_iter().map(|c| c.flat()).collect::<Vec<_>>());
         }
     }
-    let mut dsm = vec![0u32; charts.len() * CHART_WORDS];
+    fn parts(c: &FlatChart) -> [&Vec<u32>; 4] {
+        [&c.slots, &c.bricks, &c.hermite, &c.linear]
+    }
+    let words = charts.len() * CHART_WORDS
+        + charts
+            .iter()
+            .flat_map(parts)
+            .map(|p| p.len())
+            .sum::<usize>();
+    // Sized at once (a map's samples run to 10⁸ bytes), the headers filled here and
+    // the charts' arrays copied in on every thread below.
+    let mut dsm = vec![0u32; words.max(4)];
     for (k, c) in charts.iter().enumerate() {
         let mut put = |at: usize, v: u32| dsm[k * CHART_WORDS + at] = v;
         put(0, c.perspective.into());
@@ -327,18 +381,26 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
             put(at + 2, v.z as u32);
         }
     }
+    let mut at = charts.len() * CHART_WORDS;
+    let mut copies = Vec::with_capacity(charts.len() * 4);
     for (k, c) in charts.iter().enumerate() {
-        for (word, part) in [
-            (28, &c.slots),
-            (29, &c.bricks),
-            (30, &c.hermite),
-            (31, &c.linear),
-        ] {
-            dsm[k * CHART_WORDS + word] = dsm.len() as u32;
-            dsm.extend(part.iter());
+        for (word, part) in (28..).zip(parts(c)) {
+            dsm[k * CHART_WORDS + word] = at as u32;
+            copies.push(part.as_slice());
+            at += part.len();
         }
     }
-    pad(&mut dsm);
+    // The arrays in turn, each cut into pieces copied in parallel.
+    let mut rest = &mut dsm[charts.len() * CHART_WORDS..];
+    let mut pieces = Vec::new();
+    for part in copies {
+        let (here, after) = std::mem::take(&mut rest).split_at_mut(part.len());
+        pieces.extend(here.chunks_mut(1 << 16).zip(part.chunks(1 << 16)));
+        rest = after;
+    }
+    pieces
+        .into_par_iter()
+        .for_each(|(to, from)| to.copy_from_slice(from));
     // Whole, until split_maps knows the adapter's binding size.
     let dsm_chunk = dsm.len();
     // meta: the lights, then the phase table.
@@ -405,7 +467,7 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
     ]);
     params.extend(lattice);
     debug_assert_eq!(params.len(), DENSITY_PARAM_WORDS);
-    params.extend(beside);
+    params.extend(&beside);
     // Marched shadow rays: the midpoint rule's step in voxels (0: exact per voxel), and
     // where they stop.
     let shadow_step = match s.quadrature {
@@ -417,6 +479,16 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
     debug_assert_eq!(params[DSM_CHUNK_AT] as usize, dsm_chunk);
     debug_assert_eq!(params[GRID_BASES_AT..GRID_BASES_AT + 6], bases);
     debug_assert_eq!(params[BACKGROUND_AT], s.grid.background().to_bits());
+    let features = MarchFeatures {
+        emits: beside[super::grids::EMITS_AT] != 0,
+        tinted: beside[super::grids::TINT_AT] != 0,
+        multiple: lattice[1] != 0,
+        marched: s
+            .shadows
+            .iter()
+            .any(|sh| matches!(sh, LightShadow::Marched)),
+        ground: s.ground,
+    };
     Ok(Buffers {
         tree,
         vals,
@@ -425,6 +497,7 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
         meta,
         params,
         stride,
+        features,
     })
 }
 
@@ -441,6 +514,7 @@ mod tests {
             meta: vec![],
             params: vec![0; PARAM_WORDS],
             stride: 0,
+            features: MarchFeatures::ALL,
         }
     }
 
