@@ -17,6 +17,7 @@
 
 mod bake;
 mod context;
+mod grid_parts;
 mod grids;
 mod path;
 mod pixels;
@@ -26,6 +27,7 @@ mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
 pub use context::{Gpu, MAX_BINDING_VAR};
+pub use grid_parts::{GridBinding, read_back};
 pub use path::render_path;
 pub use resident::KeptBuffers;
 pub use sweep::{GpuSweeper, SweepTimes, sweeps_lattice};
@@ -135,6 +137,9 @@ pub struct GpuTimes {
     /// Of them, the bytes this frame uploaded: all of them, but in a sequence only those
     /// that differ from the frame before's (see [`KeptBuffers`]).
     pub uploaded_bytes: u64,
+    /// The buffers the grids' node tables and their values went in: 1 each while they
+    /// fit the adapter's largest binding, else up to 4 parts each.
+    pub grid_parts: [usize; 2],
 }
 
 /// Renders the job's pixels on `gpu` (the scene passed [`unsupported`]), with the fast
@@ -175,6 +180,7 @@ pub fn render_pixels(
         layout,
         resident_bytes,
         uploaded_bytes,
+        grid_parts: resident.grid_parts(),
         ..GpuTimes::default()
     };
     let passes = pixels::render_pixels(gpu, &resident, job, &mut times)?;
