@@ -155,6 +155,17 @@ fn gpu_matches_cpu(input: &str, o: &RenderOptions) -> (f64, f64) {
         parts.iter().all(|s| s.is_some_and(|s| s > 0.0)),
         "{parts:?}"
     );
+    // The GPU's own time in the march's and the columns' kernels, where the adapter
+    // times its passes (lavapipe does): part of the stage around each.
+    for (kernel, around, ran) in [
+        ("gpu_march_kernel", "gpu_march", true),
+        ("gpu_bake_kernel", "gpu_bake", maps),
+    ] {
+        match (stage(kernel), stage(around)) {
+            (Some(k), Some(a)) => assert!(k > 0.0 && k <= a, "{kernel} {k} of {around} {a}"),
+            (k, _) => assert!(k.is_none() && !(test_gpu().timestamps && ran), "{kernel}"),
+        }
+    }
     let (layout, render) = (stage("gpu_layout"), stage("render"));
     assert!(layout.is_some_and(|l| l > 0.0 && l <= parts[0].unwrap_or(0.0)));
     let sum: f64 = parts.iter().flatten().sum();

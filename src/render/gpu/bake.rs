@@ -4,6 +4,7 @@
 //! f32 from where each column's march starts, is marched by columns.wgsl (one invocation
 //! a column) and read back. What the bake decides stays on the CPU.
 
+use super::busy::{BusyTotal, PassTimer};
 use super::context::size_text;
 use super::context::{GROUPS_X, Gpu, WORKGROUP, entry};
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
@@ -33,6 +34,9 @@ pub struct BakeTimes {
     pub columns: f64,
     /// Columns marched on the GPU.
     pub marched: u64,
+    /// Of `columns`: the GPU's own time marching them, where the adapter times its
+    /// passes.
+    pub kernel: Option<f64>,
 }
 
 /// The grid uploaded for the columns: which grid (its address, for the render that
@@ -49,6 +53,8 @@ pub struct GpuColumns {
     gpu: &'static Gpu,
     grid: Mutex<Option<GridOnGpu>>,
     times: Mutex<BakeTimes>,
+    /// The GPU's own seconds in the column marches.
+    busy: BusyTotal,
     /// The first failure, after which the bake marches on the CPU.
     failed: Mutex<Option<String>>,
 }
@@ -59,12 +65,16 @@ impl GpuColumns {
             gpu,
             grid: Mutex::new(None),
             times: Mutex::new(BakeTimes::default()),
+            busy: BusyTotal::default(),
             failed: Mutex::new(None),
         }
     }
 
     pub fn times(&self) -> BakeTimes {
-        self.times.lock().map(|t| *t).unwrap_or_default()
+        BakeTimes {
+            kernel: self.busy.seconds(),
+            ..self.times.lock().map(|t| *t).unwrap_or_default()
+        }
     }
 
     /// Why the GPU stopped marching the bake's columns, if it did.
@@ -251,12 +261,16 @@ impl GpuColumns {
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let oom = d.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let mut encoder = d.create_command_encoder(&Default::default());
+        let timer = PassTimer::new(gpu);
         {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
+            let mut pass = encoder.begin_compute_pass(&PassTimer::pass(timer.as_ref()));
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bind, &[]);
             let groups = (n as u32).div_ceil(WORKGROUP);
             pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
+        }
+        if let Some(t) = &timer {
+            t.resolve(&mut encoder);
         }
         encoder.copy_buffer_to_buffer(&out, 0, &out_back, 0, out.size());
         encoder.copy_buffer_to_buffer(&flags, 0, &flags_back, 0, flags.size());
@@ -297,6 +311,7 @@ impl GpuColumns {
             .into_iter()
             .map(f32::from_bits)
             .collect();
+        self.busy.add(timer.and_then(|t| t.seconds(gpu)));
         Ok((values, take(&flags_back, n)?))
     }
 }

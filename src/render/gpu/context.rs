@@ -2,6 +2,7 @@
 //! limits the adapter reports, the march's compute pipelines, and one call that marches
 //! a batch of camera samples.
 
+use super::busy::{BusyTotal, PassTimer};
 use super::resident::{KeptBuffers, Making};
 use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
@@ -25,6 +26,8 @@ pub struct Gpu {
     pub on_cpu: bool,
     /// The adapter was picked by name (`WGPU_ADAPTER_NAME`).
     pub named: bool,
+    /// The device writes timestamps around compute passes ([`PassTimer`]).
+    pub timestamps: bool,
 }
 
 /// The environment variable that lowers the largest buffer the GPU binds to this many
@@ -112,8 +115,16 @@ impl Gpu {
                 limits.max_storage_buffers_per_shader_stage
             ));
         }
+        // Timestamps around the kernels, where the adapter has them: the stats' kernel
+        // seconds.
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("murk"),
+            required_features: if timestamps {
+                wgpu::Features::TIMESTAMP_QUERY
+            } else {
+                wgpu::Features::empty()
+            },
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -128,6 +139,7 @@ impl Gpu {
             limits,
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
             named,
+            timestamps,
         })
     }
 
@@ -280,12 +292,16 @@ impl Gpu {
             entries: &entries,
         });
         let mut encoder = d.create_command_encoder(&Default::default());
+        let timer = PassTimer::new(self);
         {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
+            let mut pass = encoder.begin_compute_pass(&PassTimer::pass(timer.as_ref()));
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bind, &[]);
             let groups = (count as u32).div_ceil(WORKGROUP);
             pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
+        }
+        if let Some(t) = &timer {
+            t.resolve(&mut encoder);
         }
         encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, bytes);
         self.queue.submit([encoder.finish()]);
@@ -308,6 +324,7 @@ impl Gpu {
         drop(view);
         readback.unmap();
         values.truncate(count * stride);
+        scene.busy.add(timer.and_then(|t| t.seconds(self)));
         Ok(values)
     }
 
@@ -351,6 +368,7 @@ impl Gpu {
             params: b.params.clone(),
             stride: b.stride,
             features: b.features,
+            busy: BusyTotal::default(),
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!("{}: uploading the scene: {e}", self.name));
@@ -429,4 +447,6 @@ pub struct Resident {
     pub stride: u32,
     /// The march's parts the scene uses (the pipeline it is marched with).
     pub(super) features: MarchFeatures,
+    /// The GPU's own seconds in the passes run over these buffers.
+    pub(super) busy: BusyTotal,
 }
