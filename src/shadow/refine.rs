@@ -4,7 +4,8 @@
 //! A level's samples are made a batch of whole brick stacks at a time
 //! ([`BATCH_SAMPLES`]), and each brick of the batch is decided and packed before the next
 //! batch is sampled: only one batch's samples are ever held in f32 (20 bytes a sample,
-//! where the map holds 12 or 2). A brick that needs the next level is packed too, at the
+//! where the map holds 12 or 2; a GPU's batches are larger, see
+//! [`ColumnMarcher::batch_samples`]). A brick that needs the next level is packed too, at the
 //! level checked, in case the budget stops refinement there (then it is kept so, as it
 //! always was); if refinement goes on, the finer brick replaces it and
 //! [`ChartMap::drop_replaced`] reclaims its room. A stack's columns are marched through
@@ -42,8 +43,8 @@ const CHECK_FRACTION: f64 = 0.5;
 
 /// Samples made per batch (more only when one brick stack alone has more): 10 MB in
 /// f32, a few thousand bricks at the levels most bricks stop at, so the columns still
-/// spread over every thread.
-const BATCH_SAMPLES: usize = 1 << 19;
+/// spread over every thread. A [`ColumnMarcher`] may ask for larger batches.
+pub(super) const BATCH_SAMPLES: usize = 1 << 19;
 
 /// A brick on trial: its key, what coarse samples could miss there (see
 /// `unresolved_bounds`), and at the first level what lies above it.
@@ -63,6 +64,11 @@ pub(super) fn refine(
     let chart: Chart = map.chart;
     let sigmas = channels(settings.sigma_t);
     let allowed = CHECK_FRACTION * settings.tolerance;
+    // The batches' size: the marcher's where it marches this density. The map is the
+    // same for any size: each level's budget is decided after all its batches.
+    let batch_samples = elsewhere
+        .filter(|c| c.takes(density))
+        .map_or(BATCH_SAMPLES, |c| c.batch_samples());
     // Where each brick stack starts: density lies only inside marked bricks.
     let mut stack_start: BTreeMap<(i32, i32), i32> = BTreeMap::new();
     for k in keys {
@@ -108,7 +114,7 @@ pub(super) fn refine(
         let mut next: Vec<(Pending, f64)> = Vec::new();
         // Each brick on trial is packed once at this level, with at most m³ samples.
         map.reserve(pending.len(), pending.len() * m * m * m);
-        for batch in stack_batches(&pending, m * m * m) {
+        for batch in stack_batches(&pending, m * m * m, batch_samples) {
             let batch = &pending[batch];
             let batch_keys: Vec<IVec3> = batch.iter().map(|p| p.0).collect();
             let vals = sample_level(
@@ -374,12 +380,13 @@ fn decide(
 }
 
 /// `pending` (sorted by stack, as the keys are) cut into runs of whole brick stacks of
-/// about [`BATCH_SAMPLES`] samples, `per_brick` each.
+/// about `batch_samples` samples, `per_brick` each.
 fn stack_batches(
     pending: &[Pending],
     per_brick: usize,
+    batch_samples: usize,
 ) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
-    let per_batch = (BATCH_SAMPLES / per_brick.max(1)).max(1);
+    let per_batch = (batch_samples / per_brick.max(1)).max(1);
     let mut start = 0;
     std::iter::from_fn(move || {
         if start >= pending.len() {

@@ -25,6 +25,16 @@ const SAMPLE_FLOATS: usize = 5;
 /// apart, the slopes of τ across the light moved the image by 5.6e-3 relative RMSE.
 const F32_REACH: f64 = 1024.0;
 
+/// Samples the bake hands the GPU a batch: sixteen times the CPU's batch, so that a
+/// level's columns go in a few dispatches of tens of thousands of invocations, not
+/// dozens of a few thousand (about one per core of a large GPU, each marching its column
+/// alone); 168 MB of samples read back at most.
+const GPU_BATCH_SAMPLES: usize = 1 << 23;
+
+/// The environment variable that sets the samples a batch instead (how the benchmark
+/// compares batch sizes in one build).
+const BATCH_VAR: &str = "MURK_GPU_BAKE_BATCH";
+
 /// Seconds and counts of the bake's work on the GPU.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct BakeTimes {
@@ -359,6 +369,15 @@ impl ColumnMarcher for GpuColumns {
         free && density
             .as_voxel_grid()
             .is_some_and(|g| g.nodes_check().is_ok())
+    }
+
+    /// [`GPU_BATCH_SAMPLES`], or [`BATCH_VAR`]'s.
+    fn batch_samples(&self) -> usize {
+        std::env::var(BATCH_VAR)
+            .ok()
+            .and_then(|v| v.trim().parse::<usize>().ok())
+            .filter(|&n| n > 0)
+            .unwrap_or(GPU_BATCH_SAMPLES)
     }
 
     fn march(
