@@ -184,7 +184,7 @@ impl Gpu {
         sources: &[&str],
         entry: &str,
     ) -> Result<wgpu::ComputePipeline, String> {
-        compile_on(&self.device, &self.name, label, sources, entry)
+        compile_with(&self.device, &self.name, label, sources, entry, &[])
     }
 
     /// The most bytes one storage buffer may bind.
@@ -385,19 +385,8 @@ impl Gpu {
     }
 }
 
-/// [`Gpu::compile`] on `device` (of the adapter `name`).
-fn compile_on(
-    device: &wgpu::Device,
-    name: &str,
-    label: &str,
-    sources: &[&str],
-    entry: &str,
-) -> Result<wgpu::ComputePipeline, String> {
-    compile_with(device, name, label, sources, entry, &[])
-}
-
-/// [`compile_on`] with the sources' overrides set to `constants` (the others keep
-/// their defaults).
+/// [`Gpu::compile`] on `device` (of the adapter `name`), with the sources' overrides
+/// set to `constants` (the others keep their defaults).
 fn compile_with(
     device: &wgpu::Device,
     name: &str,
