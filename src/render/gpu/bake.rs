@@ -158,12 +158,12 @@ impl GpuColumns {
         let on_gpu = held.as_ref().ok_or("no grid")?;
         let t = Instant::now();
         let (packed, taken) = pack(jobs, depths);
-        let depths: Vec<f32> = depths.iter().map(|&d| d as f32).collect();
-        let total: usize = jobs.iter().map(|j| j.count).sum();
+        let depths: Vec<f32> = depths.par_iter().map(|&d| d as f32).collect();
         // Batches whose buffers each fit one binding.
         let max = self.gpu.max_binding() as usize;
         let per_batch = (max / (JOB_FLOATS * 4)).clamp(1, 1 << 22);
-        let mut samples = Vec::with_capacity(total);
+        // Most often one batch, whose samples are then taken as they are.
+        let mut samples = Vec::new();
         let mut done = Vec::with_capacity(jobs.len());
         let mut start = 0;
         while start < jobs.len() {
@@ -174,11 +174,12 @@ impl GpuColumns {
                 end = start + (end - start) / 2;
             }
             let (out, flags) = self.dispatch(on_gpu, &packed, &depths, jobs, start..end)?;
-            samples.extend(
-                out.chunks_exact(SAMPLE_FLOATS)
-                    .map(|s| [s[0], s[1], s[2], s[3], s[4]]),
-            );
-            done.extend(flags.iter().map(|&f| f == 1));
+            if samples.is_empty() {
+                samples = out;
+            } else {
+                samples.extend_from_slice(&out);
+            }
+            done.extend(flags);
             start = end;
         }
         for (d, &ok) in done.iter_mut().zip(&taken) {
@@ -199,7 +200,7 @@ impl GpuColumns {
         depths: &[f32],
         jobs: &[ColumnJob],
         range: std::ops::Range<usize>,
-    ) -> Result<(Vec<f32>, Vec<u32>), String> {
+    ) -> Result<(Vec<[f32; SAMPLE_FLOATS]>, Vec<bool>), String> {
         let gpu = self.gpu;
         let d = &gpu.device;
         let pipeline = gpu.columns_pipeline()?;
@@ -213,12 +214,7 @@ impl GpuColumns {
         }
         let mut params = grid.params.clone();
         params[N_SAMPLES_AT] = n as u32;
-        let storage = |label: &str, contents: &[u8], out: bool| {
-            let usage = if out {
-                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC
-            } else {
-                wgpu::BufferUsages::STORAGE
-            };
+        let storage = |label: &str, contents: &[u8]| {
             let mut padded;
             let contents = if contents.len() < 16 {
                 padded = contents.to_vec();
@@ -230,7 +226,7 @@ impl GpuColumns {
             d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
                 contents,
-                usage,
+                usage: wgpu::BufferUsages::STORAGE,
             })
         };
         let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -238,14 +234,19 @@ impl GpuColumns {
             contents: bytemuck::cast_slice(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let jobs_buf = storage("columns", bytemuck::cast_slice(&part), false);
-        let depths_buf = storage("depths", bytemuck::cast_slice(depths), false);
-        let out = storage(
-            "column samples",
-            &vec![0u8; samples * SAMPLE_FLOATS * 4],
-            true,
-        );
-        let flags = storage("columns done", &vec![0u8; n * 4], true);
+        let jobs_buf = storage("columns", bytemuck::cast_slice(&part));
+        let depths_buf = storage("depths", bytemuck::cast_slice(depths));
+        // Written on the GPU only: made there (zeroed by wgpu), never sent up.
+        let written = |label: &str, bytes: usize| {
+            d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.max(16) as u64,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        let out = written("column samples", samples * SAMPLE_FLOATS * 4);
+        let flags = written("columns done", n * 4);
         let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("columns"),
             layout: &pipeline.get_bind_group_layout(0),
@@ -307,22 +308,30 @@ impl GpuColumns {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!("{}: {e}", gpu.name));
         }
-        let take = |b: &wgpu::Buffer, words: usize| -> Result<Vec<u32>, String> {
+        // Each read straight from the mapped buffer into what the bake takes.
+        let take = |b: &wgpu::Buffer, into: &mut dyn FnMut(&[u8])| -> Result<(), String> {
             let view = b
                 .slice(..)
                 .get_mapped_range()
                 .map_err(|e| format!("{}: reading the columns back: {e:?}", gpu.name))?;
-            let v: Vec<u32> = bytemuck::cast_slice(&view)[..words].to_vec();
+            into(&view);
             drop(view);
             b.unmap();
-            Ok(v)
+            Ok(())
         };
-        let values = take(&out_back, samples * SAMPLE_FLOATS)?
-            .into_iter()
-            .map(f32::from_bits)
-            .collect();
+        let mut values = Vec::with_capacity(samples);
+        take(&out_back, &mut |bytes| {
+            let all: &[[f32; SAMPLE_FLOATS]] =
+                bytemuck::cast_slice(&bytes[..samples * SAMPLE_FLOATS * 4]);
+            values.extend_from_slice(all);
+        })?;
+        let mut done = Vec::with_capacity(n);
+        take(&flags_back, &mut |bytes| {
+            let flags: &[u32] = bytemuck::cast_slice(&bytes[..n * 4]);
+            done.extend(flags.iter().map(|&f| f == 1));
+        })?;
         self.busy.add(timer.and_then(|t| t.seconds(gpu)));
-        Ok((values, take(&flags_back, n)?))
+        Ok((values, done))
     }
 }
 
