@@ -7,6 +7,11 @@
 
 use crate::field::{Field, IndexRay, Sideways};
 
+/// Samples the bake makes per batch (more only when one brick stack alone has more):
+/// 10 MB in f32, a few thousand bricks at the levels most bricks stop at, so the columns
+/// still spread over every thread. A [`ColumnMarcher`] may ask for larger batches.
+pub const BAKE_BATCH_SAMPLES: usize = 1 << 19;
+
 /// One light column to march.
 #[derive(Clone, Copy, Debug)]
 pub struct ColumnJob {
@@ -38,7 +43,7 @@ pub trait ColumnMarcher: Send + Sync {
     /// About how many samples it marches best in one batch: the bake's own batch size
     /// unless it says otherwise (a GPU fills its cores only with many columns at once).
     fn batch_samples(&self) -> usize {
-        super::refine::BATCH_SAMPLES
+        BAKE_BATCH_SAMPLES
     }
 
     /// Marches `jobs` through `density`; an error leaves the whole batch to the bake.
@@ -147,7 +152,7 @@ mod tests {
         ] {
             let (own, own_report) = bake(&g, light, &settings);
             let mut batches = Vec::new();
-            for batch in [super::super::refine::BATCH_SAMPLES, 1000] {
+            for batch in [BAKE_BATCH_SAMPLES, 1000] {
                 let marcher = Refusing {
                     asked: AtomicU64::new(0),
                     marched: AtomicU64::new(0),

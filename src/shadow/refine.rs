@@ -2,9 +2,9 @@
 //! brick into the map as soon as it is decided.
 //!
 //! A level's samples are made a batch of whole brick stacks at a time
-//! ([`BATCH_SAMPLES`]), and each brick of the batch is decided and packed before the next
-//! batch is sampled: only one batch's samples are ever held in f32 (20 bytes a sample,
-//! where the map holds 12 or 2; a GPU's batches are larger, see
+//! ([`BAKE_BATCH_SAMPLES`]), and each brick of the batch is decided and packed before
+//! the next batch is sampled: only one batch's samples are ever held in f32 (20 bytes a
+//! sample, where the map holds 12 or 2; a GPU's batches are larger, see
 //! [`ColumnMarcher::batch_samples`]). A brick that needs the next level is packed too, at the
 //! level checked, in case the budget stops refinement there (then it is kept so, as it
 //! always was); if refinement goes on, the finer brick replaces it and
@@ -13,7 +13,7 @@
 //! alone: the map's lookups are the same as when every brick was sampled together.
 
 use super::chart::Chart;
-use super::column_marcher::ColumnMarcher;
+use super::column_marcher::{BAKE_BATCH_SAMPLES, ColumnMarcher};
 use super::columns::sample_level;
 use super::lattice::{cells_per_column, cells_per_unit, column_cells};
 use super::level_checks::{Upstream, channels, coarse_error, coarsen, unresolved_bounds};
@@ -41,11 +41,6 @@ const VOXEL_GAIN: f64 = 4.0;
 /// next level's samples only, and the error between them is larger.
 const CHECK_FRACTION: f64 = 0.5;
 
-/// Samples made per batch (more only when one brick stack alone has more): 10 MB in
-/// f32, a few thousand bricks at the levels most bricks stop at, so the columns still
-/// spread over every thread. A [`ColumnMarcher`] may ask for larger batches.
-pub(super) const BATCH_SAMPLES: usize = 1 << 19;
-
 /// A brick on trial: its key, what coarse samples could miss there (see
 /// `unresolved_bounds`), and at the first level what lies above it.
 type Pending = (IVec3, f64, Upstream);
@@ -68,7 +63,7 @@ pub(super) fn refine(
     // same for any size: each level's budget is decided after all its batches.
     let batch_samples = elsewhere
         .filter(|c| c.takes(density))
-        .map_or(BATCH_SAMPLES, |c| c.batch_samples());
+        .map_or(BAKE_BATCH_SAMPLES, |c| c.batch_samples());
     // Where each brick stack starts: density lies only inside marked bricks.
     let mut stack_start: BTreeMap<(i32, i32), i32> = BTreeMap::new();
     for k in keys {

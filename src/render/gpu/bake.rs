@@ -9,7 +9,7 @@ use super::context::size_text;
 use super::context::{GROUPS_X, Gpu, WORKGROUP, entry};
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
 use crate::field::{Field, VoxelGrid};
-use crate::shadow::{ColumnJob, ColumnMarcher, MarchedColumns};
+use crate::shadow::{BAKE_BATCH_SAMPLES, ColumnJob, ColumnMarcher, MarchedColumns};
 use rayon::prelude::*;
 use std::sync::Mutex;
 use std::time::Instant;
@@ -380,13 +380,19 @@ impl ColumnMarcher for GpuColumns {
             .is_some_and(|g| g.nodes_check().is_ok())
     }
 
-    /// [`GPU_BATCH_SAMPLES`], or [`BATCH_VAR`]'s.
+    /// [`GPU_BATCH_SAMPLES`] (the bake's own on a device that runs on the CPU, which
+    /// its few cores fill), or [`BATCH_VAR`]'s.
     fn batch_samples(&self) -> usize {
+        let own = if self.gpu.on_cpu {
+            BAKE_BATCH_SAMPLES
+        } else {
+            GPU_BATCH_SAMPLES
+        };
         std::env::var(BATCH_VAR)
             .ok()
             .and_then(|v| v.trim().parse::<usize>().ok())
             .filter(|&n| n > 0)
-            .unwrap_or(GPU_BATCH_SAMPLES)
+            .unwrap_or(own)
     }
 
     fn march(
