@@ -6,6 +6,8 @@
 # sweeps run where MURK_GPU_LATTICE says: two more rows, gpu-fast-lattice-cpu (swept on
 # the CPU, gathered on the GPU) and gpu-fast-lattice-gpu (swept on the GPU too), each with
 # the lattice's solve seconds and where it was swept; gpu-fast is the automatic choice.
+# Under single, gpu-single-bake-batch-cpu bakes the shadow map's light columns on the GPU
+# in the CPU's batch size (MURK_GPU_BAKE_BATCH) against gpu-single's larger batches.
 # Prints each run's wall and CPU seconds, the device and the stages of its --stats
 # (gpu_upload: flattening and uploading the grid, maps and lattice; render: rays, march,
 # readback and passes; multiple_scattering: the lattice's solve, of which gpu_lattice ran
@@ -58,6 +60,11 @@ for mode in "${MODES[@]}"; do
     run "gpu-$mode" --device gpu --scattering $mode
     run "cpu-$mode" --device cpu --scattering $mode --threads "$THREADS"
     run "cpu1-$mode" --device cpu --scattering $mode --threads 1
+    if [[ $mode == single ]]; then
+        # The bake's light columns in the CPU's batch size (half a million samples)
+        # against the GPU's default: the same map, in more and smaller dispatches.
+        MURK_GPU_BAKE_BATCH=524288 run "gpu-single-bake-batch-cpu" --device gpu --scattering single
+    fi
     if [[ $mode == fast ]]; then
         for where in cpu gpu; do
             MURK_GPU_LATTICE=$where run "gpu-fast-lattice-$where" --device gpu --scattering fast

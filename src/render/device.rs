@@ -37,8 +37,9 @@ pub(super) fn build_scene(
 }
 
 /// The bake's GPU stages in the stats: `gpu_bake_upload` (the grid's layout and upload
-/// for the columns) and `gpu_bake` (the columns' batches: layout, upload, march and
-/// readback), and a note where the GPU stopped marching them.
+/// for the columns), `gpu_bake` (the columns' batches: layout, upload, march and
+/// readback) and of it `gpu_bake_kernel` (the GPU's own time marching them, where the
+/// adapter times its passes), and a note where the GPU stopped marching them.
 pub(super) fn report_bake(columns: Option<&gpu::GpuColumns>, report: &mut SceneReport) {
     let Some(c) = columns else { return };
     let times = c.times();
@@ -49,6 +50,11 @@ pub(super) fn report_bake(columns: Option<&gpu::GpuColumns>, report: &mut SceneR
         report
             .stages
             .insert("gpu_bake".into(), Stage::ran(times.columns));
+        if let Some(busy) = times.kernel {
+            report
+                .stages
+                .insert("gpu_bake_kernel".into(), Stage::ran(busy));
+        }
     }
     if let Some(why) = c.failure() {
         report.notes.push(format!(
@@ -221,6 +227,11 @@ fn render_frame_gpu(
         ("gpu_record", times.record),
     ] {
         st.scene.stages.insert(name.into(), Stage::ran(seconds));
+    }
+    if let Some(busy) = times.busy {
+        st.scene
+            .stages
+            .insert("gpu_march_kernel".into(), Stage::ran(busy));
     }
     st.scene.gpu_memory_bytes = times.resident_bytes;
     st.scene.gpu_upload_bytes = times.uploaded_bytes;

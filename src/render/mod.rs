@@ -104,9 +104,7 @@ fn render_prepared(
     kept: Option<&mut gpu::KeptBuffers>,
     job: FrameJob,
 ) -> Result<RenderStats> {
-    let start = Instant::now()
-        .checked_sub(std::time::Duration::from_secs_f64(prepared.seconds))
-        .unwrap_or_else(Instant::now);
+    let start = prepared.started();
     check_output_dirs(plan)?;
     let RenderedImage {
         frame,
@@ -206,9 +204,7 @@ fn render_image_prepared(
     kept: Option<&mut gpu::KeptBuffers>,
     job: FrameJob,
 ) -> Result<RenderedImage> {
-    let start = Instant::now()
-        .checked_sub(std::time::Duration::from_secs_f64(prepared.seconds))
-        .unwrap_or_else(Instant::now);
+    let start = prepared.started();
     let PreparedFrame {
         scene,
         columns,

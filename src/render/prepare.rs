@@ -21,6 +21,16 @@ pub(super) struct PreparedFrame {
     pub seconds: f64,
 }
 
+impl PreparedFrame {
+    /// When the frame's time is counted from: now less the preparing's seconds, so a
+    /// frame prepared ahead (during the frame before) counts its preparing, not its wait.
+    pub fn started(&self) -> std::time::Instant {
+        let now = std::time::Instant::now();
+        now.checked_sub(std::time::Duration::from_secs_f64(self.seconds))
+            .unwrap_or(now)
+    }
+}
+
 /// Everything of a frame before its pixels that needs no GPU of its own: the piece's
 /// rows and the holdout checked, the input read and the scene built.
 pub(super) fn prepare_frame(

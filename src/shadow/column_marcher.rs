@@ -7,6 +7,11 @@
 
 use crate::field::{Field, IndexRay, Sideways};
 
+/// Samples the bake makes per batch (more only when one brick stack alone has more):
+/// 10 MB in f32, a few thousand bricks at the levels most bricks stop at, so the columns
+/// still spread over every thread. A [`ColumnMarcher`] may ask for larger batches.
+pub const BAKE_BATCH_SAMPLES: usize = 1 << 19;
+
 /// One light column to march.
 #[derive(Clone, Copy, Debug)]
 pub struct ColumnJob {
@@ -35,6 +40,12 @@ pub trait ColumnMarcher: Send + Sync {
     /// Whether it marches columns through `density` (else the bake marches them all).
     fn takes(&self, density: &dyn Field) -> bool;
 
+    /// About how many samples it marches best in one batch: the bake's own batch size
+    /// unless it says otherwise (a GPU fills its cores only with many columns at once).
+    fn batch_samples(&self) -> usize {
+        BAKE_BATCH_SAMPLES
+    }
+
     /// Marches `jobs` through `density`; an error leaves the whole batch to the bake.
     fn march(
         &self,
@@ -58,11 +69,20 @@ mod tests {
     struct Refusing {
         asked: AtomicU64,
         marched: AtomicU64,
+        /// Its batches' samples.
+        batch: usize,
+        /// Batches it was handed, and the most samples in one.
+        calls: AtomicU64,
+        largest: AtomicU64,
     }
 
     impl ColumnMarcher for Refusing {
         fn takes(&self, density: &dyn Field) -> bool {
             density.as_voxel_grid().is_some()
+        }
+
+        fn batch_samples(&self) -> usize {
+            self.batch
         }
 
         fn march(
@@ -87,6 +107,9 @@ mod tests {
                 }
             }
             self.asked.fetch_add(jobs.len() as u64, Ordering::Relaxed);
+            self.calls.fetch_add(1, Ordering::Relaxed);
+            self.largest
+                .fetch_max(samples.len() as u64, Ordering::Relaxed);
             let marched = done.iter().filter(|&&d| d).count() as u64;
             self.marched.fetch_add(marched, Ordering::Relaxed);
             Ok(MarchedColumns { samples, done })
@@ -112,7 +135,9 @@ mod tests {
     /// The map baked through the seam — the columns set up from where each march starts,
     /// most marched by the marcher, every third by the bake — is the map baked here: the
     /// same bricks, levels and forms, and ∫ρ ds equal to f32 rounding everywhere, for a
-    /// sun (a parallel chart) and a point light (perspective charts, every sideways term).
+    /// sun (a parallel chart) and a point light (perspective charts, every sideways term);
+    /// in batches of the bake's own size and in batches of a few bricks, which the map
+    /// does not depend on.
     #[test]
     fn a_map_baked_through_the_seam_is_the_bakes_own() {
         let g = blob();
@@ -126,36 +151,52 @@ mod tests {
             },
         ] {
             let (own, own_report) = bake(&g, light, &settings);
-            let marcher = Refusing {
-                asked: AtomicU64::new(0),
-                marched: AtomicU64::new(0),
-            };
-            let (seam, seam_report) = bake_with(&g, light, &settings, Some(&marcher));
-            let (asked, marched) = (
-                marcher.asked.load(Ordering::Relaxed),
-                marcher.marched.load(Ordering::Relaxed),
-            );
-            assert_eq!(asked, own_report.columns, "{light:?}");
-            assert!(marched > 0 && marched < asked, "{marched} of {asked}");
-            assert_eq!(seam_report.columns, own_report.columns);
-            assert_eq!(seam_report.bricks, own_report.bricks);
-            assert_eq!(seam_report.points_per_level, own_report.points_per_level);
-            assert_eq!(seam_report.linear_bricks, own_report.linear_bricks);
-            assert_eq!(seam_report.dark_bricks, own_report.dark_bricks);
-            assert!(own_report.bricks > 8 && own_report.points_per_level[3] > 0);
-            let mut rng = SplitMix64(5);
-            let mut deepest = 0.0f64;
-            for _ in 0..5000 {
-                let u = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64());
-                let p = (u * 1.3 - 0.15) * 24.0 * 0.05;
-                let (a, b) = (own.density_integral(p), seam.density_integral(p));
-                assert!(
-                    (a - b).abs() <= 1e-6 * (1.0 + a),
-                    "{light:?} at {p}: {a} vs {b}"
+            let mut batches = Vec::new();
+            for batch in [BAKE_BATCH_SAMPLES, 1000] {
+                let marcher = Refusing {
+                    asked: AtomicU64::new(0),
+                    marched: AtomicU64::new(0),
+                    batch,
+                    calls: AtomicU64::new(0),
+                    largest: AtomicU64::new(0),
+                };
+                let (seam, seam_report) = bake_with(&g, light, &settings, Some(&marcher));
+                batches.push((
+                    marcher.calls.load(Ordering::Relaxed),
+                    marcher.largest.load(Ordering::Relaxed),
+                ));
+                let (asked, marched) = (
+                    marcher.asked.load(Ordering::Relaxed),
+                    marcher.marched.load(Ordering::Relaxed),
                 );
-                deepest = deepest.max(a);
+                assert_eq!(asked, own_report.columns, "{light:?}");
+                assert!(marched > 0 && marched < asked, "{marched} of {asked}");
+                assert_eq!(seam_report.columns, own_report.columns);
+                assert_eq!(seam_report.bricks, own_report.bricks);
+                assert_eq!(seam_report.points_per_level, own_report.points_per_level);
+                assert_eq!(seam_report.linear_bricks, own_report.linear_bricks);
+                assert_eq!(seam_report.dark_bricks, own_report.dark_bricks);
+                assert!(own_report.bricks > 8 && own_report.points_per_level[3] > 0);
+                let mut rng = SplitMix64(5);
+                let mut deepest = 0.0f64;
+                for _ in 0..5000 {
+                    let u = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64());
+                    let p = (u * 1.3 - 0.15) * 24.0 * 0.05;
+                    let (a, b) = (own.density_integral(p), seam.density_integral(p));
+                    assert!(
+                        (a - b).abs() <= 1e-6 * (1.0 + a),
+                        "{light:?} at {p}: {a} vs {b}"
+                    );
+                    deepest = deepest.max(a);
+                }
+                assert!(deepest > 0.5, "{deepest}");
             }
-            assert!(deepest > 0.5, "{deepest}");
+            // The small batches were asked for and given: more of them, each smaller.
+            let ((own_calls, own_largest), (calls, largest)) = (batches[0], batches[1]);
+            assert!(
+                calls > 2 * own_calls && largest < own_largest,
+                "{batches:?}"
+            );
         }
     }
 }

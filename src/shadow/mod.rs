@@ -23,7 +23,7 @@ pub mod settings;
 pub mod verify;
 
 pub use bake::{bake, bake_with};
-pub use column_marcher::{ColumnJob, ColumnMarcher, MarchedColumns};
+pub use column_marcher::{BAKE_BATCH_SAMPLES, ColumnJob, ColumnMarcher, MarchedColumns};
 pub use map::ShadowMap;
 pub use march::{ShadowQuadrature, density_integral};
 pub use settings::{BakeReport, BakeSettings, LightGeometry};

@@ -2,9 +2,10 @@
 //! brick into the map as soon as it is decided.
 //!
 //! A level's samples are made a batch of whole brick stacks at a time
-//! ([`BATCH_SAMPLES`]), and each brick of the batch is decided and packed before the next
-//! batch is sampled: only one batch's samples are ever held in f32 (20 bytes a sample,
-//! where the map holds 12 or 2). A brick that needs the next level is packed too, at the
+//! ([`BAKE_BATCH_SAMPLES`]), and each brick of the batch is decided and packed before
+//! the next batch is sampled: only one batch's samples are ever held in f32 (20 bytes a
+//! sample, where the map holds 12 or 2; a GPU's batches are larger, see
+//! [`ColumnMarcher::batch_samples`]). A brick that needs the next level is packed too, at the
 //! level checked, in case the budget stops refinement there (then it is kept so, as it
 //! always was); if refinement goes on, the finer brick replaces it and
 //! [`ChartMap::drop_replaced`] reclaims its room. A stack's columns are marched through
@@ -12,7 +13,7 @@
 //! alone: the map's lookups are the same as when every brick was sampled together.
 
 use super::chart::Chart;
-use super::column_marcher::ColumnMarcher;
+use super::column_marcher::{BAKE_BATCH_SAMPLES, ColumnMarcher};
 use super::columns::sample_level;
 use super::lattice::{cells_per_column, cells_per_unit, column_cells};
 use super::level_checks::{Upstream, channels, coarse_error, coarsen, unresolved_bounds};
@@ -40,11 +41,6 @@ const VOXEL_GAIN: f64 = 4.0;
 /// next level's samples only, and the error between them is larger.
 const CHECK_FRACTION: f64 = 0.5;
 
-/// Samples made per batch (more only when one brick stack alone has more): 10 MB in
-/// f32, a few thousand bricks at the levels most bricks stop at, so the columns still
-/// spread over every thread.
-const BATCH_SAMPLES: usize = 1 << 19;
-
 /// A brick on trial: its key, what coarse samples could miss there (see
 /// `unresolved_bounds`), and at the first level what lies above it.
 type Pending = (IVec3, f64, Upstream);
@@ -63,6 +59,11 @@ pub(super) fn refine(
     let chart: Chart = map.chart;
     let sigmas = channels(settings.sigma_t);
     let allowed = CHECK_FRACTION * settings.tolerance;
+    // The batches' size: the marcher's where it marches this density. The map is the
+    // same for any size: each level's budget is decided after all its batches.
+    let batch_samples = elsewhere
+        .filter(|c| c.takes(density))
+        .map_or(BAKE_BATCH_SAMPLES, |c| c.batch_samples());
     // Where each brick stack starts: density lies only inside marked bricks.
     let mut stack_start: BTreeMap<(i32, i32), i32> = BTreeMap::new();
     for k in keys {
@@ -108,7 +109,7 @@ pub(super) fn refine(
         let mut next: Vec<(Pending, f64)> = Vec::new();
         // Each brick on trial is packed once at this level, with at most m³ samples.
         map.reserve(pending.len(), pending.len() * m * m * m);
-        for batch in stack_batches(&pending, m * m * m) {
+        for batch in stack_batches(&pending, m * m * m, batch_samples) {
             let batch = &pending[batch];
             let batch_keys: Vec<IVec3> = batch.iter().map(|p| p.0).collect();
             let vals = sample_level(
@@ -374,12 +375,13 @@ fn decide(
 }
 
 /// `pending` (sorted by stack, as the keys are) cut into runs of whole brick stacks of
-/// about [`BATCH_SAMPLES`] samples, `per_brick` each.
+/// about `batch_samples` samples, `per_brick` each.
 fn stack_batches(
     pending: &[Pending],
     per_brick: usize,
+    batch_samples: usize,
 ) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
-    let per_batch = (BATCH_SAMPLES / per_brick.max(1)).max(1);
+    let per_batch = (batch_samples / per_brick.max(1)).max(1);
     let mut start = 0;
     std::iter::from_fn(move || {
         if start >= pending.len() {

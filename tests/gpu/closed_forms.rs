@@ -4,8 +4,7 @@ use super::*;
 
 #[test]
 fn a_constant_slab_seen_straight_through_has_the_closed_form_alpha() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // slab.vdb: density 1 for k = 0..19 at voxel size 0.05, so ∫ρ dz = 1 world unit
     // (trilinear ramps of half a voxel on each face); alpha = 1 − e^{−σt}.
     let mut o = options("8x8");
@@ -43,8 +42,7 @@ fn slab_view() -> RenderOptions {
 
 #[test]
 fn the_gpu_cuts_rays_at_a_holdout_as_its_closed_form_says() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     use exr::prelude::*;
     // The holdout's left half at depth 4.4, its right half empty: inside the slab
     // α(d) = 1 − e^{−3 (d − 4.025)}.
@@ -74,8 +72,7 @@ fn the_gpu_cuts_rays_at_a_holdout_as_its_closed_form_says() {
 
 #[test]
 fn the_gpu_cuts_rays_at_the_cameras_clipping_planes() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // A [camera] table: orthographic at z = 5 looking down −z, 1 unit wide (apertures
     // in tenths of a unit), clipping from 4.2 to 4.7 — inside the slab, which spans
     // depths 4.025 to 5.025: alpha is 1 − e^{−3 × 0.5}.

@@ -21,8 +21,7 @@ pub(super) fn emission_share(input: &str, o: &RenderOptions) -> f64 {
 
 #[test]
 fn the_gpu_integrates_flame_and_blackbody_emission_as_the_cpu_does() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // pyro.vdb: density, flame and temperature (half floats, the flame's nodes offset
     // from the density's), a colour grid Cd. Its emission is most of the image, so a
     // march that dropped it would miss the beauty by far more than the tolerance.
@@ -44,8 +43,7 @@ fn the_gpu_integrates_flame_and_blackbody_emission_as_the_cpu_does() {
 
 #[test]
 fn the_gpu_tints_scattering_by_colour_grids_under_single_and_fast() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // Houdini's Cd (one grid of three channels) and temperature, with the fast
     // mode's lattice; Blender's color_r/g/b (three grids) and temperature.
     let o = options("32x18");
@@ -55,8 +53,7 @@ fn the_gpu_tints_scattering_by_colour_grids_under_single_and_fast() {
 
 #[test]
 fn the_gpu_scatters_through_water_drops_phase_tables_under_single_and_fast() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     let mut o = options("32x18");
     o.phase = Some(murk::integrate::phase::PhaseKind::WaterDrop);
     let (beauty, _) = gpu_matches_cpu("cloud.vdb", &o);
@@ -133,8 +130,7 @@ pub(super) fn three_lattices(dir: &str) -> PathBuf {
 
 #[test]
 fn the_gpu_samples_flame_and_temperature_on_other_lattices_than_the_density() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     let path = three_lattices("gpu-lattices");
     let input = path.to_str().unwrap();
     let mut o = options("32x18");

@@ -4,15 +4,13 @@ use super::*;
 
 #[test]
 fn the_gpu_gathers_the_fast_lattice_as_the_cpu_does_on_the_demo_cloud() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     gpu_gathers_the_cpus_lattice("cloud.vdb", &options("40x24"));
 }
 
 #[test]
 fn the_gpu_gathers_the_fast_lattice_on_tiles_rotated_grids_and_several_lights() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // tiles.vdb's lattice spans its 4096³ tile: its cells are coarser than the leaves
     // that scatter, so little of its image is multiply scattered; equal all the same.
     gpu_matches_cpu("tiles.vdb", &fast(&options("32x18")));

@@ -23,8 +23,7 @@ fn shadowed_share(image: &murk::render::RenderedImage) -> (f64, f64) {
 
 #[test]
 fn the_gpu_lights_the_ground_through_the_shadow_maps_as_the_cpu_does() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     for visible in [false, true] {
         let o = cloud_on_the_ground(visible);
         let (e, _) = gpu_matches_cpu("cloud.vdb", &o);
@@ -45,8 +44,7 @@ fn the_gpu_lights_the_ground_through_the_shadow_maps_as_the_cpu_does() {
 
 #[test]
 fn the_gpu_marches_shadow_rays_as_the_cpu_does() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     let march = |mut o: RenderOptions| {
         o.shadows = Some("march".into());
         o
@@ -96,8 +94,7 @@ fn marched(res: &str, lights: &[&str], eye: Option<(&str, &str)>) -> RenderOptio
 /// (minutes on a real GPU; the ray cut short where that face was inside the grid).
 #[test]
 fn the_gpu_marches_shadow_rays_toward_point_lights_as_the_cpu_does() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // Above cloud.vdb's grid (index (10, 40, 20): on voxel corners and a leaf's face).
     let above = "point:0.5,2,1:1,1,1:40";
     let sun = "sun:0.3,1,0.2:1,1,1:2";
@@ -143,8 +140,7 @@ fn ground_before_the_slab(toward_sun: &str, shadows: &str) -> RenderOptions {
 
 #[test]
 fn the_ground_behind_a_constant_slab_has_the_closed_form_light() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // The sun at 45° from +y+z: the light crosses the slab's full thickness on the way
     // down, √2 of it per unit z, so T = e^{−σt √2}; the ground's radiance is
     // albedo/π · E cos θ · T, with cos θ = 1/√2. From −z nothing is in the way: T = 1.

@@ -2,7 +2,8 @@
 //! scattering, and fast with the CPU's lattice gathered on the GPU), a closed form,
 //! determinism, and what it refuses. The GPU is Mesa's lavapipe (Vulkan on the
 //! CPU), so these run on any machine that has it, and skip where it is missing. Images
-//! are small: lavapipe is slow on two cores.
+//! are small: lavapipe is slow on two cores. With `MURK_TEST_GPU=system` they run on
+//! the adapter the machine's own drivers give instead (a real GPU), and do not skip.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -10,6 +11,7 @@ mod common;
 use common::frames::{ok, refused, scratch};
 use common::tools::{self, LAVAPIPE_ICD};
 use murk::integrate::ScatteringMode;
+use murk::render::gpu::Gpu;
 use murk::render::{RenderOptions, RenderPlan, render_image};
 use murk::scene::plan::Device;
 use std::path::PathBuf;
@@ -26,20 +28,54 @@ fn fixture(name: &str) -> PathBuf {
         .join(name)
 }
 
-/// lavapipe as the only Vulkan driver, and a runtime folder so that Mesa does not
-/// warn; once per test binary, before any thread opens a GPU.
-fn use_lavapipe() {
+/// The environment variable that picks the GPU these tests run on: unset (or
+/// `lavapipe`), Mesa's lavapipe alone; `system`, the adapter wgpu picks from the
+/// machine's own drivers (as murk does for a user).
+const TEST_GPU_VAR: &str = "MURK_TEST_GPU";
+
+/// Whether the tests run on the machine's own GPU rather than lavapipe.
+fn on_system_gpu() -> bool {
+    std::env::var(TEST_GPU_VAR).is_ok_and(|v| v.trim() == "system")
+}
+
+/// Skips the test (with its line) where lavapipe is missing, unless the tests run on
+/// the machine's own GPU; then sets the GPU up ([`use_test_gpu`]).
+macro_rules! need_gpu {
+    () => {
+        if !on_system_gpu() {
+            need!(tools::LAVAPIPE);
+        }
+        use_test_gpu();
+    };
+}
+
+/// The GPU the tests run on: lavapipe as the only Vulkan driver (unless
+/// [`on_system_gpu`]), and a runtime folder so that Mesa does not warn; once per test
+/// binary, before any thread opens a GPU.
+fn use_test_gpu() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         let runtime = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gpu-xdg-runtime");
         let _ = std::fs::create_dir_all(&runtime);
         // SAFETY: set once, before any test of this binary opens a GPU or reads these.
         unsafe {
-            std::env::set_var("VK_DRIVER_FILES", LAVAPIPE_ICD);
+            if !on_system_gpu() {
+                std::env::set_var("VK_DRIVER_FILES", LAVAPIPE_ICD);
+                std::env::set_var("WGPU_BACKEND", "vulkan");
+            }
             std::env::set_var("XDG_RUNTIME_DIR", &runtime);
-            std::env::set_var("WGPU_BACKEND", "vulkan");
         }
     });
+}
+
+/// The GPU the tests run on, opened as murk opens it.
+fn test_gpu() -> &'static Gpu {
+    Gpu::shared().unwrap_or_else(|e| panic!("the GPU under test: {e}"))
+}
+
+/// What the stats call a render on the GPU under test (`gpu: ` and the adapter's name).
+fn gpu_device() -> String {
+    format!("gpu: {}", test_gpu().name)
 }
 
 fn options(res: &str) -> RenderOptions {
@@ -98,11 +134,7 @@ fn gpu_matches_cpu(input: &str, o: &RenderOptions) -> (f64, f64) {
     let cpu = render(input, o, Device::Cpu);
     let gpu = render(input, o, Device::Gpu);
     assert_eq!(cpu.stats.device, "cpu");
-    assert!(
-        gpu.stats.device.starts_with("gpu: llvmpipe"),
-        "{}",
-        gpu.stats.device
-    );
+    assert_eq!(gpu.stats.device, gpu_device());
     assert_eq!(cpu.frame.channel_names(), gpu.frame.channel_names());
     // The GPU's stages are parts of its render: the layout of the upload, and the
     // upload, rays, march and record of the render stage, each one timed.
@@ -123,6 +155,17 @@ fn gpu_matches_cpu(input: &str, o: &RenderOptions) -> (f64, f64) {
         parts.iter().all(|s| s.is_some_and(|s| s > 0.0)),
         "{parts:?}"
     );
+    // The GPU's own time in the march's and the columns' kernels, where the adapter
+    // times its passes (lavapipe does): part of the stage around each.
+    for (kernel, around, ran) in [
+        ("gpu_march_kernel", "gpu_march", true),
+        ("gpu_bake_kernel", "gpu_bake", maps),
+    ] {
+        match (stage(kernel), stage(around)) {
+            (Some(k), Some(a)) => assert!(k > 0.0 && k <= a, "{kernel} {k} of {around} {a}"),
+            (k, _) => assert!(k.is_none() && !(test_gpu().timestamps && ran), "{kernel}"),
+        }
+    }
     let (layout, render) = (stage("gpu_layout"), stage("render"));
     assert!(layout.is_some_and(|l| l > 0.0 && l <= parts[0].unwrap_or(0.0)));
     let sum: f64 = parts.iter().flatten().sum();

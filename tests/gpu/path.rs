@@ -35,11 +35,7 @@ pub(super) fn gpu_traces_the_cpus_paths(
     let mut other = o.clone();
     other.seed = Some(o.seed.unwrap_or(0) + 1);
     let cpu2 = render(input, &other, Device::Cpu);
-    assert!(
-        gpu.stats.device.starts_with("gpu: llvmpipe"),
-        "{}",
-        gpu.stats.device
-    );
+    assert_eq!(gpu.stats.device, gpu_device());
     assert_eq!(cpu.frame.channel_names(), gpu.frame.channel_names());
     let alpha = rmse(plane(&gpu, "A"), plane(&cpu, "A"));
     assert!(alpha <= ALPHA_RMSE, "{input}: alpha RMSE {alpha:e}");
@@ -124,8 +120,7 @@ pub(super) fn gpu_traces_the_cpus_paths(
 
 #[test]
 fn the_gpu_traces_the_cpus_paths_through_the_demo_cloud() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     let mut o = path(options("32x18"), 4);
     o.bounces = Some(8);
     gpu_traces_the_cpus_paths("cloud.vdb", &o, 1e-3, 1e-4);
@@ -133,8 +128,7 @@ fn the_gpu_traces_the_cpus_paths_through_the_demo_cloud() {
 
 #[test]
 fn the_gpu_traces_paths_with_a_forward_peaked_phase_and_a_point_light() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     let mut o = path(forward_peaked_sphere(), 4);
     o.light.push("point:1.5,1.5,1.5:1,0.8,0.6:20".into());
     gpu_traces_the_cpus_paths("sphere.vdb", &o, 1e-3, 1e-4);
@@ -142,8 +136,7 @@ fn the_gpu_traces_paths_with_a_forward_peaked_phase_and_a_point_light() {
 
 #[test]
 fn the_gpu_traces_paths_through_a_coloured_medium_by_spectral_tracking() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // One sample a pixel: the silhouette's pixels are traced again on the 4×4 grid.
     let o = path(two_lights_in_a_coloured_medium(), 1);
     gpu_traces_the_cpus_paths("cloud.vdb", &o, 1e-3, 1e-4);
@@ -151,8 +144,7 @@ fn the_gpu_traces_paths_through_a_coloured_medium_by_spectral_tracking() {
 
 #[test]
 fn a_scattering_slab_seen_straight_through_has_the_closed_form_alpha_on_the_gpus_paths() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // slab.vdb: ∫ρ dz = 1 world unit straight through, so alpha = 1 − e^{−σt} whatever
     // scatters; the scattered light is the CPU's.
     let mut o = path(options("8x8"), 4);
@@ -175,8 +167,7 @@ fn a_scattering_slab_seen_straight_through_has_the_closed_form_alpha_on_the_gpus
 
 #[test]
 fn the_gpu_tracks_shadow_rays_and_finds_the_environment_as_the_cpu_does() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // --shadows march: every light's transmittance by ratio tracking on its own stream;
     // the dome: a path's escape after an event, and the last event's tracked ray.
     let mut o = path(options("32x18"), 2);
@@ -192,8 +183,7 @@ fn the_gpu_tracks_shadow_rays_and_finds_the_environment_as_the_cpu_does() {
 
 #[test]
 fn the_gpu_crosses_spans_too_dense_to_track_by_their_integral() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // σt = 3000 in slab.vdb (voxels 0.05 wide): a majorant block's optical depth is
     // ~600, over the 256 above which a flight goes on by the density's integral.
     let mut o = path(options("8x8"), 4);
@@ -209,8 +199,7 @@ fn the_gpu_crosses_spans_too_dense_to_track_by_their_integral() {
 
 #[test]
 fn the_gpus_paths_are_the_same_however_the_rows_are_split() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // Each piece is its own dispatch, with its samples at other places in it.
     let mut o = path(options("24x12"), 3);
     o.device = Some(Device::Gpu);

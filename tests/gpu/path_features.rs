@@ -9,8 +9,7 @@ use super::*;
 
 #[test]
 fn the_gpus_paths_gather_flame_and_blackbody_emission_as_the_cpus() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // pyro.vdb: flame (its nodes offset from the density's), temperature and Cd; its
     // emission is most of the image (directly and scattered), so paths that dropped it
     // would miss by far more than the tolerance.
@@ -29,8 +28,7 @@ fn the_gpus_paths_gather_flame_and_blackbody_emission_as_the_cpus() {
 
 #[test]
 fn the_gpus_paths_sample_flame_and_temperature_on_other_lattices() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // Flame on a rotated, finer lattice and temperature half a voxel off the density's:
     // sampled at each piece's midpoint through the map between the lattices.
     let file = three_lattices("gpu-path-lattices");
@@ -48,8 +46,7 @@ fn the_gpus_paths_sample_flame_and_temperature_on_other_lattices() {
 
 #[test]
 fn the_gpus_paths_are_tinted_by_colour_grids_as_the_cpus() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // Houdini's Cd (one grid of three channels) with temperature; Blender's
     // color_r/g/b (three grids). The tint colours σs at every event.
     let o = path(options("24x14"), 2);
@@ -59,8 +56,7 @@ fn the_gpus_paths_are_tinted_by_colour_grids_as_the_cpus() {
 
 #[test]
 fn the_gpus_paths_scatter_through_water_drops_as_the_cpus() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // One event: the drops' table evaluated toward the light at each path's first
     // event, as exact as single scattering's (f32 angles where the table is steep).
     let mut o = path(options("32x18"), 2);

@@ -80,8 +80,7 @@ fn each_frame_is_its_own_render(dir: &Path, plan: &RenderPlan, frames: &[i64]) {
 
 #[test]
 fn an_unchanged_cache_is_uploaded_once_and_every_frame_is_its_own_render() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     let dir = scratch("gpu-sequence-unchanged");
     let frames = frames_of(&dir, &["cloud.vdb"; 3]);
     let plan = sequence_plan(&dir, &options("40x24"), Device::Gpu);
@@ -107,8 +106,7 @@ fn an_unchanged_cache_is_uploaded_once_and_every_frame_is_its_own_render() {
 
 #[test]
 fn frames_that_differ_are_uploaded_again_and_each_is_its_own_render() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     let dir = scratch("gpu-sequence-differ");
     // Three grids, then the first again (one frame's buffers are kept, not the first's).
     let inputs = [
@@ -139,8 +137,7 @@ fn frames_that_differ_are_uploaded_again_and_each_is_its_own_render() {
 
 #[test]
 fn a_camera_moving_over_an_unchanged_cache_uploads_nothing_after_the_first_frame() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     let dir = scratch("gpu-sequence-camera");
     let frames = frames_of(&dir, &["cloud.vdb"; 3]);
     let chan = dir.join("shot.chan");
@@ -177,8 +174,7 @@ fn on_the_cpu_a_sequence_uploads_nothing_and_counts_no_gpu_frames() {
 
 #[test]
 fn on_the_gpu_a_missing_frame_fails_alone_and_written_frames_are_skipped_in_order() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     let dir = scratch("gpu-sequence-missing");
     frames_of(&dir, &["seq/fluid_0001.vdb", "seq/fluid_0003.vdb"]);
     std::fs::rename(dir.join("in_0002.vdb"), dir.join("in_0004.vdb")).unwrap();

@@ -5,16 +5,14 @@ use super::*;
 
 #[test]
 fn the_gpu_renders_the_cpus_image_of_the_demo_cloud() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     let (e, _) = gpu_matches_cpu("cloud.vdb", &options("40x24"));
     eprintln!("cloud: radiance rel. RMSE {e:e}");
 }
 
 #[test]
 fn the_gpu_walks_tiles_at_every_level_and_rotated_grids() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // Leaves and 8³, 128³ and 4096³ tiles; an affine transform.
     gpu_matches_cpu("tiles.vdb", &options("32x18"));
     gpu_matches_cpu("rotated.vdb", &options("32x18"));
@@ -22,8 +20,7 @@ fn the_gpu_walks_tiles_at_every_level_and_rotated_grids() {
 
 #[test]
 fn the_gpu_looks_shadows_up_in_point_lights_cube_maps_and_anisotropic_media() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // Two lights (a layer each), a point light's six charts, a coloured medium, and a
     // forward-peaked Henyey–Greenstein phase function from its table.
     gpu_matches_cpu("cloud.vdb", &two_lights_in_a_coloured_medium());
@@ -32,8 +29,7 @@ fn the_gpu_looks_shadows_up_in_point_lights_cube_maps_and_anisotropic_media() {
 
 #[test]
 fn the_gpus_buffers_are_at_most_one_and_a_half_times_the_cpus_density_and_maps() {
-    need!(tools::LAVAPIPE);
-    use_lavapipe();
+    need_gpu!();
     // The memory target: what the GPU holds of the scene (the grid's nodes with
     // their cells' ranges, the maps, the lights and phase table) against the CPU's
     // density structure and shadow maps, as the stats report both.

@@ -4,11 +4,12 @@
 //! f32 from where each column's march starts, is marched by columns.wgsl (one invocation
 //! a column) and read back. What the bake decides stays on the CPU.
 
+use super::busy::{BusyTotal, PassTimer};
 use super::context::{GROUPS_X, Gpu, WORKGROUP, entry};
 use super::grid_parts::GridBinding;
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
 use crate::field::{Field, VoxelGrid};
-use crate::shadow::{ColumnJob, ColumnMarcher, MarchedColumns};
+use crate::shadow::{BAKE_BATCH_SAMPLES, ColumnJob, ColumnMarcher, MarchedColumns};
 use rayon::prelude::*;
 use std::sync::Mutex;
 use std::time::Instant;
@@ -26,6 +27,16 @@ const SAMPLE_FLOATS: usize = 5;
 /// apart, the slopes of τ across the light moved the image by 5.6e-3 relative RMSE.
 const F32_REACH: f64 = 1024.0;
 
+/// Samples the bake hands the GPU a batch: sixteen times the CPU's batch, so that a
+/// level's columns go in a few dispatches of tens of thousands of invocations, not
+/// dozens of a few thousand (about one per core of a large GPU, each marching its column
+/// alone); 168 MB of samples read back at most.
+const GPU_BATCH_SAMPLES: usize = 1 << 23;
+
+/// The environment variable that sets the samples a batch instead (how the benchmark
+/// compares batch sizes in one build).
+const BATCH_VAR: &str = "MURK_GPU_BAKE_BATCH";
+
 /// Seconds and counts of the bake's work on the GPU.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct BakeTimes {
@@ -35,6 +46,9 @@ pub struct BakeTimes {
     pub columns: f64,
     /// Columns marched on the GPU.
     pub marched: u64,
+    /// Of `columns`: the GPU's own time marching them, where the adapter times its
+    /// passes.
+    pub kernel: Option<f64>,
 }
 
 /// The grid uploaded for the columns: which grid (its address, for the render that
@@ -52,6 +66,8 @@ pub struct GpuColumns {
     gpu: &'static Gpu,
     grid: Mutex<Option<GridOnGpu>>,
     times: Mutex<BakeTimes>,
+    /// The GPU's own seconds in the column marches.
+    busy: BusyTotal,
     /// The first failure, after which the bake marches on the CPU.
     failed: Mutex<Option<String>>,
 }
@@ -62,12 +78,16 @@ impl GpuColumns {
             gpu,
             grid: Mutex::new(None),
             times: Mutex::new(BakeTimes::default()),
+            busy: BusyTotal::default(),
             failed: Mutex::new(None),
         }
     }
 
     pub fn times(&self) -> BakeTimes {
-        self.times.lock().map(|t| *t).unwrap_or_default()
+        BakeTimes {
+            kernel: self.busy.seconds(),
+            ..self.times.lock().map(|t| *t).unwrap_or_default()
+        }
     }
 
     /// Why the GPU stopped marching the bake's columns, if it did.
@@ -146,12 +166,12 @@ impl GpuColumns {
         let on_gpu = held.as_ref().ok_or("no grid")?;
         let t = Instant::now();
         let (packed, taken) = pack(jobs, depths);
-        let depths: Vec<f32> = depths.iter().map(|&d| d as f32).collect();
-        let total: usize = jobs.iter().map(|j| j.count).sum();
+        let depths: Vec<f32> = depths.par_iter().map(|&d| d as f32).collect();
         // Batches whose buffers each fit one binding.
         let max = self.gpu.max_binding() as usize;
         let per_batch = (max / (JOB_FLOATS * 4)).clamp(1, 1 << 22);
-        let mut samples = Vec::with_capacity(total);
+        // Most often one batch, whose samples are then taken as they are.
+        let mut samples = Vec::new();
         let mut done = Vec::with_capacity(jobs.len());
         let mut start = 0;
         while start < jobs.len() {
@@ -162,11 +182,12 @@ impl GpuColumns {
                 end = start + (end - start) / 2;
             }
             let (out, flags) = self.dispatch(on_gpu, &packed, &depths, jobs, start..end)?;
-            samples.extend(
-                out.chunks_exact(SAMPLE_FLOATS)
-                    .map(|s| [s[0], s[1], s[2], s[3], s[4]]),
-            );
-            done.extend(flags.iter().map(|&f| f == 1));
+            if samples.is_empty() {
+                samples = out;
+            } else {
+                samples.extend_from_slice(&out);
+            }
+            done.extend(flags);
             start = end;
         }
         for (d, &ok) in done.iter_mut().zip(&taken) {
@@ -187,7 +208,7 @@ impl GpuColumns {
         depths: &[f32],
         jobs: &[ColumnJob],
         range: std::ops::Range<usize>,
-    ) -> Result<(Vec<f32>, Vec<u32>), String> {
+    ) -> Result<(Vec<[f32; SAMPLE_FLOATS]>, Vec<bool>), String> {
         let gpu = self.gpu;
         let d = &gpu.device;
         let pipeline = gpu.columns_pipeline(grid.grid)?;
@@ -201,12 +222,7 @@ impl GpuColumns {
         }
         let mut params = grid.params.clone();
         params[N_SAMPLES_AT] = n as u32;
-        let storage = |label: &str, contents: &[u8], out: bool| {
-            let usage = if out {
-                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC
-            } else {
-                wgpu::BufferUsages::STORAGE
-            };
+        let storage = |label: &str, contents: &[u8]| {
             let mut padded;
             let contents = if contents.len() < 16 {
                 padded = contents.to_vec();
@@ -218,7 +234,7 @@ impl GpuColumns {
             d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
                 contents,
-                usage,
+                usage: wgpu::BufferUsages::STORAGE,
             })
         };
         let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -226,14 +242,19 @@ impl GpuColumns {
             contents: bytemuck::cast_slice(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let jobs_buf = storage("columns", bytemuck::cast_slice(&part), false);
-        let depths_buf = storage("depths", bytemuck::cast_slice(depths), false);
-        let out = storage(
-            "column samples",
-            &vec![0u8; samples * SAMPLE_FLOATS * 4],
-            true,
-        );
-        let flags = storage("columns done", &vec![0u8; n * 4], true);
+        let jobs_buf = storage("columns", bytemuck::cast_slice(&part));
+        let depths_buf = storage("depths", bytemuck::cast_slice(depths));
+        // Written on the GPU only: made there (zeroed by wgpu), never sent up.
+        let written = |label: &str, bytes: usize| {
+            d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.max(16) as u64,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        let out = written("column samples", samples * SAMPLE_FLOATS * 4);
+        let flags = written("columns done", n * 4);
         let mut entries = grid.grid.entries(&grid.tree, &grid.vals);
         entries.extend([
             entry(0, &params),
@@ -259,12 +280,16 @@ impl GpuColumns {
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let oom = d.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let mut encoder = d.create_command_encoder(&Default::default());
+        let timer = PassTimer::new(gpu);
         {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
+            let mut pass = encoder.begin_compute_pass(&PassTimer::pass(timer.as_ref()));
             pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, &bind, &[]);
             let groups = (n as u32).div_ceil(WORKGROUP);
             pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
+        }
+        if let Some(t) = &timer {
+            t.resolve(&mut encoder);
         }
         encoder.copy_buffer_to_buffer(&out, 0, &out_back, 0, out.size());
         encoder.copy_buffer_to_buffer(&flags, 0, &flags_back, 0, flags.size());
@@ -291,21 +316,30 @@ impl GpuColumns {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!("{}: {e}", gpu.name));
         }
-        let take = |b: &wgpu::Buffer, words: usize| -> Result<Vec<u32>, String> {
+        // Each read straight from the mapped buffer into what the bake takes.
+        let take = |b: &wgpu::Buffer, into: &mut dyn FnMut(&[u8])| -> Result<(), String> {
             let view = b
                 .slice(..)
                 .get_mapped_range()
                 .map_err(|e| format!("{}: reading the columns back: {e:?}", gpu.name))?;
-            let v: Vec<u32> = bytemuck::cast_slice(&view)[..words].to_vec();
+            into(&view);
             drop(view);
             b.unmap();
-            Ok(v)
+            Ok(())
         };
-        let values = take(&out_back, samples * SAMPLE_FLOATS)?
-            .into_iter()
-            .map(f32::from_bits)
-            .collect();
-        Ok((values, take(&flags_back, n)?))
+        let mut values = Vec::with_capacity(samples);
+        take(&out_back, &mut |bytes| {
+            let all: &[[f32; SAMPLE_FLOATS]] =
+                bytemuck::cast_slice(&bytes[..samples * SAMPLE_FLOATS * 4]);
+            values.extend_from_slice(all);
+        })?;
+        let mut done = Vec::with_capacity(n);
+        take(&flags_back, &mut |bytes| {
+            let flags: &[u32] = bytemuck::cast_slice(&bytes[..n * 4]);
+            done.extend(flags.iter().map(|&f| f == 1));
+        })?;
+        self.busy.add(timer.and_then(|t| t.seconds(gpu)));
+        Ok((values, done))
     }
 }
 
@@ -352,6 +386,21 @@ impl ColumnMarcher for GpuColumns {
         free && density
             .as_voxel_grid()
             .is_some_and(|g| g.nodes_check().is_ok())
+    }
+
+    /// [`GPU_BATCH_SAMPLES`] (the bake's own on a device that runs on the CPU, which
+    /// its few cores fill), or [`BATCH_VAR`]'s.
+    fn batch_samples(&self) -> usize {
+        let own = if self.gpu.on_cpu {
+            BAKE_BATCH_SAMPLES
+        } else {
+            GPU_BATCH_SAMPLES
+        };
+        std::env::var(BATCH_VAR)
+            .ok()
+            .and_then(|v| v.trim().parse::<usize>().ok())
+            .filter(|&n| n > 0)
+            .unwrap_or(own)
     }
 
     fn march(

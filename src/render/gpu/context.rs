@@ -2,6 +2,7 @@
 //! limits the adapter reports, the march's compute pipelines, and one call that marches
 //! a batch of camera samples.
 
+use super::busy::{BusyTotal, PassTimer};
 use super::grid_parts::GridBinding;
 use super::resident::{KeptBuffers, Making};
 use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
@@ -27,6 +28,8 @@ pub struct Gpu {
     pub on_cpu: bool,
     /// The adapter was picked by name (`WGPU_ADAPTER_NAME`).
     pub named: bool,
+    /// The device writes timestamps around compute passes ([`PassTimer`]).
+    pub timestamps: bool,
 }
 
 /// The environment variable that lowers the largest buffer the GPU binds to this many
@@ -117,8 +120,16 @@ impl Gpu {
                 limits.max_storage_buffers_per_shader_stage
             ));
         }
+        // Timestamps around the kernels, where the adapter has them: the stats' kernel
+        // seconds.
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("murk"),
+            required_features: if timestamps {
+                wgpu::Features::TIMESTAMP_QUERY
+            } else {
+                wgpu::Features::empty()
+            },
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -133,6 +144,7 @@ impl Gpu {
             limits,
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
             named,
+            timestamps,
         })
     }
 
@@ -199,7 +211,7 @@ impl Gpu {
         sources: &[&str],
         entry: &str,
     ) -> Result<wgpu::ComputePipeline, String> {
-        compile_on(&self.device, &self.name, label, sources, entry)
+        compile_with(&self.device, &self.name, label, sources, entry, &[])
     }
 
     /// The most bytes one storage buffer may bind.
@@ -306,12 +318,16 @@ impl Gpu {
             entries: &entries,
         });
         let mut encoder = d.create_command_encoder(&Default::default());
+        let timer = PassTimer::new(self);
         {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
+            let mut pass = encoder.begin_compute_pass(&PassTimer::pass(timer.as_ref()));
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bind, &[]);
             let groups = (count as u32).div_ceil(WORKGROUP);
             pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
+        }
+        if let Some(t) = &timer {
+            t.resolve(&mut encoder);
         }
         encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, bytes);
         self.queue.submit([encoder.finish()]);
@@ -334,6 +350,7 @@ impl Gpu {
         drop(view);
         readback.unmap();
         values.truncate(count * stride);
+        scene.busy.add(timer.and_then(|t| t.seconds(self)));
         Ok(values)
     }
 
@@ -405,6 +422,7 @@ impl Gpu {
             params: b.params.clone(),
             stride: b.stride,
             features: MarchFeatures { grid, ..b.features },
+            busy: BusyTotal::default(),
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!("{}: uploading the scene: {e}", self.name));
@@ -421,19 +439,8 @@ impl Gpu {
     }
 }
 
-/// [`Gpu::compile`] on `device` (of the adapter `name`).
-fn compile_on(
-    device: &wgpu::Device,
-    name: &str,
-    label: &str,
-    sources: &[&str],
-    entry: &str,
-) -> Result<wgpu::ComputePipeline, String> {
-    compile_with(device, name, label, sources, entry, &[])
-}
-
-/// [`compile_on`] with the sources' overrides set to `constants` (the others keep
-/// their defaults).
+/// [`Gpu::compile`] on `device` (of the adapter `name`), with the sources' overrides
+/// set to `constants` (the others keep their defaults).
 fn compile_with(
     device: &wgpu::Device,
     name: &str,
@@ -486,6 +493,8 @@ pub struct Resident {
     /// The march's parts the scene uses and its arrays' layout (the pipeline it is
     /// marched with).
     pub(super) features: MarchFeatures,
+    /// The GPU's own seconds in the passes run over these buffers.
+    pub(super) busy: BusyTotal,
 }
 
 impl Resident {

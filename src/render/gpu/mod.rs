@@ -16,6 +16,7 @@
 //! the CPU under `--device auto` (with a note naming it) and is refused under `gpu`.
 
 mod bake;
+mod busy;
 mod context;
 mod grid_parts;
 mod grids;
@@ -132,6 +133,9 @@ pub struct GpuTimes {
     pub kernel: f64,
     /// Of `march`: adding each sample's results into its pixel's passes on the CPU.
     pub record: f64,
+    /// Of `kernel`: the GPU's own time in the march's passes, where the adapter times
+    /// its passes (the rest of `kernel` is moving samples and results, and waiting).
+    pub busy: Option<f64>,
     /// Bytes of the scene's buffers on the GPU (not the per-batch samples and results).
     pub resident_bytes: usize,
     /// Of them, the bytes this frame uploaded: all of them, but in a sequence only those
@@ -185,5 +189,6 @@ pub fn render_pixels(
     };
     let passes = pixels::render_pixels(gpu, &resident, job, &mut times)?;
     times.march = t.elapsed().as_secs_f64();
+    times.busy = resident.busy.seconds();
     Ok((passes, times))
 }

@@ -161,6 +161,7 @@ pub fn render_path(
         trace_picks(gpu, &resident, &path_params, job, picks, &mut times)
     })?;
     times.march = t.elapsed().as_secs_f64();
+    times.busy = resident.busy.seconds();
     Ok((passes, times))
 }
 
