@@ -9,7 +9,7 @@ use common::volumes::{channel, channel_names};
 use murk::render::gpu::MAX_BINDING_VAR;
 
 /// murk's stderr, exit code and stats (null where none were written) for a render of
-/// `input` with `args` and `env` set, into `out` (an EXR in a scratch folder).
+/// `input` with `args` (single scattering unless they say) and `env` set, into `out` (an EXR in a scratch folder).
 fn render_with(
     input: &str,
     out: &str,
@@ -26,9 +26,14 @@ fn render_with(
         .arg(fixture(input))
         .arg("-o")
         .arg(&exr)
-        .args(["--scattering", "single", "--stats"])
+        .arg("--stats")
         .arg(&stats)
         .args(args)
+        .args(if args.contains(&"--scattering") {
+            &[][..]
+        } else {
+            &["--scattering", "single"][..]
+        })
         .envs(env.iter().copied())
         .output()
         .unwrap();
@@ -117,6 +122,13 @@ fn a_grid_four_parts_cannot_hold_falls_back_under_auto_and_is_refused_under_gpu(
     assert_eq!(code, Some(2), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("is not marched with shadow rays"), "{err}");
+    // Nor path traced.
+    let limit = [(MAX_BINDING_VAR, "1572864")];
+    let path = ["--device", "gpu", "--res", "16x9", "--scattering", "path"];
+    let (err, code, _, _) = render_with("houdini_pyro.vdb", "path", &path, &limit);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("is not path traced on the GPU"), "{err}");
     // Under auto, with the adapter named (else auto does not take lavapipe, which runs
     // on the CPU): the CPU renders it, and one note says why.
     let name = test_gpu().name.split(" (").next().unwrap_or_default();

@@ -93,6 +93,16 @@ pub fn render_path(
     buffers.split_maps(gpu.max_binding());
     let (resident, uploaded_bytes) = gpu.upload(&buffers, kept)?;
     drop(buffers);
+    if resident.features.grid != GridBinding::Whole {
+        // On lavapipe the path tracer over a cut grid did not finish in minutes where
+        // the whole grid's took two: refused until it is understood.
+        return Err(format!(
+            "the grids' arrays exceed the largest buffer {} binds ({}), and a grid cut \
+             into parts is not path traced on the GPU",
+            gpu.name,
+            super::context::size_text(gpu.max_binding())
+        ));
+    }
     // Compiled for the grid's layout on first use (else found), timed apart from the
     // upload: the stats' `gpu_compile`.
     let compiling = Instant::now();
