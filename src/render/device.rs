@@ -235,6 +235,7 @@ fn render_frame_gpu(
     }
     st.scene.gpu_memory_bytes = times.resident_bytes;
     st.scene.gpu_upload_bytes = times.uploaded_bytes;
+    st.scene.gpu_grid_parts = times.grid_parts;
     st.rays = passes.rays;
     st.samples = passes.samples;
     st.samples_per_second = passes.samples as f64 / times.march.max(1e-9);

@@ -66,6 +66,10 @@ pub struct SceneReport {
     /// Of those, the bytes this render uploaded: all of them, but in a sequence only
     /// those that differ from the frame before's (0: the frame before's were all kept).
     pub gpu_upload_bytes: u64,
+    /// With the march on a GPU: the buffers the grids' node tables and their values
+    /// went in, `[tables, values]` (1 each while they fit the adapter's largest binding,
+    /// else up to 4 parts each); `[0, 0]` on the CPU.
+    pub gpu_grid_parts: [usize; 2],
     pub notes: Vec<String>,
     /// What cost accuracy without being asked to (a budget that stopped a shadow map's
     /// refinement): printed on stderr as well, even with `--quiet`.

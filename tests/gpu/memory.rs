@@ -1,86 +1,156 @@
-//! Memory: a scene whose grid does not fit the GPU's largest buffer (made so by lowering
-//! the limit murk sees, MURK_GPU_MAX_BINDING) is never rendered wrong or refused
-//! silently: under `--device auto` the CPU renders it with a note saying why, under
-//! `gpu` one line refuses it.
+//! Memory: a scene whose grid exceeds the GPU's largest buffer (made so by lowering the
+//! limit murk sees, MURK_GPU_MAX_BINDING) has its node tables and values cut into up to
+//! four buffers each and renders as it does whole; one that four parts cannot hold is
+//! never rendered wrong or refused silently: under `--device auto` the CPU renders it
+//! with a note saying why, under `gpu` one line refuses it.
 
 use super::*;
+use common::volumes::{channel, channel_names};
 use murk::render::gpu::MAX_BINDING_VAR;
 
-/// murk's stderr, exit code and the stats' device for a 16x9 render of cloud.vdb with
-/// `env` set.
-fn render_with(device: &str, env: &[(&str, &str)]) -> (String, Option<i32>, String) {
-    let dir = scratch(&format!("gpu-memory-{device}-{}", env.len()));
-    let cloud = fixture("cloud.vdb");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_murk"))
+/// murk's stderr, exit code and stats (null where none were written) for a render of
+/// `input` with `args` (single scattering unless they say) and `env` set, into `out` (an EXR in a scratch folder).
+fn render_with(
+    input: &str,
+    out: &str,
+    args: &[&str],
+    env: &[(&str, &str)],
+) -> (String, Option<i32>, serde_json::Value, PathBuf) {
+    let dir = scratch(&format!("gpu-memory-{out}"));
+    let exr = dir.join(format!("{out}.exr"));
+    let stats = dir.join(format!("{out}.json"));
+    let _ = std::fs::remove_file(&stats);
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_murk"))
         .current_dir(&dir)
-        .args([
-            "render",
-            cloud.to_str().unwrap(),
-            "-o",
-            "m.exr",
-            "--res",
-            "16x9",
-        ])
-        .args([
-            "--scattering",
-            "single",
-            "--device",
-            device,
-            "--stats",
-            "m.json",
-        ])
+        .arg("render")
+        .arg(fixture(input))
+        .arg("-o")
+        .arg(&exr)
+        .arg("--stats")
+        .arg(&stats)
+        .args(args)
+        .args(if args.contains(&"--scattering") {
+            &[][..]
+        } else {
+            &["--scattering", "single"][..]
+        })
         .envs(env.iter().copied())
         .output()
         .unwrap();
-    let used = std::fs::read_to_string(dir.join("m.json"))
+    let stats = std::fs::read_to_string(&stats)
         .ok()
-        .and_then(|s| serde_json::from_str::<serde_json::Value>(&s).ok())
-        .and_then(|v| v["device"].as_str().map(str::to_owned))
+        .and_then(|s| serde_json::from_str(&s).ok())
         .unwrap_or_default();
-    (
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-        out.status.code(),
-        used,
-    )
+    let err = String::from_utf8_lossy(&run.stderr).into_owned();
+    (err, run.status.code(), stats, exr)
 }
 
 #[test]
-fn a_grid_over_the_gpus_largest_buffer_falls_back_under_auto_and_is_refused_under_gpu() {
+fn a_grid_cut_into_parts_renders_bit_for_bit_as_it_does_whole() {
     need_gpu!();
+    // houdini_pyro.vdb: density, temperature and a colour grid Cd, lit through the
+    // shadow map. Its node tables are 2.25 MiB, its values 3.75 MiB (every grid's), the
+    // map's three buffers 1.4 MiB each: a 1.5 MiB binding cuts the grid into parts of
+    // 1 MiB, the tables into 3, the values into 4 (a boundary inside the temperature's
+    // and the colour's leaves, whose values do not start on a part).
+    let gpu = ["--device", "gpu", "--res", "32x18"];
+    let limit = [(MAX_BINDING_VAR, "1572864")];
+    let (err, code, cut, cut_exr) = render_with("houdini_pyro.vdb", "cut", &gpu, &limit);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(cut["gpu_grid_parts"], serde_json::json!([3, 4]), "{err}");
+    assert_eq!(cut["device"], gpu_device().as_str());
+    let (err, code, whole, whole_exr) = render_with("houdini_pyro.vdb", "whole", &gpu, &[]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(whole["gpu_grid_parts"], serde_json::json!([1, 1]));
+    // Every channel the same to the bit: a part chosen off by one reads another value.
+    let names = channel_names(&whole_exr);
+    assert_eq!(names, channel_names(&cut_exr));
+    for name in &names {
+        let (a, b) = (channel(&cut_exr, name), channel(&whole_exr, name));
+        let same = a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(same && a.len() == b.len(), "{name} differs");
+    }
+    // And whole, the GPU's image is the CPU's (within the suite's tolerances).
+    gpu_matches_cpu("houdini_pyro.vdb", &options("32x18"));
+}
+
+#[test]
+fn every_word_read_through_the_cut_arrays_is_the_word_at_that_index() {
+    need_gpu!();
+    use murk::render::gpu::{GridBinding, read_back};
     let gpu = test_gpu();
-    // cloud.vdb's node tables are 1.1 MiB (eight upper nodes of 32768 words), its
-    // values 1.5 MiB; 512 KiB holds neither.
+    // Parts of 8, 256 and 512 words (a part's boundary inside a leaf's 512 values, at
+    // one, and a multiple of them), the last part short or full, 1 to 4 parts.
+    for shift in [3u32, 8, 9] {
+        let part = 1usize << shift;
+        for words in [part - 1, part + 1, 3 * part - 5, 4 * part] {
+            let tree: Vec<u32> = (0..words as u32)
+                .map(|w| w.wrapping_mul(2654435761))
+                .collect();
+            let vals: Vec<f32> = (0..words + 3).map(|w| w as f32 * 0.5 + 1.0).collect();
+            let vals = &vals[..vals.len().min(4 * part)];
+            for binding in [GridBinding::Whole, GridBinding::Cut { shift }] {
+                let (t, v) = read_back(gpu, binding, &tree, vals).unwrap();
+                assert!(t == tree, "{binding:?}, {words} words: node tables");
+                assert!(v == vals, "{binding:?}, {} words: values", vals.len());
+            }
+        }
+    }
+}
+
+#[test]
+fn a_grid_four_parts_cannot_hold_falls_back_under_auto_and_is_refused_under_gpu() {
+    need_gpu!();
+    // cloud.vdb's values are 3.0 MiB: four parts of 512 KiB do not hold them.
     let small = [(MAX_BINDING_VAR, "524288")];
-    let (err, code, _) = render_with("gpu", &small);
+    let gpu = ["--device", "gpu", "--res", "16x9"];
+    let (err, code, _, _) = render_with("cloud.vdb", "refused", &gpu, &small);
     assert_eq!(code, Some(2), "{err}");
     let lines: Vec<&str> = err.lines().collect();
     assert_eq!(lines.len(), 1, "{err}");
     assert!(
-        lines[0].contains("--device gpu: the grids' node tables (1.1 MiB)")
-            && lines[0].contains(&format!("exceed the largest buffer {}", gpu.name))
-            && lines[0].contains("(512.0 KiB)"),
+        lines[0].contains("--device gpu: the grids' values (3.0 MiB)")
+            && lines[0].contains(&format!("exceed the largest buffer {}", test_gpu().name))
+            && lines[0].contains("(512.0 KiB) in 4 parts of 512.0 KiB"),
         "{err}"
     );
+    // Cut into parts (1 MiB), the grid is not marched with shadow rays: one line.
+    let mut marched = gpu.to_vec();
+    marched.extend(["--shadows", "march"]);
+    let limit = [(MAX_BINDING_VAR, "1048576")];
+    let (err, code, _, _) = render_with("cloud.vdb", "marched", &marched, &limit);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("is not marched with shadow rays"), "{err}");
+    // Nor path traced.
+    let limit = [(MAX_BINDING_VAR, "1572864")];
+    let path = ["--device", "gpu", "--res", "16x9", "--scattering", "path"];
+    let (err, code, _, _) = render_with("houdini_pyro.vdb", "path", &path, &limit);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("is not path traced on the GPU"), "{err}");
     // Under auto, with the adapter named (else auto does not take lavapipe, which runs
     // on the CPU): the CPU renders it, and one note says why.
-    let name = gpu.name.split(" (").next().unwrap_or_default();
+    let name = test_gpu().name.split(" (").next().unwrap_or_default();
     let named = ("WGPU_ADAPTER_NAME", name);
-    let (err, code, used) = render_with("auto", &[small[0], named]);
+    let auto = ["--device", "auto", "--res", "16x9"];
+    let (err, code, stats, _) = render_with("cloud.vdb", "auto", &auto, &[small[0], named]);
     assert_eq!(code, Some(0), "{err}");
-    assert_eq!(used, "cpu", "{err}");
+    assert_eq!(stats["device"], "cpu", "{err}");
+    assert_eq!(stats["gpu_grid_parts"], serde_json::json!([0, 0]));
     let notes: Vec<&str> = err
         .lines()
         .filter(|l| l.contains("--device auto"))
         .collect();
     assert_eq!(notes.len(), 1, "{err}");
     assert!(
-        notes[0].contains("rendered on the CPU: the grids' node tables")
+        notes[0].contains("rendered on the CPU: the grids' values")
             && notes[0].contains("(512.0 KiB)"),
         "{err}"
     );
     // With the adapter's own limits the same scene renders on it under auto.
-    let (err, code, used) = render_with("auto", &[named]);
+    let (err, code, stats, _) = render_with("cloud.vdb", "auto-fits", &auto, &[named]);
     assert_eq!(code, Some(0), "{err}");
-    assert_eq!(used, gpu_device(), "{err}");
+    assert_eq!(stats["device"], gpu_device().as_str(), "{err}");
     assert!(!err.contains("--device auto"), "{err}");
 }

@@ -5,8 +5,8 @@
 //! a column) and read back. What the bake decides stays on the CPU.
 
 use super::busy::{BusyTotal, PassTimer};
-use super::context::size_text;
 use super::context::{GROUPS_X, Gpu, WORKGROUP, entry};
+use super::grid_parts::GridBinding;
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
 use crate::field::{Field, VoxelGrid};
 use crate::shadow::{BAKE_BATCH_SAMPLES, ColumnJob, ColumnMarcher, MarchedColumns};
@@ -17,6 +17,8 @@ use wgpu::util::DeviceExt;
 
 /// Floats of a column's job (`Job` in columns.wgsl).
 const JOB_FLOATS: usize = 32;
+/// Storage buffers the column march binds with the grid's arrays whole.
+const STORAGE_BUFFERS: u32 = 6;
 /// Floats of a sample out: τ, ρ, ∂τ/∂x, ∂τ/∂y, ∂²τ/∂x∂y.
 const SAMPLE_FLOATS: usize = 5;
 /// The largest |index coordinate| of a column's start and the most voxels it may cross
@@ -50,11 +52,12 @@ pub struct BakeTimes {
 }
 
 /// The grid uploaded for the columns: which grid (its address, for the render that
-/// holds it), its buffers and parameters.
+/// holds it), its buffers (each whole or in parts, as `grid` says) and parameters.
 struct GridOnGpu {
     address: usize,
-    tree: wgpu::Buffer,
-    vals: wgpu::Buffer,
+    tree: Vec<wgpu::Buffer>,
+    vals: Vec<wgpu::Buffer>,
+    grid: GridBinding,
     params: Vec<u32>,
 }
 
@@ -98,20 +101,16 @@ impl GpuColumns {
             .map_err(|_| "a density grid it cannot flatten".to_string())?;
         let arrays = grid_arrays(&nodes);
         let params = grid_params(grid, &nodes, &arrays);
-        let max = self.gpu.max_binding();
-        for (what, bytes) in [
-            ("the density grid's node tables", arrays.tree.len() * 4),
-            ("the density grid's values", arrays.vals.len() * 4),
-        ] {
-            if bytes as u64 > max {
-                return Err(format!(
-                    "{what} ({}) exceed the largest buffer {} binds ({})",
-                    size_text(bytes as u64),
-                    self.gpu.name,
-                    size_text(max)
-                ));
-            }
-        }
+        let layout = GridBinding::choose(
+            self.gpu,
+            [
+                "the density grid's node tables",
+                "the density grid's values",
+            ],
+            arrays.tree.len(),
+            arrays.vals.len(),
+            STORAGE_BUFFERS,
+        )?;
         let make = |label: &str, contents: &[u8]| {
             self.gpu
                 .device
@@ -127,8 +126,17 @@ impl GpuColumns {
             .push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let on_gpu = GridOnGpu {
             address: grid as *const VoxelGrid as usize,
-            tree: make("tree", bytemuck::cast_slice(&arrays.tree)),
-            vals: make("vals", bytemuck::cast_slice(&arrays.vals)),
+            tree: layout
+                .parts(&arrays.tree)
+                .iter()
+                .map(|p| make("tree", bytemuck::cast_slice(p)))
+                .collect(),
+            vals: layout
+                .parts(&arrays.vals)
+                .iter()
+                .map(|p| make("vals", bytemuck::cast_slice(p)))
+                .collect(),
+            grid: layout,
             params,
         };
         match pollster::block_on(oom.pop()) {
@@ -203,7 +211,7 @@ impl GpuColumns {
     ) -> Result<(Vec<[f32; SAMPLE_FLOATS]>, Vec<bool>), String> {
         let gpu = self.gpu;
         let d = &gpu.device;
-        let pipeline = gpu.columns_pipeline()?;
+        let pipeline = gpu.columns_pipeline(grid.grid)?;
         let n = range.len();
         // Each job's first sample out, counted from the batch's first.
         let mut part = packed[range.start * JOB_FLOATS..range.end * JOB_FLOATS].to_vec();
@@ -247,18 +255,18 @@ impl GpuColumns {
         };
         let out = written("column samples", samples * SAMPLE_FLOATS * 4);
         let flags = written("columns done", n * 4);
+        let mut entries = grid.grid.entries(&grid.tree, &grid.vals);
+        entries.extend([
+            entry(0, &params),
+            entry(9, &jobs_buf),
+            entry(10, &depths_buf),
+            entry(11, &out),
+            entry(12, &flags),
+        ]);
         let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("columns"),
             layout: &pipeline.get_bind_group_layout(0),
-            entries: &[
-                entry(0, &params),
-                entry(1, &grid.tree),
-                entry(2, &grid.vals),
-                entry(9, &jobs_buf),
-                entry(10, &depths_buf),
-                entry(11, &out),
-                entry(12, &flags),
-            ],
+            entries: &entries,
         });
         let read = |b: &wgpu::Buffer| {
             d.create_buffer(&wgpu::BufferDescriptor {
@@ -275,7 +283,7 @@ impl GpuColumns {
         let timer = PassTimer::new(gpu);
         {
             let mut pass = encoder.begin_compute_pass(&PassTimer::pass(timer.as_ref()));
-            pass.set_pipeline(pipeline);
+            pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, &bind, &[]);
             let groups = (n as u32).div_ceil(WORKGROUP);
             pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);

@@ -3,6 +3,7 @@
 //! a batch of camera samples.
 
 use super::busy::{BusyTotal, PassTimer};
+use super::grid_parts::GridBinding;
 use super::resident::{KeptBuffers, Making};
 use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
@@ -13,10 +14,11 @@ pub struct Gpu {
     pub(super) queue: wgpu::Queue,
     /// The march, compiled on first use for each set of the parts a scene uses.
     marches: std::sync::Mutex<Vec<(MarchFeatures, wgpu::ComputePipeline)>>,
-    /// The shadow bake's column march, compiled on first use.
-    columns: std::sync::OnceLock<Result<wgpu::ComputePipeline, String>>,
-    /// The path tracer (path.wgsl), compiled on first use.
-    pub(super) path: std::sync::OnceLock<Result<wgpu::ComputePipeline, String>>,
+    /// The shadow bake's column march, compiled on first use for each layout of the
+    /// grid's arrays.
+    columns: Pipelines,
+    /// The path tracer (path.wgsl), compiled on first use for each layout.
+    pub(super) path: Pipelines,
     /// The adapter as it names itself, its device type and backend.
     pub name: String,
     pub limits: wgpu::Limits,
@@ -49,9 +51,12 @@ pub(super) fn size_text(bytes: u64) -> String {
 /// each one's own source.
 pub(super) const GRID_WGSL: &str = include_str!("grid.wgsl");
 
-/// The march's sources in the order they are compiled (the path tracer's follow).
-pub(super) const MARCH_WGSL: [&str; 6] = [
-    GRID_WGSL,
+/// Pipelines compiled for a layout of the grid's arrays, each with its layout.
+pub(super) type Pipelines = std::sync::Mutex<Vec<(GridBinding, wgpu::ComputePipeline)>>;
+
+/// The march's sources after grid.wgsl and the arrays' accessors, in the order they are
+/// compiled (the path tracer's follow).
+pub(super) const MARCH_WGSL: [&str; 5] = [
     include_str!("march.wgsl"),
     include_str!("dsm.wgsl"),
     include_str!("lattice.wgsl"),
@@ -59,8 +64,8 @@ pub(super) const MARCH_WGSL: [&str; 6] = [
     include_str!("toward_light.wgsl"),
 ];
 
-/// Storage buffers the march binds.
-const STORAGE_BUFFERS: u32 = 8;
+/// Storage buffers the march binds with the grid's arrays whole.
+pub(super) const STORAGE_BUFFERS: u32 = 8;
 /// Invocations per workgroup (`@workgroup_size` in march.wgsl).
 pub(super) const WORKGROUP: u32 = 64;
 /// Workgroups per dispatch dimension (WebGPU's least limit; the shader spreads a
@@ -133,8 +138,8 @@ impl Gpu {
             device,
             queue,
             marches: std::sync::Mutex::new(Vec::new()),
-            columns: std::sync::OnceLock::new(),
-            path: std::sync::OnceLock::new(),
+            columns: Pipelines::default(),
+            path: Pipelines::default(),
             name,
             limits,
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
@@ -154,11 +159,14 @@ impl Gpu {
             return Ok(p.clone());
         }
         let constants = features.constants();
+        let accessors = features.grid.wgsl();
+        let mut sources = vec![GRID_WGSL, &accessors];
+        sources.extend(MARCH_WGSL);
         let pipeline = compile_with(
             &self.device,
             &self.name,
             "march",
-            &MARCH_WGSL,
+            &sources,
             "march_samples",
             &constants,
         )?;
@@ -166,14 +174,33 @@ impl Gpu {
         Ok(pipeline)
     }
 
-    /// The shadow bake's column march (columns.wgsl, after grid.wgsl), compiled on
-    /// first use.
-    pub(super) fn columns_pipeline(&self) -> Result<&wgpu::ComputePipeline, String> {
-        let compiled = self.columns.get_or_init(|| {
-            let sources = [GRID_WGSL, include_str!("columns.wgsl")];
+    /// The shadow bake's column march (columns.wgsl, after grid.wgsl) for the grid's
+    /// arrays laid out as `grid`, compiled on first use.
+    pub(super) fn columns_pipeline(
+        &self,
+        grid: GridBinding,
+    ) -> Result<wgpu::ComputePipeline, String> {
+        self.cached(&self.columns, grid, |accessors| {
+            let sources = [GRID_WGSL, accessors, include_str!("columns.wgsl")];
             self.compile("column march", &sources, "march_columns")
-        });
-        compiled.as_ref().map_err(Clone::clone)
+        })
+    }
+
+    /// The pipeline `pipelines` holds for `grid`, else the one `compile` makes from the
+    /// layout's accessors (kept for the next use).
+    pub(super) fn cached(
+        &self,
+        pipelines: &Pipelines,
+        grid: GridBinding,
+        compile: impl FnOnce(&str) -> Result<wgpu::ComputePipeline, String>,
+    ) -> Result<wgpu::ComputePipeline, String> {
+        let mut held = pipelines.lock().map_err(|_| "a poisoned lock")?;
+        if let Some((_, p)) = held.iter().find(|(g, _)| *g == grid) {
+            return Ok(p.clone());
+        }
+        let pipeline = compile(&grid.wgsl())?;
+        held.push((grid, pipeline.clone()));
+        Ok(pipeline)
     }
 
     /// Compiles `sources` (WGSL, in this order) into a compute pipeline entered at
@@ -274,17 +301,16 @@ impl Gpu {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let mut entries = vec![
+        let mut entries = scene.features.grid.entries(&scene.tree, &scene.vals);
+        entries.extend([
             entry(0, &params),
-            entry(1, &scene.tree),
-            entry(2, &scene.vals),
             entry(3, &scene.dsm[0]),
             entry(4, &scene.meta),
             entry(5, &input),
             entry(6, &results),
             entry(7, &scene.dsm[1]),
             entry(8, &scene.dsm[2]),
-        ];
+        ]);
         entries.extend((9..).zip(&more).map(|(k, b)| entry(k, b)));
         let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("samples"),
@@ -330,7 +356,8 @@ impl Gpu {
 
     /// Uploads a scene's buffers, checking each against the adapter's limits first
     /// (the shadow maps are already split, see [`Buffers::split_maps`]; the grid's
-    /// arrays are not), and the uploads against running out of memory. With `kept` (a
+    /// arrays are cut into parts here where they exceed one binding, see
+    /// [`GridBinding::choose`]), and the uploads against running out of memory. With `kept` (a
     /// sequence's), a buffer whose bytes the frame before uploaded is bound as it is, and
     /// this frame's buffers are kept for the next. Returns the bytes uploaded with them.
     pub fn upload(
@@ -339,7 +366,26 @@ impl Gpu {
         kept: Option<&mut KeptBuffers>,
     ) -> Result<(Resident, u64), String> {
         let max = self.max_binding();
-        for (what, bytes) in b.sizes() {
+        let [tree_name, vals_name, ..] = b.sizes().map(|(what, _)| what);
+        let grid = GridBinding::choose(
+            self,
+            [tree_name, vals_name],
+            b.tree.len(),
+            b.vals.len(),
+            STORAGE_BUFFERS,
+        )?;
+        if grid != GridBinding::Whole && b.features.marched {
+            // On lavapipe the cut layout's march with marched shadow rays did not match
+            // the CPU's image (the shadow-map march does, bit for bit): refused rather
+            // than rendered wrong.
+            return Err(format!(
+                "the grids' arrays exceed the largest buffer {} binds ({}), and a grid cut \
+                 into parts is not marched with shadow rays (--shadows march) on the GPU",
+                self.name,
+                size_text(max)
+            ));
+        }
+        for (what, bytes) in b.sizes().into_iter().skip(2) {
             if bytes > max {
                 let total = match what {
                     "the shadow maps" => format!(
@@ -360,14 +406,22 @@ impl Gpu {
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut making = Making::new(kept);
         let mut make = |label: &str, contents: &[u8]| making.buffer(&self.device, label, contents);
+        let tree = grid.parts(&b.tree);
+        let vals = grid.parts(&b.vals);
         let resident = Resident {
-            tree: make("tree", bytemuck::cast_slice(&b.tree)),
-            vals: make("vals", bytemuck::cast_slice(&b.vals)),
+            tree: tree
+                .iter()
+                .map(|p| make("tree", bytemuck::cast_slice(p)))
+                .collect(),
+            vals: vals
+                .iter()
+                .map(|p| make("vals", bytemuck::cast_slice(p)))
+                .collect(),
             dsm: std::array::from_fn(|k| make("dsm", bytemuck::cast_slice(&b.dsm_part(k)))),
             meta: make("meta", bytemuck::cast_slice(&b.meta)),
             params: b.params.clone(),
             stride: b.stride,
-            features: b.features,
+            features: MarchFeatures { grid, ..b.features },
             busy: BusyTotal::default(),
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
@@ -426,16 +480,26 @@ pub(super) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry
 
 /// A scene's buffers on the GPU.
 pub struct Resident {
-    pub(super) tree: wgpu::Buffer,
-    pub(super) vals: wgpu::Buffer,
+    /// The grids' node tables and values, each in one buffer or in parts
+    /// (`features.grid`).
+    pub(super) tree: Vec<wgpu::Buffer>,
+    pub(super) vals: Vec<wgpu::Buffer>,
     /// The shadow maps, in [`DSM_BUFFERS`] parts.
     pub(super) dsm: [wgpu::Buffer; DSM_BUFFERS],
     pub(super) meta: wgpu::Buffer,
     pub(super) params: Vec<u32>,
     /// Floats per sample in the results.
     pub stride: u32,
-    /// The march's parts the scene uses (the pipeline it is marched with).
+    /// The march's parts the scene uses and its arrays' layout (the pipeline it is
+    /// marched with).
     pub(super) features: MarchFeatures,
     /// The GPU's own seconds in the passes run over these buffers.
     pub(super) busy: BusyTotal,
+}
+
+impl Resident {
+    /// The buffers the grids' node tables and their values went in.
+    pub fn grid_parts(&self) -> [usize; 2] {
+        [self.tree.len(), self.vals.len()]
+    }
 }

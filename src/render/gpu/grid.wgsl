@@ -66,8 +66,9 @@ struct Grid {
 };
 
 @group(0) @binding(0) var<uniform> P: Params;
-@group(0) @binding(1) var<storage, read> tree: array<u32>;
-@group(0) @binding(2) var<storage, read> vals: array<f32>;
+// The grid's nodes, `tree` (u32) and `vals` (f32), are read only through `tree_at(i)`
+// and `val_at(i)`: their bindings and those two functions are generated (grid_parts.rs),
+// the arrays bound whole or each cut into parts.
 
 const CHILD: u32 = 0x80000000u;
 const BIG: f32 = 3.0e38;
@@ -100,23 +101,23 @@ fn lookup(g: vec3<i32>) -> u32 {
     if (ri == 0xffffffffu) {
         return 0u;
     }
-    var e = tree[ri];
+    var e = tree_at(ri);
     if ((e & CHILD) == 0u) {
         return e;
     }
-    e = tree[P.upper_base + (e & ~CHILD) * 32768u + upper_off(g)];
+    e = tree_at(P.upper_base + (e & ~CHILD) * 32768u + upper_off(g));
     if ((e & CHILD) == 0u) {
         return e;
     }
-    return tree[P.lower_base + (e & ~CHILD) * 4096u + lower_off(g)];
+    return tree_at(P.lower_base + (e & ~CHILD) * 4096u + lower_off(g));
 }
 
 fn voxel(g: vec3<i32>) -> f32 {
     let s = lookup(g);
     if ((s & CHILD) == 0u) {
-        return vals[P.tile_base + s];
+        return val_at(P.tile_base + s);
     }
-    return vals[(s & ~CHILD) * 512u + leaf_off(g)];
+    return val_at((s & ~CHILD) * 512u + leaf_off(g));
 }
 
 struct Cell {
@@ -127,7 +128,7 @@ struct Cell {
 };
 
 fn cell_range(at: u32) -> vec2<f32> {
-    return vec2<f32>(vals[at], vals[at + 1u]);
+    return vec2<f32>(val_at(at), val_at(at + 1u));
 }
 
 fn align(g: vec3<i32>, s: i32) -> vec3<i32> {
@@ -142,13 +143,13 @@ fn cell_at(ijk: vec3<i32>) -> Cell {
     if (ri == 0xffffffffu) {
         return Cell(align(g, 4096) - o, 4096, P.background, P.background);
     }
-    let e = tree[ri];
+    let e = tree_at(ri);
     if ((e & CHILD) == 0u) {
         let r = cell_range(P.root_cells + 2u * ri);
         return Cell(align(g, 4096) - o, 4096, r.x, r.y);
     }
     let ui = (e & ~CHILD) * 32768u + upper_off(g);
-    let e2 = tree[P.upper_base + ui];
+    let e2 = tree_at(P.upper_base + ui);
     if ((e2 & CHILD) == 0u) {
         let r = cell_range(P.upper_cells + 2u * ui);
         return Cell(align(g, 128) - o, 128, r.x, r.y);
@@ -221,20 +222,20 @@ fn cell_corners(c: vec3<i32>) -> array<f32, 8> {
     if ((g.x & 7) != 7 && (g.y & 7) != 7 && (g.z & 7) != 7) {
         let s = lookup(g);
         if ((s & CHILD) == 0u) {
-            let x = vals[P.tile_base + s];
+            let x = val_at(P.tile_base + s);
             for (var k = 0; k < 8; k++) {
                 v[k] = x;
             }
         } else {
             let base = (s & ~CHILD) * 512u + leaf_off(g);
-            v[0] = vals[base];
-            v[1] = vals[base + 1u];
-            v[2] = vals[base + 8u];
-            v[3] = vals[base + 9u];
-            v[4] = vals[base + 64u];
-            v[5] = vals[base + 65u];
-            v[6] = vals[base + 72u];
-            v[7] = vals[base + 73u];
+            v[0] = val_at(base);
+            v[1] = val_at(base + 1u);
+            v[2] = val_at(base + 8u);
+            v[3] = val_at(base + 9u);
+            v[4] = val_at(base + 64u);
+            v[5] = val_at(base + 65u);
+            v[6] = val_at(base + 72u);
+            v[7] = val_at(base + 73u);
         }
     } else {
         for (var k = 0; k < 8; k++) {
@@ -272,10 +273,10 @@ fn walk_corners(w: ptr<function, Walk>) -> array<f32, 8> {
     for (var k = 0; k < 8; k++) {
         let s = slots[k & across];
         if ((s & CHILD) == 0u) {
-            v[k] = vals[P.tile_base + s];
+            v[k] = val_at(P.tile_base + s);
         } else {
             let c = g + vec3<i32>((k >> 2u) & 1, (k >> 1u) & 1, k & 1);
-            v[k] = vals[(s & ~CHILD) * 512u + leaf_off(c)];
+            v[k] = val_at((s & ~CHILD) * 512u + leaf_off(c));
         }
     }
     return v;
@@ -320,15 +321,15 @@ fn lookup_in(h: Grid, g: vec3<i32>) -> u32 {
     if (ri == 0xffffffffu) {
         return 0u;
     }
-    var e = tree[u32(h.root_min.w) + ri];
+    var e = tree_at(u32(h.root_min.w) + ri);
     if ((e & CHILD) == 0u) {
         return e;
     }
-    e = tree[h.bases.x + (e & ~CHILD) * 32768u + upper_off(g)];
+    e = tree_at(h.bases.x + (e & ~CHILD) * 32768u + upper_off(g));
     if ((e & CHILD) == 0u) {
         return e;
     }
-    return tree[h.bases.y + (e & ~CHILD) * 4096u + lower_off(g)];
+    return tree_at(h.bases.y + (e & ~CHILD) * 4096u + lower_off(g));
 }
 
 // Channel c of global voxel g of grid h.
@@ -336,9 +337,9 @@ fn voxel_in(h: Grid, g: vec3<i32>, c: u32) -> f32 {
     let s = lookup_in(h, g);
     let n = u32(h.offset.w);
     if ((s & CHILD) == 0u) {
-        return vals[h.bases.z + s * n + c];
+        return val_at(h.bases.z + s * n + c);
     }
-    return vals[u32(h.root_dims.w) + ((s & ~CHILD) * 512u + leaf_off(g)) * n + c];
+    return val_at(u32(h.root_dims.w) + ((s & ~CHILD) * 512u + leaf_off(g)) * n + c);
 }
 
 // cell_corners() of channel ch of grid h, at its local cell c.
@@ -349,20 +350,20 @@ fn cell_corners_in(h: Grid, c: vec3<i32>, ch: u32) -> array<f32, 8> {
     if ((g.x & 7) != 7 && (g.y & 7) != 7 && (g.z & 7) != 7) {
         let s = lookup_in(h, g);
         if ((s & CHILD) == 0u) {
-            let x = vals[h.bases.z + s * n + ch];
+            let x = val_at(h.bases.z + s * n + ch);
             for (var k = 0; k < 8; k++) {
                 v[k] = x;
             }
         } else {
             let base = u32(h.root_dims.w) + ((s & ~CHILD) * 512u + leaf_off(g)) * n + ch;
-            v[0] = vals[base];
-            v[1] = vals[base + n];
-            v[2] = vals[base + 8u * n];
-            v[3] = vals[base + 9u * n];
-            v[4] = vals[base + 64u * n];
-            v[5] = vals[base + 65u * n];
-            v[6] = vals[base + 72u * n];
-            v[7] = vals[base + 73u * n];
+            v[0] = val_at(base);
+            v[1] = val_at(base + n);
+            v[2] = val_at(base + 8u * n);
+            v[3] = val_at(base + 9u * n);
+            v[4] = val_at(base + 64u * n);
+            v[5] = val_at(base + 65u * n);
+            v[6] = val_at(base + 72u * n);
+            v[7] = val_at(base + 73u * n);
         }
     } else {
         for (var k = 0; k < 8; k++) {
@@ -376,7 +377,7 @@ fn cell_corners_in(h: Grid, c: vec3<i32>, ch: u32) -> array<f32, 8> {
 fn sample_in(h: Grid, q: vec3<f32>, ch: u32) -> f32 {
     let c = floor(q);
     if (!all(abs(c) < vec3<f32>(1073741824.0))) {
-        return vals[h.bases.z + ch];
+        return val_at(h.bases.z + ch);
     }
     let v = cell_corners_in(h, vec3<i32>(c), ch);
     return trilinear(vec4<f32>(v[0], v[1], v[2], v[3]), vec4<f32>(v[4], v[5], v[6], v[7]), q - c);
@@ -391,13 +392,13 @@ fn cell_at_in(h: Grid, ijk: vec3<i32>) -> Cell {
     if (ri == 0xffffffffu) {
         return Cell(align(g, 4096) - o, 4096, background, background);
     }
-    let e = tree[u32(h.root_min.w) + ri];
+    let e = tree_at(u32(h.root_min.w) + ri);
     if ((e & CHILD) == 0u) {
         let r = cell_range(h.bases.w + 2u * ri);
         return Cell(align(g, 4096) - o, 4096, r.x, r.y);
     }
     let ui = (e & ~CHILD) * 32768u + upper_off(g);
-    let e2 = tree[h.bases.x + ui];
+    let e2 = tree_at(h.bases.x + ui);
     if ((e2 & CHILD) == 0u) {
         let r = cell_range(h.cells.x + 2u * ui);
         return Cell(align(g, 128) - o, 128, r.x, r.y);

@@ -18,6 +18,7 @@
 mod bake;
 mod busy;
 mod context;
+mod grid_parts;
 mod grids;
 mod path;
 mod pixels;
@@ -27,6 +28,7 @@ mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
 pub use context::{Gpu, MAX_BINDING_VAR};
+pub use grid_parts::{GridBinding, read_back};
 pub use path::render_path;
 pub use resident::KeptBuffers;
 pub use sweep::{GpuSweeper, SweepTimes, sweeps_lattice};
@@ -139,6 +141,9 @@ pub struct GpuTimes {
     /// Of them, the bytes this frame uploaded: all of them, but in a sequence only those
     /// that differ from the frame before's (see [`KeptBuffers`]).
     pub uploaded_bytes: u64,
+    /// The buffers the grids' node tables and their values went in: 1 each while they
+    /// fit the adapter's largest binding, else up to 4 parts each.
+    pub grid_parts: [usize; 2],
 }
 
 /// Renders the job's pixels on `gpu` (the scene passed [`unsupported`]), with the fast
@@ -179,6 +184,7 @@ pub fn render_pixels(
         layout,
         resident_bytes,
         uploaded_bytes,
+        grid_parts: resident.grid_parts(),
         ..GpuTimes::default()
     };
     let passes = pixels::render_pixels(gpu, &resident, job, &mut times)?;

@@ -9,7 +9,8 @@
 //! own [`crate::integrate::scatter_passes::ScatterPasses`].
 
 use super::GpuTimes;
-use super::context::{Gpu, MARCH_WGSL, Resident};
+use super::context::{GRID_WGSL, Gpu, MARCH_WGSL, Resident};
+use super::grid_parts::GridBinding;
 use super::pixels::{Pick, Placed, assemble, put_ray, sample_points};
 use super::upload::{self, SAMPLE_FLOATS};
 use crate::field::Field;
@@ -43,10 +44,6 @@ pub fn render_path(
     job: &PixelJob<PathTracer>,
     kept: Option<&mut super::KeptBuffers>,
 ) -> Result<(PixelPasses, GpuTimes), String> {
-    // Compiled before anything else is timed: the stats' `gpu_compile`.
-    let t = Instant::now();
-    path_pipeline(gpu)?;
-    let compile = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let lights = scene.illumination();
     let traversal = scene.traversal();
@@ -96,6 +93,21 @@ pub fn render_path(
     buffers.split_maps(gpu.max_binding());
     let (resident, uploaded_bytes) = gpu.upload(&buffers, kept)?;
     drop(buffers);
+    if resident.features.grid != GridBinding::Whole {
+        // On lavapipe the path tracer over a cut grid did not finish in minutes where
+        // the whole grid's took two: refused until it is understood.
+        return Err(format!(
+            "the grids' arrays exceed the largest buffer {} binds ({}), and a grid cut \
+             into parts is not path traced on the GPU",
+            gpu.name,
+            super::context::size_text(gpu.max_binding())
+        ));
+    }
+    // Compiled for the grid's layout on first use (else found), timed apart from the
+    // upload: the stats' `gpu_compile`.
+    let compiling = Instant::now();
+    path_pipeline(gpu, resident.features.grid)?;
+    let compile = compiling.elapsed().as_secs_f64();
     let (origin, dims) = majorants.lattice();
     let tr = grid.transform();
     let inv = tr.inverse_linear();
@@ -144,7 +156,7 @@ pub fn render_path(
         stride,
         layers,
     };
-    let upload = t.elapsed().as_secs_f64();
+    let upload = t.elapsed().as_secs_f64() - compile;
     let t = Instant::now();
     let mut times = GpuTimes {
         compile,
@@ -152,6 +164,7 @@ pub fn render_path(
         layout,
         resident_bytes,
         uploaded_bytes,
+        grid_parts: resident.grid_parts(),
         ..GpuTimes::default()
     };
     let passes = assemble(job, |picks| {
@@ -293,12 +306,12 @@ fn dispatch(
     samples: &[f32],
     count: usize,
 ) -> Result<Vec<f32>, String> {
-    let pipeline = path_pipeline(gpu)?;
+    let pipeline = path_pipeline(gpu, scene.features.grid)?;
     let d = &gpu.device;
     let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
     let oom = d.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
     let traced = gpu.dispatch(
-        pipeline,
+        &pipeline,
         scene,
         samples,
         count,
@@ -337,15 +350,15 @@ fn phase_sampling(phase: &dyn PhaseFunction, meta: &mut Vec<f32>) -> Result<[u32
 }
 
 /// The path tracer's pipeline (path.wgsl and path_tracking.wgsl after the march's
-/// sources), compiled on first use.
-fn path_pipeline(gpu: &Gpu) -> Result<&wgpu::ComputePipeline, String> {
-    let compiled = gpu.path.get_or_init(|| {
-        let mut sources = MARCH_WGSL.to_vec();
+/// sources) for the grid's arrays laid out as `grid`, compiled on first use.
+fn path_pipeline(gpu: &Gpu, grid: GridBinding) -> Result<wgpu::ComputePipeline, String> {
+    gpu.cached(&gpu.path, grid, |accessors| {
+        let mut sources = vec![GRID_WGSL, accessors];
+        sources.extend(MARCH_WGSL);
         sources.extend([
             include_str!("path.wgsl"),
             include_str!("path_tracking.wgsl"),
         ]);
         gpu.compile("path tracer", &sources, "path_samples")
-    });
-    compiled.as_ref().map_err(Clone::clone)
+    })
 }

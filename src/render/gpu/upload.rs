@@ -5,6 +5,7 @@
 //! uniform parameters, in the layouts grid.wgsl, march.wgsl, dsm.wgsl, lattice.wgsl and
 //! emission.wgsl read.
 
+use super::grid_parts::GridBinding;
 use crate::field::VoxelGrid;
 use crate::field::grid_nodes::GridNodes;
 use crate::integrate::ms_lattice::{MOMENTS, MsLattice};
@@ -81,6 +82,8 @@ pub struct MarchFeatures {
     pub marched: bool,
     /// Camera rays may meet a ground plane (`GROUND`).
     pub ground: bool,
+    /// How the grids' arrays are bound: whole, or cut into parts (set by the upload).
+    pub grid: GridBinding,
 }
 
 impl MarchFeatures {
@@ -91,6 +94,7 @@ impl MarchFeatures {
         multiple: true,
         marched: true,
         ground: true,
+        grid: GridBinding::Whole,
     };
 
     /// The overrides' values (march.wgsl), 1 or 0.
@@ -488,6 +492,7 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
             .iter()
             .any(|sh| matches!(sh, LightShadow::Marched)),
         ground: s.ground,
+        grid: GridBinding::Whole,
     };
     Ok(Buffers {
         tree,
