@@ -4,8 +4,9 @@
 //! f32 from where each column's march starts, is marched by columns.wgsl (one invocation
 //! a column) and read back. What the bake decides stays on the CPU.
 
+use super::bind::entry;
 use super::busy::{BusyTotal, PassTimer};
-use super::context::{GROUPS_X, Gpu, WORKGROUP, entry};
+use super::context::{GROUPS_X, Gpu, WORKGROUP};
 use super::grid_parts::GridBinding;
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
 use crate::field::{Field, VoxelGrid};
@@ -102,7 +103,7 @@ impl GpuColumns {
         let arrays = grid_arrays(&nodes);
         let params = grid_params(grid, &nodes, &arrays);
         let layout = GridBinding::choose(
-            self.gpu,
+            &self.gpu.binding_room(),
             [
                 "the density grid's node tables",
                 "the density grid's values",
@@ -280,7 +281,7 @@ impl GpuColumns {
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let oom = d.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let mut encoder = d.create_command_encoder(&Default::default());
-        let timer = PassTimer::new(gpu);
+        let timer = PassTimer::new(&gpu.device, gpu.timestamps);
         {
             let mut pass = encoder.begin_compute_pass(&PassTimer::pass(timer.as_ref()));
             pass.set_pipeline(&pipeline);
@@ -338,7 +339,8 @@ impl GpuColumns {
             let flags: &[u32] = bytemuck::cast_slice(&bytes[..n * 4]);
             done.extend(flags.iter().map(|&f| f == 1));
         })?;
-        self.busy.add(timer.and_then(|t| t.seconds(gpu)));
+        self.busy
+            .add(timer.and_then(|t| t.seconds(&gpu.device, &gpu.queue)));
         Ok((values, done))
     }
 }

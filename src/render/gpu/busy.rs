@@ -3,7 +3,6 @@
 //! stats' `*_kernel` seconds, which tell the kernels' own time from the uploads,
 //! readbacks and CPU work around them that the wall-clock stages also hold.
 
-use super::context::Gpu;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Two timestamps around one compute pass, resolved into a buffer the CPU reads.
@@ -17,12 +16,11 @@ pub(super) struct PassTimer {
 const STAMP_BYTES: u64 = 16;
 
 impl PassTimer {
-    /// A timer for one pass on `gpu`, or `None` where the adapter has no timestamps.
-    pub fn new(gpu: &Gpu) -> Option<Self> {
-        if !gpu.timestamps {
+    /// A timer for one pass on `d`, or `None` where it writes no timestamps (`stamps`).
+    pub fn new(d: &wgpu::Device, stamps: bool) -> Option<Self> {
+        if !stamps {
             return None;
         }
-        let d = &gpu.device;
         let buffer = |label: &str, usage: wgpu::BufferUsages| {
             d.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -69,14 +67,14 @@ impl PassTimer {
 
     /// Seconds between the pass's start and end; call after the submission it was
     /// resolved in has finished. `None` if they cannot be read.
-    pub fn seconds(&self, gpu: &Gpu) -> Option<f64> {
+    pub fn seconds(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Option<f64> {
         let (tx, rx) = std::sync::mpsc::channel();
         self.read
             .slice(..)
             .map_async(wgpu::MapMode::Read, move |r| {
                 let _ = tx.send(r);
             });
-        gpu.device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
+        device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
         rx.recv().ok()?.ok()?;
         let stamps: [u64; 2] = {
             let view = self.read.slice(..).get_mapped_range().ok()?;
@@ -85,7 +83,7 @@ impl PassTimer {
         };
         self.read.unmap();
         let ticks = stamps[1].checked_sub(stamps[0])?;
-        Some(ticks as f64 * gpu.queue.get_timestamp_period() as f64 * 1e-9)
+        Some(ticks as f64 * queue.get_timestamp_period() as f64 * 1e-9)
     }
 }
 

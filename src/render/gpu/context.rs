@@ -2,8 +2,9 @@
 //! limits the adapter reports, the march's compute pipelines, and one call that marches
 //! a batch of camera samples.
 
+use super::bind::{entry, size_text};
 use super::busy::{BusyTotal, PassTimer};
-use super::grid_parts::GridBinding;
+use super::grid_parts::{BindingRoom, GridBinding};
 use super::resident::{KeptBuffers, Making};
 use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
@@ -35,16 +36,6 @@ pub struct Gpu {
 /// The environment variable that lowers the largest buffer the GPU binds to this many
 /// bytes: how a test makes a scene that fits any real GPU not fit.
 pub const MAX_BINDING_VAR: &str = "MURK_GPU_MAX_BINDING";
-
-/// `bytes` for a person: B, KiB, MiB or GiB.
-pub(super) fn size_text(bytes: u64) -> String {
-    match bytes {
-        b if b < 1 << 10 => format!("{b} B"),
-        b if b < 1 << 20 => format!("{:.1} KiB", b as f64 / 1024.0),
-        b if b < 1 << 30 => format!("{:.1} MiB", b as f64 / (1u64 << 20) as f64),
-        b => format!("{:.1} GiB", b as f64 / (1u64 << 30) as f64),
-    }
-}
 
 /// What the march and the column march share (WGSL has no include): the parameters,
 /// the grid's nodes and their lookups, rays and the voxel-cell walk; compiled before
@@ -214,6 +205,15 @@ impl Gpu {
         compile_with(&self.device, &self.name, label, sources, entry, &[])
     }
 
+    /// What the adapter binds, for [`GridBinding::choose`].
+    pub(super) fn binding_room(&self) -> BindingRoom<'_> {
+        BindingRoom {
+            adapter: &self.name,
+            max_binding: self.max_binding(),
+            storage_buffers: self.limits.max_storage_buffers_per_shader_stage,
+        }
+    }
+
     /// The most bytes one storage buffer may bind.
     pub fn max_binding(&self) -> u64 {
         self.limits
@@ -318,7 +318,7 @@ impl Gpu {
             entries: &entries,
         });
         let mut encoder = d.create_command_encoder(&Default::default());
-        let timer = PassTimer::new(self);
+        let timer = PassTimer::new(&self.device, self.timestamps);
         {
             let mut pass = encoder.begin_compute_pass(&PassTimer::pass(timer.as_ref()));
             pass.set_pipeline(pipeline);
@@ -350,7 +350,9 @@ impl Gpu {
         drop(view);
         readback.unmap();
         values.truncate(count * stride);
-        scene.busy.add(timer.and_then(|t| t.seconds(self)));
+        scene
+            .busy
+            .add(timer.and_then(|t| t.seconds(&self.device, &self.queue)));
         Ok(values)
     }
 
@@ -368,7 +370,7 @@ impl Gpu {
         let max = self.max_binding();
         let [tree_name, vals_name, ..] = b.sizes().map(|(what, _)| what);
         let grid = GridBinding::choose(
-            self,
+            &self.binding_room(),
             [tree_name, vals_name],
             b.tree.len(),
             b.vals.len(),
@@ -468,13 +470,6 @@ fn compile_with(
     match pollster::block_on(scope.pop()) {
         Some(e) => Err(format!("{name}: the {label} does not compile ({e})")),
         None => Ok(pipeline),
-    }
-}
-
-pub(super) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: buffer.as_entire_binding(),
     }
 }
 

@@ -7,7 +7,15 @@
 //! bindings) is generated here for the one layout or the other: a pipeline is compiled
 //! for its layout, and a grid that fits pays nothing for the cut one.
 
-use super::context::{Gpu, entry, size_text};
+use super::bind::{entry, size_text};
+
+/// What an adapter binds: its name (for errors), the most bytes of one storage binding,
+/// and the storage buffers a shader may bind.
+pub struct BindingRoom<'a> {
+    pub adapter: &'a str,
+    pub max_binding: u64,
+    pub storage_buffers: u32,
+}
 
 /// The most buffers each array is cut into.
 pub const PARTS: usize = 4;
@@ -33,19 +41,19 @@ impl GridBinding {
     /// The storage buffers a cut layout binds beyond the whole one's.
     pub const MORE_BUFFERS: u32 = 2 * (PARTS as u32 - 1);
 
-    /// The layout for arrays of `tree_words` and `vals_words` words on `gpu` (named,
-    /// in an error, `names`), for a pipeline that binds `buffers` storage buffers with
-    /// them whole. Whole while both fit one binding; else cut into parts of the largest
+    /// The layout for arrays of `tree_words` and `vals_words` words on the adapter
+    /// `room` describes (named, in an error, `names`), for a pipeline that binds
+    /// `buffers` storage buffers with them whole. Whole while both fit one binding; else cut into parts of the largest
     /// power-of-two word count one binding holds. Why not, where the parts would be
     /// more than [`PARTS`] or the adapter binds too few storage buffers for them.
     pub fn choose(
-        gpu: &Gpu,
+        room: &BindingRoom,
         names: [&str; 2],
         tree_words: usize,
         vals_words: usize,
         buffers: u32,
     ) -> Result<GridBinding, String> {
-        let max = gpu.max_binding();
+        let max = room.max_binding;
         let arrays = [(names[0], tree_words), (names[1], vals_words)];
         if arrays.iter().all(|&(_, w)| w as u64 * 4 <= max) {
             return Ok(GridBinding::Whole);
@@ -60,19 +68,19 @@ impl GridBinding {
                 return Err(format!(
                     "{what} ({}) exceed the largest buffer {} binds ({}) in {PARTS} parts of {}",
                     size_text(words as u64 * 4),
-                    gpu.name,
+                    room.adapter,
                     size_text(max),
                     size_text(4u64 << shift)
                 ));
             }
         }
-        let binds = gpu.limits.max_storage_buffers_per_shader_stage;
+        let binds = room.storage_buffers;
         let needs = buffers + Self::MORE_BUFFERS;
         if binds < needs {
             return Err(format!(
                 "the grids' arrays exceed the largest buffer {} binds ({}), and it binds {binds} \
                  storage buffers per shader, fewer than the {needs} their parts need",
-                gpu.name,
+                room.adapter,
                 size_text(max)
             ));
         }
@@ -145,87 +153,6 @@ impl GridBinding {
         }
         s
     }
-}
-
-/// Every word of `tree` and `vals` read back through `tree_at` and `val_at` compiled for
-/// `binding` on `gpu` (each array uploaded in that layout's parts): what the shaders see
-/// at each index, for the tests of the parts' boundaries.
-#[doc(hidden)]
-pub fn read_back(
-    gpu: &Gpu,
-    binding: GridBinding,
-    tree: &[u32],
-    vals: &[f32],
-) -> Result<(Vec<u32>, Vec<f32>), String> {
-    use wgpu::util::DeviceExt;
-    let d = &gpu.device;
-    let (nt, nv) = (tree.len(), vals.len());
-    let probe = format!(
-        "@group(0) @binding(0) var<storage, read_write> words: array<u32>;\n\
-         @compute @workgroup_size(64)\n\
-         fn read_back(@builtin(global_invocation_id) id: vec3<u32>) {{\n\
-         let i = id.x;\n\
-         if (i < {nt}u) {{ words[i] = tree_at(i); }}\n\
-         if (i < {nv}u) {{ words[{nt}u + i] = bitcast<u32>(val_at(i)); }}\n}}\n"
-    );
-    let accessors = binding.wgsl();
-    let pipeline = gpu.compile("read back", &[&accessors, &probe], "read_back")?;
-    let upload = |label: &str, bytes: &[u8], usage| {
-        d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytes,
-            usage,
-        })
-    };
-    let storage = wgpu::BufferUsages::STORAGE;
-    let tree: Vec<_> = binding
-        .parts(tree)
-        .iter()
-        .map(|p| upload("tree", bytemuck::cast_slice(p), storage))
-        .collect();
-    let vals: Vec<_> = binding
-        .parts(vals)
-        .iter()
-        .map(|p| upload("vals", bytemuck::cast_slice(p), storage))
-        .collect();
-    let bytes = 4 * (nt + nv) as u64;
-    let out = upload(
-        "words",
-        &vec![0; bytes as usize],
-        storage | wgpu::BufferUsages::COPY_SRC,
-    );
-    let back = d.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size: bytes,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut entries = binding.entries(&tree, &vals);
-    entries.push(entry(0, &out));
-    let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("read back"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
-    });
-    let mut encoder = d.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((nt.max(nv) as u32).div_ceil(64), 1, 1);
-    }
-    encoder.copy_buffer_to_buffer(&out, 0, &back, 0, bytes);
-    gpu.queue.submit([encoder.finish()]);
-    back.slice(..).map_async(wgpu::MapMode::Read, |_| {});
-    d.poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| format!("{}: {e}", gpu.name))?;
-    let view = back
-        .slice(..)
-        .get_mapped_range()
-        .map_err(|e| format!("{}: reading back: {e:?}", gpu.name))?;
-    let words: Vec<u32> = bytemuck::cast_slice(&view).to_vec();
-    let vals = words[nt..].iter().map(|&w| f32::from_bits(w)).collect();
-    Ok((words[..nt].to_vec(), vals))
 }
 
 #[cfg(test)]

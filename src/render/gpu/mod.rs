@@ -16,9 +16,11 @@
 //! the CPU under `--device auto` (with a note naming it) and is refused under `gpu`.
 
 mod bake;
+mod bind;
 mod busy;
 mod context;
 mod grid_parts;
+mod grid_probe;
 mod grids;
 mod path;
 mod pixels;
@@ -28,7 +30,8 @@ mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
 pub use context::{Gpu, MAX_BINDING_VAR};
-pub use grid_parts::{GridBinding, read_back};
+pub use grid_parts::GridBinding;
+pub use grid_probe::read_back;
 pub use path::render_path;
 pub use resident::KeptBuffers;
 pub use sweep::{GpuSweeper, SweepTimes, sweeps_lattice};

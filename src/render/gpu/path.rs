@@ -100,7 +100,7 @@ pub fn render_path(
             "the grids' arrays exceed the largest buffer {} binds ({}), and a grid cut \
              into parts is not path traced on the GPU",
             gpu.name,
-            super::context::size_text(gpu.max_binding())
+            super::bind::size_text(gpu.max_binding())
         ));
     }
     // Compiled for the grid's layout on first use (else found), timed apart from the

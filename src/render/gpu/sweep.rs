@@ -6,7 +6,8 @@
 //! directions' radiances are averaged per node in the CPU's order, and `J` and `G` come
 //! back. What orders are swept, the sources and the tail stay on the CPU.
 
-use super::context::{GROUPS_X, Gpu, WORKGROUP, entry, size_text};
+use super::bind::{entry, size_text};
+use super::context::{GROUPS_X, Gpu, WORKGROUP};
 use crate::integrate::ms_sweep::{
     DIRECTION_GROUP, OrderJob, OrderMoments, Sweeper, SweptLattice, geometry,
 };
