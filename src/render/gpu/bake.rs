@@ -71,6 +71,9 @@ pub struct GpuColumns {
     busy: BusyTotal,
     /// The first failure, after which the bake marches on the CPU.
     failed: Mutex<Option<String>>,
+    /// The most bytes the grid's arrays bind in one buffer, where lower than the
+    /// adapter's largest binding.
+    max_binding: Option<u64>,
 }
 
 impl GpuColumns {
@@ -81,7 +84,29 @@ impl GpuColumns {
             times: Mutex::new(BakeTimes::default()),
             busy: BusyTotal::default(),
             failed: Mutex::new(None),
+            max_binding: None,
         }
+    }
+
+    /// As [`GpuColumns::new`], the grid's arrays laid out as though the adapter's
+    /// largest storage binding were `bytes` (where that is lower): cut into parts when
+    /// they exceed it. How a test marches the columns over a grid cut into parts, on any
+    /// adapter, in a process whose other renders bind it whole.
+    pub fn binding_at_most(gpu: &'static Gpu, bytes: u64) -> Self {
+        GpuColumns {
+            max_binding: Some(bytes),
+            ..GpuColumns::new(gpu)
+        }
+    }
+
+    /// The buffers the grid's node tables and values were uploaded in ([0, 0] before
+    /// the first batch).
+    pub fn grid_parts(&self) -> [usize; 2] {
+        self.grid
+            .lock()
+            .ok()
+            .and_then(|g| g.as_ref().map(|g| [g.tree.len(), g.vals.len()]))
+            .unwrap_or([0, 0])
     }
 
     pub fn times(&self) -> BakeTimes {
@@ -102,8 +127,10 @@ impl GpuColumns {
             .map_err(|_| "a density grid it cannot flatten".to_string())?;
         let arrays = grid_arrays(&nodes);
         let params = grid_params(grid, &nodes, &arrays);
+        let mut room = self.gpu.binding_room();
+        room.max_binding = room.max_binding.min(self.max_binding.unwrap_or(u64::MAX));
         let layout = GridBinding::choose(
-            &self.gpu.binding_room(),
+            &room,
             [
                 "the density grid's node tables",
                 "the density grid's values",

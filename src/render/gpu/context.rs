@@ -377,9 +377,12 @@ impl Gpu {
             STORAGE_BUFFERS,
         )?;
         if grid != GridBinding::Whole && b.features.marched {
-            // On lavapipe the cut layout's march with marched shadow rays did not match
-            // the CPU's image (the shadow-map march does, bit for bit): refused rather
-            // than rendered wrong.
+            // On lavapipe this pipeline leaves some camera rays early: the walk's loop
+            // ends without taking its one exit, at rays that change with the driver's
+            // vector width and with unrelated code (a miscompile; every index it reads
+            // is in bounds, and the shadow-map march and the bake's columns over the
+            // same cut arrays are bit for bit the whole grid's). Refused rather than
+            // rendered wrong until a GPU shows it right.
             return Err(format!(
                 "the grids' arrays exceed the largest buffer {} binds ({}), and a grid cut \
                  into parts is not marched with shadow rays (--shadows march) on the GPU",

@@ -95,7 +95,9 @@ pub fn render_path(
     drop(buffers);
     if resident.features.grid != GridBinding::Whole {
         // On lavapipe the path tracer over a cut grid did not finish in minutes where
-        // the whole grid's took two: refused until it is understood.
+        // the whole grid's took two (not diagnosed; the march with marched shadow rays
+        // over a cut grid is miscompiled there, context.rs): refused until a GPU shows
+        // it right.
         return Err(format!(
             "the grids' arrays exceed the largest buffer {} binds ({}), and a grid cut \
              into parts is not path traced on the GPU",
