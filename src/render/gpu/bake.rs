@@ -8,6 +8,7 @@ use super::bind::entry;
 use super::busy::{BusyTotal, PassTimer};
 use super::context::{GROUPS_X, Gpu, WORKGROUP};
 use super::grid_parts::GridBinding;
+use super::readback::{catching_errors, read_mapped};
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
 use crate::field::{Field, VoxelGrid};
 use crate::shadow::{BAKE_BATCH_SAMPLES, ColumnJob, ColumnMarcher, MarchedColumns};
@@ -305,66 +306,37 @@ impl GpuColumns {
             })
         };
         let (out_back, flags_back) = (read(&out), read(&flags));
-        let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
-        let oom = d.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let mut encoder = d.create_command_encoder(&Default::default());
-        let timer = PassTimer::new(&gpu.device, gpu.timestamps);
-        {
-            let mut pass = encoder.begin_compute_pass(&PassTimer::pass(timer.as_ref()));
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            let groups = (n as u32).div_ceil(WORKGROUP);
-            pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
-        }
-        if let Some(t) = &timer {
-            t.resolve(&mut encoder);
-        }
-        encoder.copy_buffer_to_buffer(&out, 0, &out_back, 0, out.size());
-        encoder.copy_buffer_to_buffer(&flags, 0, &flags_back, 0, flags.size());
-        gpu.queue.submit([encoder.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        for b in [&out_back, &flags_back] {
-            let tx = tx.clone();
-            b.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-                let _ = tx.send(r);
-            });
-        }
-        d.poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| format!("{}: {e}", gpu.name))?;
-        for _ in 0..2 {
-            match rx.recv() {
-                Ok(Ok(())) => {}
-                Ok(Err(e)) => return Err(format!("{}: reading the columns back: {e}", gpu.name)),
-                Err(e) => return Err(format!("{}: reading the columns back: {e}", gpu.name)),
-            }
-        }
-        if let Some(e) = pollster::block_on(oom.pop()) {
-            return Err(format!("{}: out of memory ({e})", gpu.name));
-        }
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(format!("{}: {e}", gpu.name));
-        }
-        // Each read straight from the mapped buffer into what the bake takes.
-        let take = |b: &wgpu::Buffer, into: &mut dyn FnMut(&[u8])| -> Result<(), String> {
-            let view = b
-                .slice(..)
-                .get_mapped_range()
-                .map_err(|e| format!("{}: reading the columns back: {e:?}", gpu.name))?;
-            into(&view);
-            drop(view);
-            b.unmap();
-            Ok(())
-        };
         let mut values = Vec::with_capacity(samples);
-        take(&out_back, &mut |bytes| {
-            let all: &[[f32; SAMPLE_FLOATS]] =
-                bytemuck::cast_slice(&bytes[..samples * SAMPLE_FLOATS * 4]);
-            values.extend_from_slice(all);
-        })?;
         let mut done = Vec::with_capacity(n);
-        take(&flags_back, &mut |bytes| {
-            let flags: &[u32] = bytemuck::cast_slice(&bytes[..n * 4]);
-            done.extend(flags.iter().map(|&f| f == 1));
+        let timer = catching_errors(d, &gpu.name, "", || {
+            let mut encoder = d.create_command_encoder(&Default::default());
+            let timer = PassTimer::new(&gpu.device, gpu.timestamps);
+            {
+                let mut pass = encoder.begin_compute_pass(&PassTimer::pass(timer.as_ref()));
+                pass.set_pipeline(&pipeline);
+                pass.set_bind_group(0, &bind, &[]);
+                let groups = (n as u32).div_ceil(WORKGROUP);
+                pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
+            }
+            if let Some(t) = &timer {
+                t.resolve(&mut encoder);
+            }
+            encoder.copy_buffer_to_buffer(&out, 0, &out_back, 0, out.size());
+            encoder.copy_buffer_to_buffer(&flags, 0, &flags_back, 0, flags.size());
+            gpu.queue.submit([encoder.finish()]);
+            // Each read straight from the mapped buffer into what the bake takes.
+            let backs = [&out_back, &flags_back];
+            read_mapped(d, &gpu.name, "the columns", &backs, |k, bytes| {
+                if k == 0 {
+                    let all: &[[f32; SAMPLE_FLOATS]] =
+                        bytemuck::cast_slice(&bytes[..samples * SAMPLE_FLOATS * 4]);
+                    values.extend_from_slice(all);
+                } else {
+                    let flags: &[u32] = bytemuck::cast_slice(&bytes[..n * 4]);
+                    done.extend(flags.iter().map(|&f| f == 1));
+                }
+            })?;
+            Ok(timer)
         })?;
         self.busy
             .add(timer.and_then(|t| t.seconds(&gpu.device, &gpu.queue)));

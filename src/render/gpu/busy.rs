@@ -3,6 +3,7 @@
 //! stats' `*_kernel` seconds, which tell the kernels' own time from the uploads,
 //! readbacks and CPU work around them that the wall-clock stages also hold.
 
+use super::readback::read_mapped;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Two timestamps around one compute pass, resolved into a buffer the CPU reads.
@@ -68,20 +69,12 @@ impl PassTimer {
     /// Seconds between the pass's start and end; call after the submission it was
     /// resolved in has finished. `None` if they cannot be read.
     pub fn seconds(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Option<f64> {
-        let (tx, rx) = std::sync::mpsc::channel();
-        self.read
-            .slice(..)
-            .map_async(wgpu::MapMode::Read, move |r| {
-                let _ = tx.send(r);
-            });
-        device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
-        rx.recv().ok()?.ok()?;
-        let stamps: [u64; 2] = {
-            let view = self.read.slice(..).get_mapped_range().ok()?;
-            let words: &[u64] = bytemuck::cast_slice(&view);
-            [words[0], words[1]]
-        };
-        self.read.unmap();
+        let mut stamps = [0u64; 2];
+        read_mapped(device, "", "the timestamps", &[&self.read], |_, bytes| {
+            let words: &[u64] = bytemuck::cast_slice(bytes);
+            stamps = [words[0], words[1]];
+        })
+        .ok()?;
         let ticks = stamps[1].checked_sub(stamps[0])?;
         Some(ticks as f64 * queue.get_timestamp_period() as f64 * 1e-9)
     }

@@ -4,6 +4,7 @@
 use super::bind::entry;
 use super::context::Gpu;
 use super::grid_parts::GridBinding;
+use super::readback::read_mapped;
 
 /// Every word of `tree` and `vals` read back through `tree_at` and `val_at` compiled for
 /// `binding` on `gpu` (each array uploaded in that layout's parts): what the shaders see
@@ -47,11 +48,13 @@ pub fn read_back(
         .map(|p| upload("vals", bytemuck::cast_slice(p), storage))
         .collect();
     let bytes = 4 * (nt + nv) as u64;
-    let out = upload(
-        "words",
-        &vec![0; bytes as usize],
-        storage | wgpu::BufferUsages::COPY_SRC,
-    );
+    // Every word is written by the probe (the GPU zeroes a new buffer).
+    let out = d.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("words"),
+        size: bytes,
+        usage: storage | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
     let back = d.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
         size: bytes,
@@ -74,14 +77,10 @@ pub fn read_back(
     }
     encoder.copy_buffer_to_buffer(&out, 0, &back, 0, bytes);
     gpu.queue.submit([encoder.finish()]);
-    back.slice(..).map_async(wgpu::MapMode::Read, |_| {});
-    d.poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| format!("{}: {e}", gpu.name))?;
-    let view = back
-        .slice(..)
-        .get_mapped_range()
-        .map_err(|e| format!("{}: reading back: {e:?}", gpu.name))?;
-    let words: Vec<u32> = bytemuck::cast_slice(&view).to_vec();
+    let mut words: Vec<u32> = Vec::new();
+    read_mapped(d, &gpu.name, "the words", &[&back], |_, bytes| {
+        words = bytemuck::cast_slice(bytes).to_vec();
+    })?;
     let vals = words[nt..].iter().map(|&w| f32::from_bits(w)).collect();
     Ok((words[..nt].to_vec(), vals))
 }

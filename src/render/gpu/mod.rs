@@ -24,12 +24,13 @@ mod grid_probe;
 mod grids;
 mod path;
 mod pixels;
+mod readback;
 mod resident;
 mod sweep;
 mod upload;
 
 pub use bake::{BakeTimes, GpuColumns};
-pub use context::{Gpu, MAX_BINDING_VAR};
+pub use context::{CUT_ANYWAY_VAR, Gpu, MAX_BINDING_VAR};
 pub use grid_parts::GridBinding;
 pub use grid_probe::read_back;
 pub use path::render_path;

@@ -12,6 +12,7 @@ use super::GpuTimes;
 use super::context::{GRID_WGSL, Gpu, MARCH_WGSL, Resident};
 use super::grid_parts::GridBinding;
 use super::pixels::{Pick, Placed, assemble, put_ray, sample_points};
+use super::readback::catching_errors;
 use super::upload::{self, SAMPLE_FLOATS};
 use crate::field::Field;
 use crate::integrate::integrator::Integrator;
@@ -93,7 +94,7 @@ pub fn render_path(
     buffers.split_maps(gpu.max_binding());
     let (resident, uploaded_bytes) = gpu.upload(&buffers, kept)?;
     drop(buffers);
-    if resident.features.grid != GridBinding::Whole {
+    if resident.features.grid != GridBinding::Whole && !super::context::cut_anyway() {
         // On lavapipe the path tracer over a cut grid did not finish in minutes where
         // the whole grid's took two (not diagnosed; the march with marched shadow rays
         // over a cut grid is miscompiled there, context.rs): refused until a GPU shows
@@ -309,24 +310,16 @@ fn dispatch(
     count: usize,
 ) -> Result<Vec<f32>, String> {
     let pipeline = path_pipeline(gpu, scene.features.grid)?;
-    let d = &gpu.device;
-    let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
-    let oom = d.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-    let traced = gpu.dispatch(
-        &pipeline,
-        scene,
-        samples,
-        count,
-        batch.stride,
-        &[&batch.params],
-    );
-    if let Some(e) = pollster::block_on(oom.pop()) {
-        return Err(format!("{}: out of memory ({e})", gpu.name));
-    }
-    if let Some(e) = pollster::block_on(scope.pop()) {
-        return Err(format!("{}: {e}", gpu.name));
-    }
-    traced
+    catching_errors(&gpu.device, &gpu.name, "", || {
+        gpu.dispatch(
+            &pipeline,
+            scene,
+            samples,
+            count,
+            batch.stride,
+            &[&batch.params],
+        )
+    })
 }
 
 /// Appends to `meta` how the phase function is sampled where it is a table (water

@@ -8,6 +8,7 @@
 
 use super::bind::{entry, size_text};
 use super::context::{GROUPS_X, Gpu, WORKGROUP};
+use super::readback::{catching_errors, read_mapped};
 use crate::integrate::ms_sweep::{
     DIRECTION_GROUP, OrderJob, OrderMoments, Sweeper, SweptLattice, geometry,
 };
@@ -360,74 +361,52 @@ impl<'s> Lattice<'s> {
                 (7, &self.g),
             ],
         );
-        let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
-        let oom = d.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let mut encoder = d.create_command_encoder(&Default::default());
-        let dispatch = |encoder: &mut wgpu::CommandEncoder,
-                        p: &wgpu::ComputePipeline,
-                        b: &wgpu::BindGroup,
-                        n: usize| {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(p);
-            pass.set_bind_group(0, b, &[]);
-            let groups = (n as u32).div_ceil(WORKGROUP);
-            pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
-        };
-        // Plane after plane: each dispatch reads the plane the one before it wrote.
-        for step in 0..steps {
-            encoder.copy_buffer_to_buffer(
-                &self.steps,
-                (step * 4) as u64,
-                &params,
-                (STEP_AT * 4) as u64,
-                4,
-            );
-            dispatch(
-                &mut encoder,
-                &self.pipes.sweep,
-                &sweep_bind,
-                n_dirs * plane_max,
-            );
-        }
-        dispatch(&mut encoder, &self.pipes.gather, &gather_bind, nodes);
-        encoder.copy_buffer_to_buffer(&self.j, 0, &readback, 0, j_bytes);
-        if g_bytes > 0 {
-            encoder.copy_buffer_to_buffer(&self.g, 0, &readback, j_bytes, g_bytes);
-        }
-        gpu.queue.submit([encoder.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        readback.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        d.poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| format!("{}: {e}", gpu.name))?;
-        let mapped = rx
-            .recv()
-            .map_err(|e| e.to_string())
-            .and_then(|r| r.map_err(|e| e.to_string()));
-        if let Some(e) = pollster::block_on(oom.pop()) {
-            return Err(format!(
-                "{}: out of memory sweeping the lattice ({e})",
-                gpu.name
-            ));
-        }
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(format!("{}: {e}", gpu.name));
-        }
-        mapped.map_err(|e| format!("{}: reading the lattice back: {e}", gpu.name))?;
-        let view = readback
-            .slice(..)
-            .get_mapped_range()
-            .map_err(|e| format!("{}: reading the lattice back: {e:?}", gpu.name))?;
-        let values: &[f32] = bytemuck::cast_slice(&view);
-        let (j, g) = values.split_at(nodes * c);
-        let moments = OrderMoments {
-            j: j.to_vec(),
-            g: g.to_vec(),
-        };
-        drop(view);
-        readback.unmap();
-        Ok(moments)
+        catching_errors(d, &gpu.name, " sweeping the lattice", || {
+            let mut encoder = d.create_command_encoder(&Default::default());
+            let dispatch = |encoder: &mut wgpu::CommandEncoder,
+                            p: &wgpu::ComputePipeline,
+                            b: &wgpu::BindGroup,
+                            n: usize| {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(p);
+                pass.set_bind_group(0, b, &[]);
+                let groups = (n as u32).div_ceil(WORKGROUP);
+                pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
+            };
+            // Plane after plane: each dispatch reads the plane the one before it wrote.
+            for step in 0..steps {
+                encoder.copy_buffer_to_buffer(
+                    &self.steps,
+                    (step * 4) as u64,
+                    &params,
+                    (STEP_AT * 4) as u64,
+                    4,
+                );
+                dispatch(
+                    &mut encoder,
+                    &self.pipes.sweep,
+                    &sweep_bind,
+                    n_dirs * plane_max,
+                );
+            }
+            dispatch(&mut encoder, &self.pipes.gather, &gather_bind, nodes);
+            encoder.copy_buffer_to_buffer(&self.j, 0, &readback, 0, j_bytes);
+            if g_bytes > 0 {
+                encoder.copy_buffer_to_buffer(&self.g, 0, &readback, j_bytes, g_bytes);
+            }
+            gpu.queue.submit([encoder.finish()]);
+            let mut moments = OrderMoments {
+                j: Vec::new(),
+                g: Vec::new(),
+            };
+            read_mapped(d, &gpu.name, "the lattice", &[&readback], |_, bytes| {
+                let values: &[f32] = bytemuck::cast_slice(bytes);
+                let (j, g) = values.split_at(nodes * c);
+                moments.j = j.to_vec();
+                moments.g = g.to_vec();
+            })?;
+            Ok(moments)
+        })
     }
 }
 

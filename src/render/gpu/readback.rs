@@ -1,0 +1,66 @@
+//! How every GPU stage that dispatches work and reads its results back (the march, the
+//! path tracer, the bake's columns, the lattice's sweeps, the pass timer, the test
+//! probe) waits for them and catches what went wrong: one way, with one wording.
+
+/// Maps `buffers` (made `MAP_READ`, their copies already submitted), waits for the
+/// device, and hands each one's bytes to `take` with its index in `buffers`, unmapping
+/// it after. An error names the adapter (`adapter`) and what was read (`what`).
+pub(super) fn read_mapped(
+    device: &wgpu::Device,
+    adapter: &str,
+    what: &str,
+    buffers: &[&wgpu::Buffer],
+    mut take: impl FnMut(usize, &[u8]),
+) -> Result<(), String> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    for b in buffers {
+        let tx = tx.clone();
+        b.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+    }
+    drop(tx);
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| format!("{adapter}: {e}"))?;
+    let failed = |e: &dyn std::fmt::Display| format!("{adapter}: reading {what} back: {e}");
+    for _ in buffers {
+        match rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(failed(&e)),
+            Err(e) => return Err(failed(&e)),
+        }
+    }
+    for (k, b) in buffers.iter().enumerate() {
+        let view = b
+            .slice(..)
+            .get_mapped_range()
+            .map_err(|e| failed(&format!("{e:?}")))?;
+        take(k, &view);
+        drop(view);
+        b.unmap();
+    }
+    Ok(())
+}
+
+/// Runs `work` (GPU work, with its results read back) inside error scopes: an
+/// allocation that failed in it (`doing` says during what, after "out of memory"), else
+/// a validation error it raised, is the error rather than what `work` returned, which
+/// is most often only that error's consequence.
+pub(super) fn catching_errors<T>(
+    device: &wgpu::Device,
+    adapter: &str,
+    doing: &str,
+    work: impl FnOnce() -> Result<T, String>,
+) -> Result<T, String> {
+    let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let result = work();
+    if let Some(e) = pollster::block_on(oom.pop()) {
+        return Err(format!("{adapter}: out of memory{doing} ({e})"));
+    }
+    if let Some(e) = pollster::block_on(validation.pop()) {
+        return Err(format!("{adapter}: {e}"));
+    }
+    result
+}
