@@ -64,7 +64,9 @@ pub(super) fn report_bake(columns: Option<&gpu::GpuColumns>, report: &mut SceneR
 }
 
 /// The lattice's sweeps on the GPU in the stats: `gpu_lattice` (uploads, sweeps,
-/// averages and readbacks, inside `multiple_scattering`), and a note where the GPU
+/// averages and readbacks, inside `multiple_scattering`) and of it
+/// `gpu_lattice_kernel` (the GPU's own time sweeping and averaging, where the adapter
+/// times its passes), and a note where the GPU
 /// stopped sweeping.
 pub(super) fn report_sweeps(sweeper: Option<&gpu::GpuSweeper>, report: &mut SceneReport) {
     let Some(s) = sweeper else { return };
@@ -73,6 +75,11 @@ pub(super) fn report_sweeps(sweeper: Option<&gpu::GpuSweeper>, report: &mut Scen
         report
             .stages
             .insert("gpu_lattice".into(), Stage::ran(times.seconds));
+        if let Some(busy) = times.kernel {
+            report
+                .stages
+                .insert("gpu_lattice_kernel".into(), Stage::ran(busy));
+        }
     }
     if let Some(why) = s.failure() {
         report.notes.push(format!(

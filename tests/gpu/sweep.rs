@@ -119,6 +119,13 @@ fn the_fast_image_with_the_gpu_swept_lattice_is_the_cpus_for_any_thread_count() 
     };
     let (on, staged) = lattice(&swept);
     assert!(on == gpu_device() && staged, "{on} {staged}");
+    // The GPU's own time in the sweeps, where the adapter times its passes (lavapipe
+    // does): part of the stage around them.
+    let stage = |name: &str| swept.stats.scene.stages.get(name).map(|s| s.seconds);
+    match (stage("gpu_lattice_kernel"), stage("gpu_lattice")) {
+        (Some(k), Some(a)) => assert!(k > 0.0 && k <= a, "gpu_lattice_kernel {k} of {a}"),
+        (k, _) => assert!(k.is_none() && !test_gpu().timestamps, "{k:?}"),
+    }
     assert_eq!(lattice(&cpu), ("cpu".into(), false));
     let beauty = rel_rmse(&swept, &cpu, &["R", "G", "B"]);
     let indirect = rel_rmse(&swept, &cpu, &["indirect.R", "indirect.G", "indirect.B"]);

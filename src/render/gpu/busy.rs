@@ -49,12 +49,24 @@ impl PassTimer {
 
     /// The pass's descriptor, with its timestamps written where `timer` is one.
     pub fn pass(timer: Option<&PassTimer>) -> wgpu::ComputePassDescriptor<'_> {
+        PassTimer::of_passes(timer, true, true)
+    }
+
+    /// The descriptor of one of several passes timed together, from the first's start
+    /// (`first`) to the last's end (`last`), where `timer` is one.
+    pub fn of_passes(
+        timer: Option<&PassTimer>,
+        first: bool,
+        last: bool,
+    ) -> wgpu::ComputePassDescriptor<'_> {
         wgpu::ComputePassDescriptor {
             label: None,
-            timestamp_writes: timer.map(|t| wgpu::ComputePassTimestampWrites {
-                query_set: &t.set,
-                beginning_of_pass_write_index: Some(0),
-                end_of_pass_write_index: Some(1),
+            timestamp_writes: timer.filter(|_| first || last).map(|t| {
+                wgpu::ComputePassTimestampWrites {
+                    query_set: &t.set,
+                    beginning_of_pass_write_index: first.then_some(0),
+                    end_of_pass_write_index: last.then_some(1),
+                }
             }),
         }
     }

@@ -7,6 +7,7 @@
 //! back. What orders are swept, the sources and the tail stay on the CPU.
 
 use super::bind::{entry, size_text};
+use super::busy::{BusyTotal, PassTimer};
 use super::context::{GROUPS_X, Gpu, WORKGROUP};
 use super::readback::{catching_errors, read_mapped};
 use crate::integrate::ms_sweep::{
@@ -67,12 +68,17 @@ pub struct SweepTimes {
     pub seconds: f64,
     /// Orders swept on the GPU.
     pub orders: u64,
+    /// Of `seconds`: the GPU's own time in the sweeps and averages, where the adapter
+    /// times its passes.
+    pub kernel: Option<f64>,
 }
 
 /// The lattice's sweeps on a GPU, for one render.
 pub struct GpuSweeper {
     gpu: &'static Gpu,
     times: Mutex<SweepTimes>,
+    /// The GPU's own seconds in the sweeps' and averages' passes.
+    busy: BusyTotal,
     /// The first failure (the CPU swept the rest).
     failed: Mutex<Option<String>>,
 }
@@ -82,12 +88,16 @@ impl GpuSweeper {
         GpuSweeper {
             gpu,
             times: Mutex::new(SweepTimes::default()),
+            busy: BusyTotal::default(),
             failed: Mutex::new(None),
         }
     }
 
     pub fn times(&self) -> SweepTimes {
-        self.times.lock().map(|t| *t).unwrap_or_default()
+        SweepTimes {
+            kernel: self.busy.seconds(),
+            ..self.times.lock().map(|t| *t).unwrap_or_default()
+        }
     }
 
     /// Why the GPU stopped sweeping, if it did.
@@ -361,13 +371,17 @@ impl<'s> Lattice<'s> {
                 (7, &self.g),
             ],
         );
-        catching_errors(d, &gpu.name, " sweeping the lattice", || {
+        let timer = PassTimer::new(d, gpu.timestamps);
+        let swept = catching_errors(d, &gpu.name, " sweeping the lattice", || {
             let mut encoder = d.create_command_encoder(&Default::default());
+            // Timed from the first sweep's start to the average's end.
             let dispatch = |encoder: &mut wgpu::CommandEncoder,
                             p: &wgpu::ComputePipeline,
                             b: &wgpu::BindGroup,
-                            n: usize| {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
+                            n: usize,
+                            (first, last): (bool, bool)| {
+                let desc = PassTimer::of_passes(timer.as_ref(), first, last);
+                let mut pass = encoder.begin_compute_pass(&desc);
                 pass.set_pipeline(p);
                 pass.set_bind_group(0, b, &[]);
                 let groups = (n as u32).div_ceil(WORKGROUP);
@@ -387,9 +401,19 @@ impl<'s> Lattice<'s> {
                     &self.pipes.sweep,
                     &sweep_bind,
                     n_dirs * plane_max,
+                    (step == 0, false),
                 );
             }
-            dispatch(&mut encoder, &self.pipes.gather, &gather_bind, nodes);
+            dispatch(
+                &mut encoder,
+                &self.pipes.gather,
+                &gather_bind,
+                nodes,
+                (steps == 0, true),
+            );
+            if let Some(t) = &timer {
+                t.resolve(&mut encoder);
+            }
             encoder.copy_buffer_to_buffer(&self.j, 0, &readback, 0, j_bytes);
             if g_bytes > 0 {
                 encoder.copy_buffer_to_buffer(&self.g, 0, &readback, j_bytes, g_bytes);
@@ -406,7 +430,13 @@ impl<'s> Lattice<'s> {
                 moments.g = g.to_vec();
             })?;
             Ok(moments)
-        })
+        });
+        if swept.is_ok() {
+            self.owner
+                .busy
+                .add(timer.and_then(|t| t.seconds(&gpu.device, &gpu.queue)));
+        }
+        swept
     }
 }
 
