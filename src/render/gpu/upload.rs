@@ -254,6 +254,9 @@ pub fn grid_params(grid: &VoxelGrid, n: &GridNodes, arrays: &GridArrays) -> Vec<
     params
 }
 
+/// Of [`lattice_words`]: 1 where the march gathers the lattice (`P.multiple`).
+const LATTICE_GATHERED: usize = 1;
+
 /// Appends the lattice's moments (every light's nodes in turn) to `meta`; returns the
 /// parameters from `lattice_base` to `lattice_dims` in grid.wgsl (all 0 but for
 /// `lattice_base` without a lattice: nothing is gathered).
@@ -276,7 +279,7 @@ fn lattice_words(s: &SceneParts, meta: &mut Vec<f32>) -> Result<[u32; 11], Strin
     for v in values {
         meta.extend(v.iter().flatten());
     }
-    words[1] = 1;
+    words[LATTICE_GATHERED] = 1;
     words[2] = f(g_mean);
     words[3..7].copy_from_slice(&[f(origin.x), f(origin.y), f(origin.z), f(inv_h)]);
     words[7..11].copy_from_slice(&[dims[0] as u32, dims[1] as u32, dims[2] as u32, nodes as u32]);
@@ -486,7 +489,7 @@ pub fn build(s: &SceneParts) -> Result<Buffers, String> {
     let features = MarchFeatures {
         emits: beside[super::grids::EMITS_AT] != 0,
         tinted: beside[super::grids::TINT_AT] != 0,
-        multiple: lattice[1] != 0,
+        multiple: lattice[LATTICE_GATHERED] != 0,
         marched: s
             .shadows
             .iter()
