@@ -8,7 +8,7 @@ use super::bind::entry;
 use super::busy::{BusyTotal, PassTimer};
 use super::context::{GROUPS_X, Gpu, WORKGROUP};
 use super::grid_parts::GridBinding;
-use super::readback::{catching_errors, read_mapped};
+use super::readback::{catching_errors, read_mapped, readback_buffer};
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
 use crate::field::{Field, VoxelGrid};
 use crate::shadow::{BAKE_BATCH_SAMPLES, ColumnJob, ColumnMarcher, MarchedColumns};
@@ -297,15 +297,10 @@ impl GpuColumns {
             layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
         });
-        let read = |b: &wgpu::Buffer| {
-            d.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("readback"),
-                size: b.size(),
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            })
-        };
-        let (out_back, flags_back) = (read(&out), read(&flags));
+        let (out_back, flags_back) = (
+            readback_buffer(d, out.size()),
+            readback_buffer(d, flags.size()),
+        );
         let mut values = Vec::with_capacity(samples);
         let mut done = Vec::with_capacity(n);
         let timer = catching_errors(d, &gpu.name, "", || {

@@ -5,7 +5,7 @@
 use super::bind::{entry, size_text};
 use super::busy::{BusyTotal, PassTimer};
 use super::grid_parts::{BindingRoom, GridBinding};
-use super::readback::{catching_errors, read_mapped};
+use super::readback::{catching_errors, read_mapped, readback_buffer};
 use super::resident::{KeptBuffers, Making};
 use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
@@ -301,12 +301,7 @@ impl Gpu {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let readback = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: bytes,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let readback = readback_buffer(d, bytes);
         let mut entries = scene.features.grid.entries(&scene.tree, &scene.vals);
         entries.extend([
             entry(0, &params),

@@ -4,7 +4,7 @@
 use super::bind::entry;
 use super::context::Gpu;
 use super::grid_parts::GridBinding;
-use super::readback::read_mapped;
+use super::readback::{read_mapped, readback_buffer};
 
 /// Every word of `tree` and `vals` read back through `tree_at` and `val_at` compiled for
 /// `binding` on `gpu` (each array uploaded in that layout's parts): what the shaders see
@@ -55,12 +55,7 @@ pub fn read_back(
         usage: storage | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
-    let back = d.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size: bytes,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let back = readback_buffer(d, bytes);
     let mut entries = binding.entries(&tree, &vals);
     entries.push(entry(0, &out));
     let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -2,7 +2,17 @@
 //! path tracer, the bake's columns, the lattice's sweeps, the pass timer, the test
 //! probe) waits for them and catches what went wrong: one way, with one wording.
 
-/// Maps `buffers` (made `MAP_READ`, their copies already submitted), waits for the
+/// A buffer of `bytes` that results are copied into for [`read_mapped`].
+pub(super) fn readback_buffer(device: &wgpu::Device, bytes: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: bytes,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// Maps `buffers` (made by [`readback_buffer`], their copies already submitted), waits for the
 /// device, and hands each one's bytes to `take` with its index in `buffers`, unmapping
 /// it after. An error names the adapter (`adapter`) and what was read (`what`).
 pub(super) fn read_mapped(

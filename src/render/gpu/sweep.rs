@@ -9,7 +9,7 @@
 use super::bind::{entry, size_text};
 use super::busy::{BusyTotal, PassTimer};
 use super::context::{GROUPS_X, Gpu, WORKGROUP};
-use super::readback::{catching_errors, read_mapped};
+use super::readback::{catching_errors, read_mapped, readback_buffer};
 use crate::integrate::ms_sweep::{
     DIRECTION_GROUP, OrderJob, OrderMoments, Sweeper, SweptLattice, geometry,
 };
@@ -336,12 +336,7 @@ impl<'s> Lattice<'s> {
             .write_buffer(&self.source, 0, bytemuck::cast_slice(job.source));
         let j_bytes = (nodes * c * 4) as u64;
         let g_bytes = if job.flux { 3 * j_bytes } else { 0 };
-        let readback = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("lattice readback"),
-            size: j_bytes + g_bytes,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let readback = readback_buffer(d, j_bytes + g_bytes);
         let bind = |p: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
             let entries: Vec<_> = entries.iter().map(|(k, b)| entry(*k, b)).collect();
             d.create_bind_group(&wgpu::BindGroupDescriptor {
