@@ -25,7 +25,7 @@
 #
 # Knobs: MURK (a murk binary; default: build this tree's), BENCH_THREADS (nproc),
 # BENCH_MODES ("single fast": the scattering modes timed),
-# BENCH_RES (960x540), BENCH_PATH_RES (BENCH_RES), BENCH_PATH_SPP (16), BENCH_PATH=0 (no
+# BENCH_RES (960x540), BENCH_ONE_THREAD=0 (no one-thread CPU runs), BENCH_PATH_RES (BENCH_RES), BENCH_PATH_SPP (16), BENCH_PATH=0 (no
 # path runs), BENCH_SEQ=0 (no sequence), BENCH_SEQ_FRAMES (5), OUT (where images and
 # stats go; a temporary folder).
 # On a machine without a GPU it measures lavapipe (Mesa's Vulkan on the CPU), if installed.
@@ -59,7 +59,7 @@ RUN_RES=64x36 run warm-fast --device gpu --scattering fast >/dev/null
 for mode in "${MODES[@]}"; do
     run "gpu-$mode" --device gpu --scattering $mode
     run "cpu-$mode" --device cpu --scattering $mode --threads "$THREADS"
-    run "cpu1-$mode" --device cpu --scattering $mode --threads 1
+    [[ "${BENCH_ONE_THREAD:-1}" == 0 ]] || run "cpu1-$mode" --device cpu --scattering $mode --threads 1
     if [[ $mode == single ]]; then
         # The bake's light columns in the CPU's batch size (half a million samples)
         # against the GPU's default: the same map, in more and smaller dispatches.
@@ -87,7 +87,9 @@ if [[ "${BENCH_PATH:-1}" != 0 ]]; then
     paths() { # NAME: paths per second over the render stage
         /usr/bin/python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print(s['rays'] / s['stages']['render']['seconds'])" "$OUT/$1.json"
     }
-    for dev in gpu cpu cpu1; do
+    devs=(gpu cpu)
+    [[ "${BENCH_ONE_THREAD:-1}" == 0 ]] || devs+=(cpu1)
+    for dev in "${devs[@]}"; do
         case $dev in
             gpu) flags=(--device gpu) ;;
             cpu) flags=(--device cpu --threads "$THREADS") ;;
@@ -96,8 +98,10 @@ if [[ "${BENCH_PATH:-1}" != 0 ]]; then
         RUN_RES=$PRES run "$dev-path" "${flags[@]}" --scattering path --spp "$PSPP"
         echo "   $dev-path: $(paths "$dev-path") paths/s"
     done
+    one=nan
+    [[ "${BENCH_ONE_THREAD:-1}" == 0 ]] || one=$(paths cpu1-path)
     /usr/bin/python3 -c "import sys; g,c,c1=map(float,sys.argv[1:]); print(f'path at $PSPP spp, $PRES: GPU {g:.4g} paths/s, {g/c:.3g}x the CPU on $THREADS threads ({c:.4g}), {g/c1:.3g}x one thread ({c1:.4g})')" \
-        "$(paths gpu-path)" "$(paths cpu-path)" "$(paths cpu1-path)"
+        "$(paths gpu-path)" "$(paths cpu-path)" "$one"
     if command -v oiiotool >/dev/null; then
         read -r d da < <(avg "$OUT/gpu-path.exr" "$OUT/cpu-path.exr" --ch R,G,B,A --sub --mulc 1000 --dup --mul)
         read -r s _ < <(avg "$OUT/cpu-path.exr" --ch R,G,B,A --dup --mul)
