@@ -5,8 +5,7 @@
 #                                  strips and packs them with the 192³ benchmark cloud
 #                                  into .bench/ (about 15 MB: carry it with the tree)
 #   scripts/gpu_session.sh run     there, in the repository root: the GPU test suite on
-#                                  the machine's own GPU (MURK_TEST_GPU=system) and its
-#                                  ignored check of a cut grid's refused renders, then
+#                                  the machine's own GPU (MURK_TEST_GPU=system), then
 #                                  scripts/bench_gpu.sh; logs and images go to $OUT
 #
 # On a machine without a Vulkan loader, put Debian's loader packages in .gl/ (see the
@@ -61,10 +60,6 @@ run)
         # shellcheck disable=SC2086
         (cd "$ROOT" && MURK_TEST_GPU=system "$PACK/gpu-tests" --test-threads 1 ${TEST_FILTER:-}) \
             2>&1 | tee "$OUT/gpu-tests.log" | grep -E "^test |test result|panicked" || true
-        # What this GPU must show before murk stops refusing a grid cut into parts under
-        # marched shadow rays and the path tracer (ignored in the suite: lavapipe fails it).
-        (cd "$ROOT" && MURK_TEST_GPU=system "$PACK/gpu-tests" --test-threads 1 --ignored cut_grid) \
-            2>&1 | tee "$OUT/gpu-cut-check.log" | grep -E "^test |test result|panicked|differs" || true
     fi
     if [[ "${BENCH:-1}" != 0 ]]; then
         mkdir -p "$OUT/bench"

@@ -39,14 +39,16 @@ pub struct Gpu {
 pub const MAX_BINDING_VAR: &str = "MURK_GPU_MAX_BINDING";
 
 /// The environment variable (set to 1) under which a grid cut into parts is marched
-/// with shadow rays and path traced on the GPU, which are otherwise refused (lavapipe
-/// compiles the first wrongly and did not finish the second): how an adapter is checked
-/// for them.
+/// with shadow rays and path traced on an adapter that runs on the CPU, where they are
+/// otherwise refused (lavapipe compiles the first wrongly and did not finish the
+/// second; a real GPU renders both bit for bit as whole): how such a driver is checked
+/// again.
 pub const CUT_ANYWAY_VAR: &str = "MURK_GPU_CUT_ANYWAY";
 
-/// Whether [`CUT_ANYWAY_VAR`] asks for a cut grid's refused renders.
-pub(super) fn cut_anyway() -> bool {
-    std::env::var(CUT_ANYWAY_VAR).is_ok_and(|v| v.trim() == "1")
+/// Whether a grid cut into parts is refused under marched shadow rays and the path
+/// tracer on `gpu`: on an adapter that runs on the CPU, unless [`CUT_ANYWAY_VAR`] asks.
+pub(super) fn refuses_cut_grids(gpu: &Gpu) -> bool {
+    gpu.on_cpu && !std::env::var(CUT_ANYWAY_VAR).is_ok_and(|v| v.trim() == "1")
 }
 
 /// What the march and the column march share (WGSL has no include): the parameters,
@@ -363,16 +365,17 @@ impl Gpu {
             b.vals.len(),
             STORAGE_BUFFERS,
         )?;
-        if grid != GridBinding::Whole && b.features.marched && !cut_anyway() {
+        if grid != GridBinding::Whole && b.features.marched && refuses_cut_grids(self) {
             // On lavapipe this pipeline leaves some camera rays early: the walk's loop
             // ends without taking its one exit, at rays that change with the driver's
             // vector width and with unrelated code (a miscompile; every index it reads
-            // is in bounds, and the shadow-map march and the bake's columns over the
-            // same cut arrays are bit for bit the whole grid's). Refused rather than
-            // rendered wrong until a GPU shows it right.
+            // is in bounds, the shadow-map march and the bake's columns over the same
+            // cut arrays are bit for bit the whole grid's, and so is this march on an
+            // NVIDIA GPU). Refused there rather than rendered wrong.
             return Err(format!(
                 "the grids' arrays exceed the largest buffer {} binds ({}), and a grid cut \
-                 into parts is not marched with shadow rays (--shadows march) on the GPU",
+                 into parts is not marched with shadow rays (--shadows march) on an \
+                 adapter that runs on the CPU",
                 self.name,
                 size_text(max)
             ));

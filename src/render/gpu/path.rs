@@ -94,14 +94,14 @@ pub fn render_path(
     buffers.split_maps(gpu.max_binding());
     let (resident, uploaded_bytes) = gpu.upload(&buffers, kept)?;
     drop(buffers);
-    if resident.features.grid != GridBinding::Whole && !super::context::cut_anyway() {
+    if resident.features.grid != GridBinding::Whole && super::context::refuses_cut_grids(gpu) {
         // On lavapipe the path tracer over a cut grid did not finish in minutes where
         // the whole grid's took two (not diagnosed; the march with marched shadow rays
-        // over a cut grid is miscompiled there, context.rs): refused until a GPU shows
-        // it right.
+        // over a cut grid is miscompiled there, context.rs); on an NVIDIA GPU it traces
+        // the whole grid's paths bit for bit. Refused there.
         return Err(format!(
             "the grids' arrays exceed the largest buffer {} binds ({}), and a grid cut \
-             into parts is not path traced on the GPU",
+             into parts is not path traced on an adapter that runs on the CPU",
             gpu.name,
             super::bind::size_text(gpu.max_binding())
         ));
