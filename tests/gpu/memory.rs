@@ -85,7 +85,10 @@ fn a_grid_cut_into_parts_renders_bit_for_bit_as_it_does_whole() {
 fn a_cut_grid_under_shadow_rays_and_paths_renders_as_whole_or_is_refused_on_the_cpu() {
     need_gpu!();
     use murk::render::gpu::CUT_ANYWAY_VAR;
-    let cases: [(&str, &[&str], &str, [u64; 2], &str); 2] = [
+    // The fixture, its flags, the binding that cuts it, into how many parts, and the
+    // refusal on an adapter that runs on the CPU.
+    type Case<'a> = (&'a str, &'a [&'a str], &'a str, [u64; 2], &'a str);
+    let cases: [Case; 2] = [
         (
             "cloud.vdb",
             &["--res", "32x18", "--antialias", "1", "--shadows", "march"],
