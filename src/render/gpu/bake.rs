@@ -6,9 +6,9 @@
 
 use super::bind::entry;
 use super::busy::{BusyTotal, PassTimer};
-use super::context::{GROUPS_X, Gpu, WORKGROUP};
+use super::context::{Gpu, encode_pass};
 use super::grid_parts::GridBinding;
-use super::readback::{catching_errors, read_mapped, readback_buffer};
+use super::readback::{catching_errors, read_mapped};
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
 use crate::field::{Field, VoxelGrid};
 use crate::shadow::{BAKE_BATCH_SAMPLES, ColumnJob, ColumnMarcher, MarchedColumns};
@@ -251,39 +251,23 @@ impl GpuColumns {
         }
         let mut params = grid.params.clone();
         params[N_SAMPLES_AT] = n as u32;
-        let storage = |label: &str, contents: &[u8]| {
-            let mut padded;
-            let contents = if contents.len() < 16 {
-                padded = contents.to_vec();
-                padded.resize(16, 0);
-                &padded[..]
-            } else {
-                contents
-            };
-            d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::STORAGE,
-            })
-        };
+        let mut encoder = d.create_command_encoder(&Default::default());
+        let [jobs_buf, _jobs_staging] =
+            gpu.lend_sent(&mut encoder, "columns", bytemuck::cast_slice(&part))?;
+        let [depths_buf, _depths_staging] =
+            gpu.lend_sent(&mut encoder, "depths", bytemuck::cast_slice(depths))?;
         let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("params"),
             contents: bytemuck::cast_slice(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let jobs_buf = storage("columns", bytemuck::cast_slice(&part));
-        let depths_buf = storage("depths", bytemuck::cast_slice(depths));
-        // Written on the GPU only: made there (zeroed by wgpu), never sent up.
-        let written = |label: &str, bytes: usize| {
-            d.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: bytes.max(16) as u64,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            })
-        };
-        let out = written("column samples", samples * SAMPLE_FLOATS * 4);
-        let flags = written("columns done", n * 4);
+        // Written on the GPU only, never sent up: lent, and zeroed before the dispatch.
+        let (out_bytes, flags_bytes) = (
+            (samples * SAMPLE_FLOATS * 4).max(16) as u64,
+            (n * 4).max(16) as u64,
+        );
+        let out = gpu.lend_written("column samples", out_bytes);
+        let flags = gpu.lend_written("columns done", flags_bytes);
         let mut entries = grid.grid.entries(&grid.tree, &grid.vals);
         entries.extend([
             entry(0, &params),
@@ -297,30 +281,23 @@ impl GpuColumns {
             layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
         });
-        let (out_back, flags_back) = (
-            readback_buffer(d, out.size()),
-            readback_buffer(d, flags.size()),
-        );
+        let (out_back, flags_back) = (gpu.lend_readback(out_bytes), gpu.lend_readback(flags_bytes));
         let mut values = Vec::with_capacity(samples);
         let mut done = Vec::with_capacity(n);
         let timer = catching_errors(d, &gpu.name, "", || {
-            let mut encoder = d.create_command_encoder(&Default::default());
+            encoder.clear_buffer(&out, 0, Some(out_bytes));
+            encoder.clear_buffer(&flags, 0, Some(flags_bytes));
             let timer = PassTimer::new(&gpu.device, gpu.timestamps);
-            {
-                let mut pass = encoder.begin_compute_pass(&PassTimer::pass(timer.as_ref()));
-                pass.set_pipeline(&pipeline);
-                pass.set_bind_group(0, &bind, &[]);
-                let groups = (n as u32).div_ceil(WORKGROUP);
-                pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
-            }
+            let desc = PassTimer::pass(timer.as_ref());
+            encode_pass(&mut encoder, &desc, &pipeline, &bind, n);
             if let Some(t) = &timer {
                 t.resolve(&mut encoder);
             }
-            encoder.copy_buffer_to_buffer(&out, 0, &out_back, 0, out.size());
-            encoder.copy_buffer_to_buffer(&flags, 0, &flags_back, 0, flags.size());
+            encoder.copy_buffer_to_buffer(&out, 0, &out_back, 0, out_bytes);
+            encoder.copy_buffer_to_buffer(&flags, 0, &flags_back, 0, flags_bytes);
             gpu.queue.submit([encoder.finish()]);
             // Each read straight from the mapped buffer into what the bake takes.
-            let backs = [&out_back, &flags_back];
+            let backs = [out_back.slice(..out_bytes), flags_back.slice(..flags_bytes)];
             read_mapped(d, &gpu.name, "the columns", &backs, |k, bytes| {
                 if k == 0 {
                     let all: &[[f32; SAMPLE_FLOATS]] =

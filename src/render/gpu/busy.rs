@@ -82,10 +82,16 @@ impl PassTimer {
     /// resolved in has finished. `None` if they cannot be read.
     pub fn seconds(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Option<f64> {
         let mut stamps = [0u64; 2];
-        read_mapped(device, "", "the timestamps", &[&self.read], |_, bytes| {
-            let words: &[u64] = bytemuck::cast_slice(bytes);
-            stamps = [words[0], words[1]];
-        })
+        read_mapped(
+            device,
+            "",
+            "the timestamps",
+            &[self.read.slice(..)],
+            |_, bytes| {
+                let words: &[u64] = bytemuck::cast_slice(bytes);
+                stamps = [words[0], words[1]];
+            },
+        )
         .ok()?;
         let ticks = stamps[1].checked_sub(stamps[0])?;
         Some(ticks as f64 * queue.get_timestamp_period() as f64 * 1e-9)

@@ -5,8 +5,9 @@
 use super::bind::{entry, size_text};
 use super::busy::{BusyTotal, PassTimer};
 use super::grid_parts::{BindingRoom, GridBinding};
-use super::readback::{catching_errors, read_mapped, readback_buffer};
+use super::readback::{catching_errors, read_mapped};
 use super::resident::{KeptBuffers, Making};
+use super::spare::{BufferPool, Lent};
 use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
 
@@ -32,6 +33,8 @@ pub struct Gpu {
     pub named: bool,
     /// The device writes timestamps around compute passes ([`PassTimer`]).
     pub timestamps: bool,
+    /// The results' and read-backs' buffers, lent to each dispatch and kept between.
+    pub(super) spare: BufferPool,
 }
 
 /// The environment variable that lowers the largest buffer the GPU binds to this many
@@ -76,6 +79,24 @@ pub(super) const WORKGROUP: u32 = 64;
 /// Workgroups per dispatch dimension (WebGPU's least limit; the shader spreads a
 /// larger dispatch over y).
 pub(super) const GROUPS_X: u32 = 65535;
+
+/// Encodes one compute pass (described by `desc`, which says where its timestamps go):
+/// `pipeline` bound to `bind`, one invocation for each of `invocations`, in workgroups
+/// of [`WORKGROUP`] over x, [`GROUPS_X`] at most, then over y (each shader takes its
+/// index as `id.x + id.y * 65535 * 64`).
+pub(super) fn encode_pass(
+    encoder: &mut wgpu::CommandEncoder,
+    desc: &wgpu::ComputePassDescriptor<'_>,
+    pipeline: &wgpu::ComputePipeline,
+    bind: &wgpu::BindGroup,
+    invocations: usize,
+) {
+    let mut pass = encoder.begin_compute_pass(desc);
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, bind, &[]);
+    let groups = (invocations as u32).div_ceil(WORKGROUP);
+    pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
+}
 
 impl Gpu {
     /// The process's GPU, opened on first use and kept for every later render (with the
@@ -150,6 +171,7 @@ impl Gpu {
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
             named,
             timestamps,
+            spare: BufferPool::default(),
         })
     }
 
@@ -291,19 +313,12 @@ impl Gpu {
         };
         let params = uniform("params", &params);
         let more: Vec<wgpu::Buffer> = uniforms.iter().map(|w| uniform("uniform", w)).collect();
-        let input = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("samples"),
-            contents: bytemuck::cast_slice(samples),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
+        let mut encoder = d.create_command_encoder(&Default::default());
+        let [input, _staging] =
+            self.lend_sent(&mut encoder, "samples", bytemuck::cast_slice(samples))?;
         let bytes = (count * stride * 4).max(16) as u64;
-        let results = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("results"),
-            size: bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = readback_buffer(d, bytes);
+        let results = self.lend_written("results", bytes);
+        let readback = self.lend_readback(bytes);
         let mut entries = scene.features.grid.entries(&scene.tree, &scene.vals);
         entries.extend([
             entry(0, &params),
@@ -320,29 +335,90 @@ impl Gpu {
             layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
         });
-        let mut encoder = d.create_command_encoder(&Default::default());
+        // Zeroed as a new buffer would be, whatever the dispatch before wrote.
+        encoder.clear_buffer(&results, 0, Some(bytes));
         let timer = PassTimer::new(&self.device, self.timestamps);
-        {
-            let mut pass = encoder.begin_compute_pass(&PassTimer::pass(timer.as_ref()));
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            let groups = (count as u32).div_ceil(WORKGROUP);
-            pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
-        }
+        let desc = PassTimer::pass(timer.as_ref());
+        encode_pass(&mut encoder, &desc, pipeline, &bind, count);
         if let Some(t) = &timer {
             t.resolve(&mut encoder);
         }
         encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, bytes);
         self.queue.submit([encoder.finish()]);
         let mut values: Vec<f32> = Vec::new();
-        read_mapped(d, &self.name, "the results", &[&readback], |_, bytes| {
-            values = bytemuck::cast_slice(bytes).to_vec();
+        let back = [readback.slice(..bytes)];
+        read_mapped(d, &self.name, "the results", &back, |_, bytes| {
+            values = bytemuck::cast_slice(&bytes[..count * stride * 4]).to_vec();
         })?;
-        values.truncate(count * stride);
         scene
             .busy
             .add(timer.and_then(|t| t.seconds(&self.device, &self.queue)));
         Ok(values)
+    }
+
+    /// A storage buffer of at least `bytes` that a dispatch writes and copies out, lent
+    /// from [`Gpu::spare`] (it holds what the dispatch before wrote: clear it first).
+    pub(super) fn lend_written(&self, label: &str, bytes: u64) -> Lent<'_> {
+        use wgpu::BufferUsages as U;
+        let usage = U::STORAGE | U::COPY_SRC | U::COPY_DST;
+        let most = self.max_binding().max(bytes);
+        self.spare.lend(&self.device, label, usage, bytes, most)
+    }
+
+    /// `contents` sent up into a storage buffer lent from [`Gpu::spare`], through a
+    /// host-visible buffer lent too, mapped and written here and copied by `encoder`:
+    /// both buffers, to keep until the encoder's work is done (the storage buffer is
+    /// bound; it holds at least `contents`, zero-padded to 16 bytes, and stale words
+    /// after them, which no shader reads).
+    pub(super) fn lend_sent(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        label: &str,
+        contents: &[u8],
+    ) -> Result<[Lent<'_>; 2], String> {
+        use wgpu::BufferUsages as U;
+        let bytes = (contents.len() as u64)
+            .max(16)
+            .next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT);
+        let most = self.limits.max_buffer_size.max(bytes);
+        let usage = U::MAP_WRITE | U::COPY_SRC;
+        let staging = self.spare.lend(&self.device, "upload", usage, bytes, most);
+        let slice = staging.slice(..bytes);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Write, move |r| {
+            let _ = tx.send(r);
+        });
+        let failed = |e: &dyn std::fmt::Display| format!("{}: sending {label} up: {e}", self.name);
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| failed(&e))?;
+        match rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(failed(&e)),
+            Err(e) => return Err(failed(&e)),
+        }
+        {
+            let mut view = slice
+                .get_mapped_range_mut()
+                .map_err(|e| failed(&format!("{e:?}")))?;
+            let (len, pad) = (contents.len(), bytes as usize - contents.len());
+            view.slice(..len).copy_from_slice(contents);
+            view.slice(len..).copy_from_slice(&vec![0; pad]);
+        }
+        staging.unmap();
+        let stored = self.lend_written(label, bytes);
+        encoder.copy_buffer_to_buffer(&staging, 0, &stored, 0, bytes);
+        Ok([stored, staging])
+    }
+
+    /// A buffer of at least `bytes` to copy results into and read them back through
+    /// [`read_mapped`] (mapping only the bytes copied), lent from [`Gpu::spare`].
+    pub(super) fn lend_readback(&self, bytes: u64) -> Lent<'_> {
+        use wgpu::BufferUsages as U;
+        let most = self.limits.max_buffer_size.max(bytes);
+        let usage = U::MAP_READ | U::COPY_DST;
+        self.spare
+            .lend(&self.device, "readback", usage, bytes, most)
     }
 
     /// Uploads a scene's buffers, checking each against the adapter's limits first

@@ -2,7 +2,7 @@
 //! the parts' boundaries ([`GridBinding`]).
 
 use super::bind::entry;
-use super::context::Gpu;
+use super::context::{Gpu, encode_pass};
 use super::grid_parts::GridBinding;
 use super::readback::{read_mapped, readback_buffer};
 
@@ -23,7 +23,7 @@ pub fn read_back(
         "@group(0) @binding(0) var<storage, read_write> words: array<u32>;\n\
          @compute @workgroup_size(64)\n\
          fn read_back(@builtin(global_invocation_id) id: vec3<u32>) {{\n\
-         let i = id.x;\n\
+         let i = id.x + id.y * 65535u * 64u;\n\
          if (i < {nt}u) {{ words[i] = tree_at(i); }}\n\
          if (i < {nv}u) {{ words[{nt}u + i] = bitcast<u32>(val_at(i)); }}\n}}\n"
     );
@@ -64,16 +64,17 @@ pub fn read_back(
         entries: &entries,
     });
     let mut encoder = d.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((nt.max(nv) as u32).div_ceil(64), 1, 1);
-    }
+    encode_pass(
+        &mut encoder,
+        &Default::default(),
+        &pipeline,
+        &bind,
+        nt.max(nv),
+    );
     encoder.copy_buffer_to_buffer(&out, 0, &back, 0, bytes);
     gpu.queue.submit([encoder.finish()]);
     let mut words: Vec<u32> = Vec::new();
-    read_mapped(d, &gpu.name, "the words", &[&back], |_, bytes| {
+    read_mapped(d, &gpu.name, "the words", &[back.slice(..)], |_, bytes| {
         words = bytemuck::cast_slice(bytes).to_vec();
     })?;
     let vals = words[nt..].iter().map(|&w| f32::from_bits(w)).collect();

@@ -26,6 +26,7 @@ mod path;
 mod pixels;
 mod readback;
 mod resident;
+mod spare;
 mod sweep;
 mod upload;
 

@@ -12,20 +12,21 @@ pub(super) fn readback_buffer(device: &wgpu::Device, bytes: u64) -> wgpu::Buffer
     })
 }
 
-/// Maps `buffers` (made by [`readback_buffer`], their copies already submitted), waits for the
-/// device, and hands each one's bytes to `take` with its index in `buffers`, unmapping
-/// it after. An error names the adapter (`adapter`) and what was read (`what`).
+/// Maps `buffers` (slices of buffers made by [`readback_buffer`] or lent for reading
+/// back, their copies already submitted), waits for the device, and hands each one's
+/// bytes to `take` with its index in `buffers`, unmapping it after. An error names the
+/// adapter (`adapter`) and what was read (`what`).
 pub(super) fn read_mapped(
     device: &wgpu::Device,
     adapter: &str,
     what: &str,
-    buffers: &[&wgpu::Buffer],
+    buffers: &[wgpu::BufferSlice<'_>],
     mut take: impl FnMut(usize, &[u8]),
 ) -> Result<(), String> {
     let (tx, rx) = std::sync::mpsc::channel();
     for b in buffers {
         let tx = tx.clone();
-        b.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+        b.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
     }
@@ -43,12 +44,11 @@ pub(super) fn read_mapped(
     }
     for (k, b) in buffers.iter().enumerate() {
         let view = b
-            .slice(..)
             .get_mapped_range()
             .map_err(|e| failed(&format!("{e:?}")))?;
         take(k, &view);
         drop(view);
-        b.unmap();
+        b.buffer().unmap();
     }
     Ok(())
 }

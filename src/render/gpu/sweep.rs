@@ -8,7 +8,7 @@
 
 use super::bind::{entry, size_text};
 use super::busy::{BusyTotal, PassTimer};
-use super::context::{GROUPS_X, Gpu, WORKGROUP};
+use super::context::{GROUPS_X, Gpu, WORKGROUP, encode_pass};
 use super::readback::{catching_errors, read_mapped, readback_buffer};
 use crate::integrate::ms_sweep::{
     DIRECTION_GROUP, OrderJob, OrderMoments, Sweeper, SweptLattice, geometry,
@@ -376,11 +376,7 @@ impl<'s> Lattice<'s> {
                             n: usize,
                             (first, last): (bool, bool)| {
                 let desc = PassTimer::of_passes(timer.as_ref(), first, last);
-                let mut pass = encoder.begin_compute_pass(&desc);
-                pass.set_pipeline(p);
-                pass.set_bind_group(0, b, &[]);
-                let groups = (n as u32).div_ceil(WORKGROUP);
-                pass.dispatch_workgroups(groups.min(GROUPS_X), groups.div_ceil(GROUPS_X), 1);
+                encode_pass(encoder, &desc, p, b, n);
             };
             // Plane after plane: each dispatch reads the plane the one before it wrote.
             for step in 0..steps {
@@ -418,12 +414,18 @@ impl<'s> Lattice<'s> {
                 j: Vec::new(),
                 g: Vec::new(),
             };
-            read_mapped(d, &gpu.name, "the lattice", &[&readback], |_, bytes| {
-                let values: &[f32] = bytemuck::cast_slice(bytes);
-                let (j, g) = values.split_at(nodes * c);
-                moments.j = j.to_vec();
-                moments.g = g.to_vec();
-            })?;
+            read_mapped(
+                d,
+                &gpu.name,
+                "the lattice",
+                &[readback.slice(..)],
+                |_, bytes| {
+                    let values: &[f32] = bytemuck::cast_slice(bytes);
+                    let (j, g) = values.split_at(nodes * c);
+                    moments.j = j.to_vec();
+                    moments.g = g.to_vec();
+                },
+            )?;
             Ok(moments)
         });
         if swept.is_ok() {
