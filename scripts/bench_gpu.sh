@@ -6,8 +6,8 @@
 # sweeps run where MURK_GPU_LATTICE says: two more rows, gpu-fast-lattice-cpu (swept on
 # the CPU, gathered on the GPU) and gpu-fast-lattice-gpu (swept on the GPU too), each with
 # the lattice's solve seconds and where it was swept; gpu-fast is the automatic choice.
-# Under single, gpu-single-bake-batch-cpu bakes the shadow map's light columns on the GPU
-# in the CPU's batch size (MURK_GPU_BAKE_BATCH) against gpu-single's larger batches.
+# Under single, gpu-single-bake-batch-large bakes the shadow map's light columns on the
+# GPU in batches sixteen times the default (MURK_GPU_BAKE_BATCH): fewer, fuller dispatches.
 # Prints each run's wall and CPU seconds, the device and the stages of its --stats
 # (gpu_upload: flattening and uploading the grid, maps and lattice; render: rays, march,
 # readback and passes; multiple_scattering: the lattice's solve, of which gpu_lattice ran
@@ -61,9 +61,9 @@ for mode in "${MODES[@]}"; do
     run "cpu-$mode" --device cpu --scattering $mode --threads "$THREADS"
     [[ "${BENCH_ONE_THREAD:-1}" == 0 ]] || run "cpu1-$mode" --device cpu --scattering $mode --threads 1
     if [[ $mode == single ]]; then
-        # The bake's light columns in the CPU's batch size (half a million samples)
-        # against the GPU's default: the same map, in more and smaller dispatches.
-        MURK_GPU_BAKE_BATCH=524288 run "gpu-single-bake-batch-cpu" --device gpu --scattering single
+        # The bake's light columns in batches of 8 M samples against the default half
+        # million: the same map, in fewer and fuller dispatches.
+        MURK_GPU_BAKE_BATCH=8388608 run "gpu-single-bake-batch-large" --device gpu --scattering single
     fi
     if [[ $mode == fast ]]; then
         for where in cpu gpu; do

@@ -8,7 +8,7 @@ use super::bind::entry;
 use super::busy::{BusyTotal, PassTimer};
 use super::context::{Gpu, encode_pass};
 use super::grid_parts::GridBinding;
-use super::readback::{catching_errors, read_mapped};
+use super::readback::{catching_errors, read_mapped, readback_buffer};
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
 use crate::field::{Field, VoxelGrid};
 use crate::shadow::{BAKE_BATCH_SAMPLES, ColumnJob, ColumnMarcher, MarchedColumns};
@@ -28,12 +28,6 @@ const SAMPLE_FLOATS: usize = 5;
 /// f32 positions there are 6e-5 voxels apart. At 4096 (tiles.vdb's root tile), 2e-4
 /// apart, the slopes of τ across the light moved the image by 5.6e-3 relative RMSE.
 const F32_REACH: f64 = 1024.0;
-
-/// Samples the bake hands the GPU a batch: sixteen times the CPU's batch, so that a
-/// level's columns go in a few dispatches of tens of thousands of invocations, not
-/// dozens of a few thousand (about one per core of a large GPU, each marching its column
-/// alone); 168 MB of samples read back at most.
-const GPU_BATCH_SAMPLES: usize = 1 << 23;
 
 /// The environment variable that sets the samples a batch instead (how the benchmark
 /// compares batch sizes in one build).
@@ -251,23 +245,43 @@ impl GpuColumns {
         }
         let mut params = grid.params.clone();
         params[N_SAMPLES_AT] = n as u32;
-        let mut encoder = d.create_command_encoder(&Default::default());
-        let [jobs_buf, _jobs_staging] =
-            gpu.lend_sent(&mut encoder, "columns", bytemuck::cast_slice(&part))?;
-        let [depths_buf, _depths_staging] =
-            gpu.lend_sent(&mut encoder, "depths", bytemuck::cast_slice(depths))?;
+        let storage = |label: &str, contents: &[u8]| {
+            let mut padded;
+            let contents = if contents.len() < 16 {
+                padded = contents.to_vec();
+                padded.resize(16, 0);
+                &padded[..]
+            } else {
+                contents
+            };
+            d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        let jobs_buf = storage("columns", bytemuck::cast_slice(&part));
+        let depths_buf = storage("depths", bytemuck::cast_slice(depths));
         let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("params"),
             contents: bytemuck::cast_slice(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        // Written on the GPU only, never sent up: lent, and zeroed before the dispatch.
+        // Written on the GPU only: made there (zeroed by wgpu), never sent up.
         let (out_bytes, flags_bytes) = (
             (samples * SAMPLE_FLOATS * 4).max(16) as u64,
             (n * 4).max(16) as u64,
         );
-        let out = gpu.lend_written("column samples", out_bytes);
-        let flags = gpu.lend_written("columns done", flags_bytes);
+        let written = |label: &str, bytes: u64| {
+            d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        let out = written("column samples", out_bytes);
+        let flags = written("columns done", flags_bytes);
         let mut entries = grid.grid.entries(&grid.tree, &grid.vals);
         entries.extend([
             entry(0, &params),
@@ -281,12 +295,14 @@ impl GpuColumns {
             layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
         });
-        let (out_back, flags_back) = (gpu.lend_readback(out_bytes), gpu.lend_readback(flags_bytes));
+        let (out_back, flags_back) = (
+            readback_buffer(d, out_bytes),
+            readback_buffer(d, flags_bytes),
+        );
         let mut values = Vec::with_capacity(samples);
         let mut done = Vec::with_capacity(n);
         let timer = catching_errors(d, &gpu.name, "", || {
-            encoder.clear_buffer(&out, 0, Some(out_bytes));
-            encoder.clear_buffer(&flags, 0, Some(flags_bytes));
+            let mut encoder = d.create_command_encoder(&Default::default());
             let timer = PassTimer::new(&gpu.device, gpu.timestamps);
             let desc = PassTimer::pass(timer.as_ref());
             encode_pass(&mut encoder, &desc, &pipeline, &bind, n);
@@ -361,19 +377,19 @@ impl ColumnMarcher for GpuColumns {
             .is_some_and(|g| g.nodes_check().is_ok())
     }
 
-    /// [`GPU_BATCH_SAMPLES`] (the bake's own on a device that runs on the CPU, which
-    /// its few cores fill), or [`BATCH_VAR`]'s.
+    /// The bake's own batch ([`BAKE_BATCH_SAMPLES`]), or [`BATCH_VAR`]'s. On an NVIDIA
+    /// H200 sixteen times as many samples a batch (fewer, fuller dispatches: the kernel
+    /// 12 ms against 90 ms) took the light columns twice as long in all (0.43–0.49 s
+    /// against 0.22–0.23 s), four times as many 0.39–0.41 s. What grows with the batch
+    /// is the work around the kernel (the batch's set-up, its read-back, the CPU's
+    /// passes over arrays of up to 168 MB), and not the buffers' allocation: buffers
+    /// kept and lent again between batches did not change it.
     fn batch_samples(&self) -> usize {
-        let own = if self.gpu.on_cpu {
-            BAKE_BATCH_SAMPLES
-        } else {
-            GPU_BATCH_SAMPLES
-        };
         std::env::var(BATCH_VAR)
             .ok()
             .and_then(|v| v.trim().parse::<usize>().ok())
             .filter(|&n| n > 0)
-            .unwrap_or(own)
+            .unwrap_or(BAKE_BATCH_SAMPLES)
     }
 
     fn march(

@@ -5,9 +5,8 @@
 use super::bind::{entry, size_text};
 use super::busy::{BusyTotal, PassTimer};
 use super::grid_parts::{BindingRoom, GridBinding};
-use super::readback::{catching_errors, read_mapped};
+use super::readback::{catching_errors, read_mapped, readback_buffer};
 use super::resident::{KeptBuffers, Making};
-use super::spare::{BufferPool, Lent};
 use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
 
@@ -33,8 +32,6 @@ pub struct Gpu {
     pub named: bool,
     /// The device writes timestamps around compute passes ([`PassTimer`]).
     pub timestamps: bool,
-    /// The results' and read-backs' buffers, lent to each dispatch and kept between.
-    pub(super) spare: BufferPool,
 }
 
 /// The environment variable that lowers the largest buffer the GPU binds to this many
@@ -171,7 +168,6 @@ impl Gpu {
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
             named,
             timestamps,
-            spare: BufferPool::default(),
         })
     }
 
@@ -313,12 +309,19 @@ impl Gpu {
         };
         let params = uniform("params", &params);
         let more: Vec<wgpu::Buffer> = uniforms.iter().map(|w| uniform("uniform", w)).collect();
-        let mut encoder = d.create_command_encoder(&Default::default());
-        let [input, _staging] =
-            self.lend_sent(&mut encoder, "samples", bytemuck::cast_slice(samples))?;
+        let input = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("samples"),
+            contents: bytemuck::cast_slice(samples),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
         let bytes = (count * stride * 4).max(16) as u64;
-        let results = self.lend_written("results", bytes);
-        let readback = self.lend_readback(bytes);
+        let results = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("results"),
+            size: bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = readback_buffer(d, bytes);
         let mut entries = scene.features.grid.entries(&scene.tree, &scene.vals);
         entries.extend([
             entry(0, &params),
@@ -335,8 +338,7 @@ impl Gpu {
             layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
         });
-        // Zeroed as a new buffer would be, whatever the dispatch before wrote.
-        encoder.clear_buffer(&results, 0, Some(bytes));
+        let mut encoder = d.create_command_encoder(&Default::default());
         let timer = PassTimer::new(&self.device, self.timestamps);
         let desc = PassTimer::pass(timer.as_ref());
         encode_pass(&mut encoder, &desc, pipeline, &bind, count);
@@ -354,71 +356,6 @@ impl Gpu {
             .busy
             .add(timer.and_then(|t| t.seconds(&self.device, &self.queue)));
         Ok(values)
-    }
-
-    /// A storage buffer of at least `bytes` that a dispatch writes and copies out, lent
-    /// from [`Gpu::spare`] (it holds what the dispatch before wrote: clear it first).
-    pub(super) fn lend_written(&self, label: &str, bytes: u64) -> Lent<'_> {
-        use wgpu::BufferUsages as U;
-        let usage = U::STORAGE | U::COPY_SRC | U::COPY_DST;
-        let most = self.max_binding().max(bytes);
-        self.spare.lend(&self.device, label, usage, bytes, most)
-    }
-
-    /// `contents` sent up into a storage buffer lent from [`Gpu::spare`], through a
-    /// host-visible buffer lent too, mapped and written here and copied by `encoder`:
-    /// both buffers, to keep until the encoder's work is done (the storage buffer is
-    /// bound; it holds at least `contents`, zero-padded to 16 bytes, and stale words
-    /// after them, which no shader reads).
-    pub(super) fn lend_sent(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        label: &str,
-        contents: &[u8],
-    ) -> Result<[Lent<'_>; 2], String> {
-        use wgpu::BufferUsages as U;
-        let bytes = (contents.len() as u64)
-            .max(16)
-            .next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT);
-        let most = self.limits.max_buffer_size.max(bytes);
-        let usage = U::MAP_WRITE | U::COPY_SRC;
-        let staging = self.spare.lend(&self.device, "upload", usage, bytes, most);
-        let slice = staging.slice(..bytes);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Write, move |r| {
-            let _ = tx.send(r);
-        });
-        let failed = |e: &dyn std::fmt::Display| format!("{}: sending {label} up: {e}", self.name);
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| failed(&e))?;
-        match rx.recv() {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(failed(&e)),
-            Err(e) => return Err(failed(&e)),
-        }
-        {
-            let mut view = slice
-                .get_mapped_range_mut()
-                .map_err(|e| failed(&format!("{e:?}")))?;
-            let (len, pad) = (contents.len(), bytes as usize - contents.len());
-            view.slice(..len).copy_from_slice(contents);
-            view.slice(len..).copy_from_slice(&vec![0; pad]);
-        }
-        staging.unmap();
-        let stored = self.lend_written(label, bytes);
-        encoder.copy_buffer_to_buffer(&staging, 0, &stored, 0, bytes);
-        Ok([stored, staging])
-    }
-
-    /// A buffer of at least `bytes` to copy results into and read them back through
-    /// [`read_mapped`] (mapping only the bytes copied), lent from [`Gpu::spare`].
-    pub(super) fn lend_readback(&self, bytes: u64) -> Lent<'_> {
-        use wgpu::BufferUsages as U;
-        let most = self.limits.max_buffer_size.max(bytes);
-        let usage = U::MAP_READ | U::COPY_DST;
-        self.spare
-            .lend(&self.device, "readback", usage, bytes, most)
     }
 
     /// Uploads a scene's buffers, checking each against the adapter's limits first

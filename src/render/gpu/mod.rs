@@ -26,7 +26,6 @@ mod path;
 mod pixels;
 mod readback;
 mod resident;
-mod spare;
 mod sweep;
 mod upload;
 
