@@ -240,6 +240,11 @@ fn render_frame_gpu(
             .stages
             .insert("gpu_march_kernel".into(), Stage::ran(busy));
     }
+    if let Some(wait) = times.wait {
+        st.scene
+            .stages
+            .insert("gpu_march_wait".into(), Stage::ran(wait));
+    }
     st.scene.gpu_memory_bytes = times.resident_bytes;
     st.scene.gpu_upload_bytes = times.uploaded_bytes;
     st.scene.gpu_grid_parts = times.grid_parts;

@@ -166,6 +166,14 @@ fn gpu_matches_cpu(input: &str, o: &RenderOptions) -> (f64, f64) {
             (k, _) => assert!(k.is_none() && !(test_gpu().timestamps && ran), "{kernel}"),
         }
     }
+    // The CPU's wait for the march: within the stage, and no less than the GPU's own
+    // time in it (which it waits for).
+    let wait = stage("gpu_march_wait");
+    let (kernel, march) = (stage("gpu_march_kernel"), stage("gpu_march"));
+    assert!(
+        wait.is_some_and(|w| w > 0.0 && w <= march.unwrap_or(0.0) && w >= kernel.unwrap_or(0.0)),
+        "gpu_march_wait {wait:?}: gpu_march_kernel {kernel:?}, gpu_march {march:?}"
+    );
     let (layout, render) = (stage("gpu_layout"), stage("render"));
     assert!(layout.is_some_and(|l| l > 0.0 && l <= parts[0].unwrap_or(0.0)));
     let sum: f64 = parts.iter().flatten().sum();

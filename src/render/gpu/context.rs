@@ -5,7 +5,7 @@
 use super::bind::{entry, size_text};
 use super::busy::{BusyTotal, PassTimer};
 use super::grid_parts::{BindingRoom, GridBinding};
-use super::readback::{catching_errors, read_mapped, readback_buffer};
+use super::readback::{catching_errors, floats_of, read_mapped, readback_buffer};
 use super::resident::{KeptBuffers, Making};
 use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
@@ -346,12 +346,18 @@ impl Gpu {
             t.resolve(&mut encoder);
         }
         encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, bytes);
+        let submitted = std::time::Instant::now();
         self.queue.submit([encoder.finish()]);
         let mut values: Vec<f32> = Vec::new();
         let back = [readback.slice(..bytes)];
+        let mut copying = 0.0;
         read_mapped(d, &self.name, "the results", &back, |_, bytes| {
-            values = bytemuck::cast_slice(&bytes[..count * stride * 4]).to_vec();
+            let t = std::time::Instant::now();
+            values = floats_of(bytes, count * stride);
+            copying = t.elapsed().as_secs_f64();
         })?;
+        let waited = submitted.elapsed().as_secs_f64() - copying;
+        scene.waited.add(Some(waited));
         scene
             .busy
             .add(timer.and_then(|t| t.seconds(&self.device, &self.queue)));
@@ -431,6 +437,7 @@ impl Gpu {
             stride: b.stride,
             features: MarchFeatures { grid, ..b.features },
             busy: BusyTotal::default(),
+            waited: BusyTotal::default(),
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!("{}: uploading the scene: {e}", self.name));
@@ -496,6 +503,9 @@ pub struct Resident {
     pub(super) features: MarchFeatures,
     /// The GPU's own seconds in the passes run over these buffers.
     pub(super) busy: BusyTotal,
+    /// Seconds the CPU waited for those passes, from each submission to its results
+    /// mapped: the GPU's work, its copies to and from the host, and their scheduling.
+    pub(super) waited: BusyTotal,
 }
 
 impl Resident {

@@ -140,6 +140,11 @@ pub struct GpuTimes {
     /// Of `kernel`: the GPU's own time in the march's passes, where the adapter times
     /// its passes (the rest of `kernel` is moving samples and results, and waiting).
     pub busy: Option<f64>,
+    /// Of `kernel`: the CPU waiting for the GPU, from each submission to its results
+    /// mapped (the passes, `busy`, with the copies of samples and results between host
+    /// and GPU); the rest of `kernel` is making and filling buffers on the CPU and
+    /// copying the results out of the mapping.
+    pub wait: Option<f64>,
     /// Bytes of the scene's buffers on the GPU (not the per-batch samples and results).
     pub resident_bytes: usize,
     /// Of them, the bytes this frame uploaded: all of them, but in a sequence only those
@@ -194,5 +199,6 @@ pub fn render_pixels(
     let passes = pixels::render_pixels(gpu, &resident, job, &mut times)?;
     times.march = t.elapsed().as_secs_f64();
     times.busy = resident.busy.seconds();
+    times.wait = resident.waited.seconds();
     Ok((passes, times))
 }

@@ -175,6 +175,7 @@ pub fn render_path(
     })?;
     times.march = t.elapsed().as_secs_f64();
     times.busy = resident.busy.seconds();
+    times.wait = resident.waited.seconds();
     Ok((passes, times))
 }
 

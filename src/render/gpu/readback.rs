@@ -74,3 +74,19 @@ pub(super) fn catching_errors<T>(
     }
     result
 }
+
+/// Bytes each thread copies at a time out of a mapped buffer.
+const COPY_PIECE: usize = 1 << 22;
+
+/// The first `n` floats of mapped bytes, copied out on all threads: one thread alone
+/// copying a 4K frame's results (hundreds of megabytes, into pages it touches first)
+/// is that thread's page faults and reads alone.
+pub(super) fn floats_of(bytes: &[u8], n: usize) -> Vec<f32> {
+    use rayon::prelude::*;
+    let from: &[f32] = bytemuck::cast_slice(&bytes[..n * 4]);
+    let mut out = vec![0f32; n];
+    out.par_chunks_mut(COPY_PIECE / 4)
+        .zip(from.par_chunks(COPY_PIECE / 4))
+        .for_each(|(to, from)| to.copy_from_slice(from));
+    out
+}
