@@ -8,7 +8,7 @@ use super::bind::entry;
 use super::busy::{BusyTotal, PassTimer};
 use super::context::{Gpu, encode_pass};
 use super::grid_parts::GridBinding;
-use super::readback::{catching_errors, read_mapped, readback_buffer};
+use super::readback::{buffer_with, catching_errors, read_mapped, readback_buffer};
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
 use crate::field::{Field, VoxelGrid};
 use crate::shadow::{BAKE_BATCH_SAMPLES, ColumnJob, ColumnMarcher, MarchedColumns};
@@ -246,19 +246,7 @@ impl GpuColumns {
         let mut params = grid.params.clone();
         params[N_SAMPLES_AT] = n as u32;
         let storage = |label: &str, contents: &[u8]| {
-            let mut padded;
-            let contents = if contents.len() < 16 {
-                padded = contents.to_vec();
-                padded.resize(16, 0);
-                &padded[..]
-            } else {
-                contents
-            };
-            d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::STORAGE,
-            })
+            buffer_with(d, label, contents, wgpu::BufferUsages::STORAGE)
         };
         let jobs_buf = storage("columns", bytemuck::cast_slice(&part));
         let depths_buf = storage("depths", bytemuck::cast_slice(depths));

@@ -5,7 +5,7 @@
 use super::bind::{entry, size_text};
 use super::busy::{BusyTotal, PassTimer};
 use super::grid_parts::{BindingRoom, GridBinding};
-use super::readback::{catching_errors, floats_of, read_mapped, readback_buffer};
+use super::readback::{buffer_with, catching_errors, floats_of, read_mapped, readback_buffer};
 use super::resident::{KeptBuffers, Making};
 use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
@@ -309,11 +309,8 @@ impl Gpu {
         };
         let params = uniform("params", &params);
         let more: Vec<wgpu::Buffer> = uniforms.iter().map(|w| uniform("uniform", w)).collect();
-        let input = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("samples"),
-            contents: bytemuck::cast_slice(samples),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
+        let storage = wgpu::BufferUsages::STORAGE;
+        let input = buffer_with(d, "samples", bytemuck::cast_slice(samples), storage);
         let bytes = (count * stride * 4).max(16) as u64;
         let results = d.create_buffer(&wgpu::BufferDescriptor {
             label: Some("results"),

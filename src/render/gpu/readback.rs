@@ -90,3 +90,44 @@ pub(super) fn floats_of(bytes: &[u8], n: usize) -> Vec<f32> {
         .for_each(|(to, from)| to.copy_from_slice(from));
     out
 }
+
+/// A buffer for `usage` holding `contents` (zero-padded to at least 16 bytes), written
+/// into its mapping at creation on all threads: wgpu's `create_buffer_init` copies on
+/// the calling thread alone, which for a scene's maps or a 4K frame's samples is
+/// hundreds of megabytes.
+pub(super) fn buffer_with(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    use rayon::prelude::*;
+    let size = (contents.len() as u64)
+        .max(16)
+        .next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT);
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage,
+        mapped_at_creation: true,
+    });
+    {
+        // Mapped at creation, a buffer starts zeroed: only `contents` are written.
+        let Ok(mut view) = buffer.slice(..).get_mapped_range_mut() else {
+            unreachable!("a buffer mapped at creation maps whole")
+        };
+        let (pieces, tail) = view.slice(..contents.len()).into_chunks::<COPY_PIECE>();
+        let pieces: Vec<wgpu::WriteOnly<'_, [u8; COPY_PIECE]>> = pieces.into_iter().collect();
+        let whole = pieces.len() * COPY_PIECE;
+        pieces
+            .into_par_iter()
+            .zip(contents[..whole].par_chunks_exact(COPY_PIECE))
+            .for_each(|(piece, from)| {
+                wgpu::WriteOnly::<'_, [u8]>::from(piece).copy_from_slice(from)
+            });
+        let mut tail = tail;
+        tail.copy_from_slice(&contents[whole..]);
+    }
+    buffer.unmap();
+    buffer
+}

@@ -6,9 +6,9 @@
 //! at most one frame's buffers are held between frames, and a single render, which has
 //! no [`KeptBuffers`], holds none past its own.
 
+use super::readback::buffer_with;
 use rayon::prelude::*;
 use std::hash::{DefaultHasher, Hash, Hasher};
-use wgpu::util::DeviceExt;
 
 /// The scene's buffers kept on the GPU across the frames of one sequence.
 #[derive(Default)]
@@ -59,11 +59,7 @@ impl<'a> Making<'a> {
             Some(at) => self.before.swap_remove(at).1,
             None => {
                 self.uploaded += contents.len() as u64;
-                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents,
-                    usage: wgpu::BufferUsages::STORAGE,
-                })
+                buffer_with(device, label, contents, wgpu::BufferUsages::STORAGE)
             }
         };
         if let Some(key) = key {
