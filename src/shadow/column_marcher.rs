@@ -41,7 +41,7 @@ pub trait ColumnMarcher: Send + Sync {
     fn takes(&self, density: &dyn Field) -> bool;
 
     /// About how many samples it marches best in one batch: the bake's own batch size
-    /// unless it says otherwise (a GPU fills its cores only with many columns at once).
+    /// unless it says otherwise.
     fn batch_samples(&self) -> usize {
         BAKE_BATCH_SAMPLES
     }

@@ -114,9 +114,15 @@ pub(super) fn buffer_with(
     {
         // Mapped at creation, a buffer starts zeroed: only `contents` are written.
         let Ok(mut view) = buffer.slice(..).get_mapped_range_mut() else {
-            unreachable!("a buffer mapped at creation maps whole")
+            // (Not seen: a buffer mapped at creation maps whole.) wgpu's own way, then.
+            use wgpu::util::DeviceExt;
+            return device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            });
         };
-        let (pieces, tail) = view.slice(..contents.len()).into_chunks::<COPY_PIECE>();
+        let (pieces, mut tail) = view.slice(..contents.len()).into_chunks::<COPY_PIECE>();
         let pieces: Vec<wgpu::WriteOnly<'_, [u8; COPY_PIECE]>> = pieces.into_iter().collect();
         let whole = pieces.len() * COPY_PIECE;
         pieces
@@ -125,7 +131,6 @@ pub(super) fn buffer_with(
             .for_each(|(piece, from)| {
                 wgpu::WriteOnly::<'_, [u8]>::from(piece).copy_from_slice(from)
             });
-        let mut tail = tail;
         tail.copy_from_slice(&contents[whole..]);
     }
     buffer.unmap();
