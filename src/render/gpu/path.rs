@@ -11,7 +11,7 @@
 use super::GpuTimes;
 use super::context::{GRID_WGSL, Gpu, MARCH_WGSL, Resident};
 use super::grid_parts::GridBinding;
-use super::pixels::{Pick, Placed, assemble, put_ray, sample_points};
+use super::pixels::{Pick, Placed, assemble, put_ray, sample_count};
 use super::readback::catching_errors;
 use super::upload::{self, SAMPLE_FLOATS};
 use crate::field::Field;
@@ -202,7 +202,7 @@ fn trace_picks(
 ) -> Result<(Vec<f32>, u64), String> {
     let per_pick = picks
         .first()
-        .map_or(1, |&p| sample_points(job, p).len().max(1));
+        .map_or(1, |&p| (sample_count(job, p) as usize).max(1));
     let mut values = Vec::new();
     let mut samples = 0;
     for chunk in picks.chunks((PATH_BATCH / per_pick).max(1)) {

@@ -30,37 +30,45 @@ pub(super) struct Pick {
     pub grid: u32,
 }
 
-/// The samples of pixel `p`: their jitter inside the pixel and their stream.
-pub(super) fn sample_points<I: Integrator>(job: &PixelJob<I>, p: Pick) -> Vec<(f64, f64, u32)> {
-    let count = if p.grid == 0 {
+/// How many samples pixel `p` takes.
+pub(super) fn sample_count<I: Integrator>(job: &PixelJob<I>, p: Pick) -> u32 {
+    if p.grid == 0 {
         job.spp
     } else {
         p.grid * p.grid
-    };
+    }
+}
+
+/// The samples of pixel `p`: their jitter inside the pixel and their stream.
+fn sample_points<'j, I: Integrator>(
+    job: &'j PixelJob<'_, I>,
+    p: Pick,
+) -> impl Iterator<Item = (f64, f64, u32)> + 'j {
     let (sx, sy) = job.stream_pixel(p.x, p.y);
-    (0..count)
-        .map(|s| job.sample_point(sx, sy, p.grid, s))
-        .collect()
+    (0..sample_count(job, p)).map(move |s| job.sample_point(sx, sy, p.grid, s))
 }
 
 /// Every sample of some picks, in pick order: each pick's samples (their jitter and
-/// stream, [`sample_points`]) and where each pick's samples start (the total last).
+/// stream, [`sample_points`]) in one array, and where each pick's samples start (the
+/// total last).
 pub(super) struct Placed {
-    points: Vec<Vec<(f64, f64, u32)>>,
+    points: Vec<(f64, f64, u32)>,
     pub starts: Vec<usize>,
 }
 
 impl Placed {
     pub fn new<I: Integrator>(job: &PixelJob<I>, picks: &[Pick]) -> Self {
-        let points: Vec<Vec<(f64, f64, u32)>> =
-            picks.par_iter().map(|&p| sample_points(job, p)).collect();
         let mut starts = Vec::with_capacity(picks.len() + 1);
         let mut total = 0;
-        for p in &points {
+        for &p in picks {
             starts.push(total);
-            total += p.len();
+            total += sample_count(job, p) as usize;
         }
         starts.push(total);
+        let points = picks
+            .par_iter()
+            .flat_map_iter(|&p| sample_points(job, p))
+            .collect();
         Placed { points, starts }
     }
 
@@ -78,7 +86,7 @@ impl Placed {
         i: usize,
     ) -> (Pick, CameraSample, SampleRng) {
         let k = self.starts.partition_point(|&s| s <= i) - 1;
-        let (p, (jx, jy, stream)) = (picks[k], self.points[k][i - self.starts[k]]);
+        let (p, (jx, jy, stream)) = (picks[k], self.points[i]);
         let sample = job.camera_sample(frame, p.x, p.y, jx, jy, None);
         let (sx, sy) = job.stream_pixel(p.x, p.y);
         (p, sample, SampleRng::new(job.seed, sx, sy, stream))
