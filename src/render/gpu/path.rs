@@ -267,36 +267,40 @@ fn trace_chunk(
     let samples: u64 = values
         .par_chunks_mut(stride)
         .enumerate()
-        .map(|(k, px)| {
-            let mut acc = vec![0f64; stride];
-            let mut n_samples = 0u64;
-            for i in starts[k]..starts[k + 1] {
-                let r = &results[i * rs..][..rs];
-                let (depth_rate, weight) = extra[i];
-                if let Some(w) = weight {
-                    let depth = r[0] as f64;
-                    let alpha = (DVec3::ONE - (-sigma_t * depth).exp()).element_sum() / 3.0;
-                    passes.add_alpha(&mut acc, alpha.clamp(0.0, 1.0) * w);
-                    if r[1] >= 0.0 {
-                        passes.add_depth(&mut acc, r[1] as f64 * depth_rate);
+        // Each thread's sums, cleared for each pixel (not made anew for each).
+        .map_init(
+            || vec![0f64; stride],
+            |acc, (k, px)| {
+                acc.fill(0.0);
+                let mut n_samples = 0u64;
+                for i in starts[k]..starts[k + 1] {
+                    let r = &results[i * rs..][..rs];
+                    let (depth_rate, weight) = extra[i];
+                    if let Some(w) = weight {
+                        let depth = r[0] as f64;
+                        let alpha = (DVec3::ONE - (-sigma_t * depth).exp()).element_sum() / 3.0;
+                        passes.add_alpha(acc, alpha.clamp(0.0, 1.0) * w);
+                        if r[1] >= 0.0 {
+                            passes.add_depth(acc, r[1] as f64 * depth_rate);
+                        }
+                    }
+                    n_samples += r[2] as u64;
+                    let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
+                    if parts.emits {
+                        passes.add_emission(acc, v(4));
+                        passes.add_scattered_emission(acc, 1, v(8));
+                        passes.add_scattered_emission(acc, 2, v(12));
+                    }
+                    for l in 0..batch.layers {
+                        let at = PATH_RESULT_BASE + 8 * l;
+                        passes.add_scattered(acc, l, 1, v(at));
+                        passes.add_scattered(acc, l, 2, v(at + 4));
                     }
                 }
-                n_samples += r[2] as u64;
-                let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
-                if parts.emits {
-                    passes.add_emission(&mut acc, v(4));
-                    passes.add_scattered_emission(&mut acc, 1, v(8));
-                    passes.add_scattered_emission(&mut acc, 2, v(12));
-                }
-                for l in 0..batch.layers {
-                    let at = PATH_RESULT_BASE + 8 * l;
-                    passes.add_scattered(&mut acc, l, 1, v(at));
-                    passes.add_scattered(&mut acc, l, 2, v(at + 4));
-                }
-            }
-            finish_pixel(px, &acc, starts[k + 1] - starts[k], alpha_at, depth_at);
-            n_samples
-        })
+                finish_pixel(px, acc, starts[k + 1] - starts[k], alpha_at, depth_at);
+                n_samples
+            },
+        )
         .sum();
     times.record += clock.elapsed().as_secs_f64();
     Ok((values, samples))

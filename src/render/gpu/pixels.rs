@@ -165,35 +165,38 @@ fn render_picks(
     let samples: u64 = values
         .par_chunks_mut(stride)
         .enumerate()
-        .map(|(k, px)| {
-            let mut acc = vec![0f64; stride];
-            let mut per_light = vec![DVec3::ZERO; lights];
-            let mut n_samples = 0u64;
-            for i in starts[k]..starts[k + 1] {
-                let r = &results[i * rs..][..rs];
-                let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
-                for (l, pl) in per_light.iter_mut().enumerate() {
-                    *pl = v(RESULT_BASE + 4 * l);
+        // Each thread's sums, cleared for each pixel (not made anew for each).
+        .map_init(
+            || (vec![0f64; stride], vec![DVec3::ZERO; lights]),
+            |(acc, per_light), (k, px)| {
+                acc.fill(0.0);
+                let mut n_samples = 0u64;
+                for i in starts[k]..starts[k + 1] {
+                    let r = &results[i * rs..][..rs];
+                    let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
+                    for (l, pl) in per_light.iter_mut().enumerate() {
+                        *pl = v(RESULT_BASE + 4 * l);
+                    }
+                    let hit = ground.zip(hits[i]).map(|(g, (t, _))| {
+                        let at = RESULT_BASE + 4 * lights;
+                        let (open, through) = (v(at), v(at + 4));
+                        (g, t, GroundLight::through(open, through))
+                    });
+                    let ray = RayResult {
+                        transmittance: v(4),
+                        optical_depth: if r[3] != 0.0 { DVec3::INFINITY } else { v(0) },
+                        emission: v(RESULT_EMISSION),
+                        scatter: per_light.iter().sum(),
+                        half_opacity_t: (r[7] >= 0.0).then_some(r[7] as f64),
+                        samples: r[8] as u64,
+                    };
+                    n_samples += ray.samples;
+                    integrator.record(&ray, hit, per_light, v(9), depth_rates[i], acc);
                 }
-                let hit = ground.zip(hits[i]).map(|(g, (t, _))| {
-                    let at = RESULT_BASE + 4 * lights;
-                    let (open, through) = (v(at), v(at + 4));
-                    (g, t, GroundLight::through(open, through))
-                });
-                let ray = RayResult {
-                    transmittance: v(4),
-                    optical_depth: if r[3] != 0.0 { DVec3::INFINITY } else { v(0) },
-                    emission: v(RESULT_EMISSION),
-                    scatter: per_light.iter().sum(),
-                    half_opacity_t: (r[7] >= 0.0).then_some(r[7] as f64),
-                    samples: r[8] as u64,
-                };
-                n_samples += ray.samples;
-                integrator.record(&ray, hit, &per_light, v(9), depth_rates[i], &mut acc);
-            }
-            finish_pixel(px, &acc, starts[k + 1] - starts[k], alpha_at, depth_at);
-            n_samples
-        })
+                finish_pixel(px, acc, starts[k + 1] - starts[k], alpha_at, depth_at);
+                n_samples
+            },
+        )
         .sum();
     times.record += clock.elapsed().as_secs_f64();
     Ok((values, samples))
