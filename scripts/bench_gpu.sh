@@ -25,8 +25,8 @@
 #
 # Knobs: MURK (a murk binary; default: build this tree's), BENCH_THREADS (nproc),
 # BENCH_MODES ("single fast": the scattering modes timed),
-# BENCH_RES (960x540), BENCH_ONE_THREAD=0 (no one-thread CPU runs), BENCH_PATH_RES (BENCH_RES), BENCH_PATH_SPP (16), BENCH_PATH=0 (no
-# path runs), BENCH_SEQ=0 (no sequence), BENCH_SEQ_FRAMES (5), OUT (where images and
+# BENCH_RES (960x540), BENCH_ONE_THREAD=0 (no one-thread CPU runs), BENCH_PATH_RES
+# (BENCH_RES), BENCH_PATH_SPP (16), BENCH_PATH=0 (no path runs), BENCH_SEQ=0 (no sequence), BENCH_SEQ_FRAMES (5), OUT (where images and
 # stats go; a temporary folder).
 # On a machine without a GPU it measures lavapipe (Mesa's Vulkan on the CPU), if installed.
 set -euo pipefail

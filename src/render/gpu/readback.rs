@@ -75,7 +75,7 @@ pub(super) fn catching_errors<T>(
     result
 }
 
-/// Bytes each thread copies at a time out of a mapped buffer.
+/// Bytes each thread copies at a time into or out of a mapped buffer.
 const COPY_PIECE: usize = 1 << 22;
 
 /// The first `n` floats of mapped bytes, copied out on all threads: one thread alone
