@@ -175,6 +175,44 @@ impl ChartMap {
         Some(())
     }
 
+    /// Appends `bricks` in order, as [`push_encoded`](Self::push_encoded) would one by
+    /// one, with their samples copied into the stores on all threads: a bake's batch
+    /// brings up to a hundred MB of them, and copied on one thread (with the stores'
+    /// fresh pages faulted in on first touch) they held every other thread up.
+    pub fn push_encoded_all(&mut self, bricks: &[(IVec3, &EncodedBrick)]) -> Option<()> {
+        let (mut hermite, mut linear) = (Vec::new(), Vec::new());
+        let (mut h, mut l) = (self.samples.len(), self.linear.len());
+        for &(key, brick) in bricks {
+            let slot = self.slot_index(key)?;
+            let offset = match brick.form {
+                BrickForm::Hermite => {
+                    let offset = u32::try_from(h).ok()?;
+                    h += brick.hermite.len();
+                    hermite.push(&brick.hermite[..]);
+                    offset
+                }
+                BrickForm::Linear => {
+                    let offset = u32::try_from(l).ok()?;
+                    l += brick.linear.len();
+                    linear.push(&brick.linear[..]);
+                    offset
+                }
+                BrickForm::Constant => 0,
+            };
+            self.slots[slot] = self.bricks.len() as u32;
+            self.bricks.push(Brick {
+                key,
+                level: brick.level,
+                form: brick.form,
+                offset,
+                scales: brick.scales,
+            });
+        }
+        crate::mem::extend_on_all_threads(&mut self.samples, &hermite);
+        crate::mem::extend_on_all_threads(&mut self.linear, &linear);
+        Some(())
+    }
+
     /// Room for `bricks` more bricks of up to `samples` samples in all, in either form:
     /// an upper bound costs address space only, and the stores then never grow by
     /// copying, which would leave the old copies' pages behind on the heap.

@@ -168,10 +168,14 @@ pub(super) fn refine(
                     outcome
                 })
                 .collect();
+            let packed: Option<Vec<(IVec3, &EncodedBrick)>> = outcomes
+                .iter()
+                .map(|o| o.brick.as_ref().map(|b| (o.key, b)))
+                .collect();
+            map.push_encoded_all(&packed?)?;
             for o in outcomes {
                 report.bricks_over_tolerance += o.over.bricks;
                 report.over_tolerance_error = report.over_tolerance_error.max(o.over.error);
-                map.push_encoded(o.key, &o.brick?)?;
                 match o.refine {
                     Some((unresolved, upstream, error)) => {
                         next.push(((o.key, unresolved, upstream), error));

@@ -152,12 +152,12 @@ fn linear_bricks_shrink_the_map_keep_the_tolerance_and_round_trip() {
 
 /// The bake packs a brick that may be refined at the level checked, then replaces it (a
 /// later push at its position) or forgets it: once dropped, the map reads as if only the
-/// bricks kept had been pushed.
+/// bricks kept had been pushed, whether one by one or as a batch.
 #[test]
 fn replaced_and_forgotten_bricks_leave_no_trace() {
     use glam::IVec3;
     use murk::shadow::chart::Chart;
-    use murk::shadow::map::{BakedBrick, BrickForm, BrickSamples, ChartMap, side};
+    use murk::shadow::map::{BakedBrick, BrickForm, BrickSamples, ChartMap, EncodedBrick, side};
     let chart = Chart::parallel(DVec3::Z, DVec3::ZERO, 1.0);
     let samples = |level: u8, base: f32, full: bool| {
         let n = side(level).pow(3);
@@ -211,9 +211,13 @@ fn replaced_and_forgotten_bricks_leave_no_trace() {
     map.push(*key, *level, *form, s).unwrap();
     map.forget(d);
     map.drop_replaced();
-    for (key, level, form, s) in &kept[1..] {
-        map.push(*key, *level, *form, s).unwrap();
-    }
+    // The rest as a bake appends a batch: packed apart, then copied in on all threads.
+    let encoded: Vec<(IVec3, EncodedBrick)> = kept[1..]
+        .iter()
+        .map(|(key, level, form, s)| (*key, EncodedBrick::new(*level, *form, s).unwrap()))
+        .collect();
+    let batch: Vec<(IVec3, &EncodedBrick)> = encoded.iter().map(|(k, b)| (*k, b)).collect();
+    map.push_encoded_all(&batch).unwrap();
     map.drop_replaced();
 
     assert_eq!(map.bricks.len(), 4);

@@ -8,7 +8,7 @@ use super::bind::entry;
 use super::busy::{BusyTotal, PassTimer};
 use super::context::{Gpu, encode_pass};
 use super::grid_parts::GridBinding;
-use super::readback::{buffer_with, catching_errors, read_mapped, readback_buffer};
+use super::readback::{buffer_with, catching_errors, read_mapped, readback_buffer, values_of};
 use super::upload::{N_SAMPLES_AT, grid_arrays, grid_params};
 use crate::field::{Field, VoxelGrid};
 use crate::shadow::{BAKE_BATCH_SAMPLES, ColumnJob, ColumnMarcher, MarchedColumns};
@@ -287,7 +287,7 @@ impl GpuColumns {
             readback_buffer(d, out_bytes),
             readback_buffer(d, flags_bytes),
         );
-        let mut values = Vec::with_capacity(samples);
+        let mut values = Vec::new();
         let mut done = Vec::with_capacity(n);
         let timer = catching_errors(d, &gpu.name, "", || {
             let mut encoder = d.create_command_encoder(&Default::default());
@@ -304,9 +304,7 @@ impl GpuColumns {
             let backs = [out_back.slice(..out_bytes), flags_back.slice(..flags_bytes)];
             read_mapped(d, &gpu.name, "the columns", &backs, |k, bytes| {
                 if k == 0 {
-                    let all: &[[f32; SAMPLE_FLOATS]] =
-                        bytemuck::cast_slice(&bytes[..samples * SAMPLE_FLOATS * 4]);
-                    values.extend_from_slice(all);
+                    values = values_of(bytes, samples);
                 } else {
                     let flags: &[u32] = bytemuck::cast_slice(&bytes[..n * 4]);
                     done.extend(flags.iter().map(|&f| f == 1));

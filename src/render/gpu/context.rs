@@ -5,7 +5,7 @@
 use super::bind::{entry, size_text};
 use super::busy::{BusyTotal, PassTimer};
 use super::grid_parts::{BindingRoom, GridBinding};
-use super::readback::{buffer_with, catching_errors, floats_of, read_mapped, readback_buffer};
+use super::readback::{buffer_with, catching_errors, read_mapped, readback_buffer, values_of};
 use super::resident::{KeptBuffers, Making};
 use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
 use wgpu::util::DeviceExt;
@@ -350,7 +350,7 @@ impl Gpu {
         let mut copying = 0.0;
         read_mapped(d, &self.name, "the results", &back, |_, bytes| {
             let t = std::time::Instant::now();
-            values = floats_of(bytes, count * stride);
+            values = values_of(bytes, count * stride);
             copying = t.elapsed().as_secs_f64();
         })?;
         let waited = submitted.elapsed().as_secs_f64() - copying;

@@ -78,16 +78,19 @@ pub(super) fn catching_errors<T>(
 /// Bytes each thread copies at a time into or out of a mapped buffer.
 const COPY_PIECE: usize = 1 << 22;
 
-/// The first `n` floats of mapped bytes, copied out on all threads: one thread alone
-/// copying a 4K frame's results (hundreds of megabytes, into pages it touches first)
-/// is that thread's page faults and reads alone.
-pub(super) fn floats_of(bytes: &[u8], n: usize) -> Vec<f32> {
-    use rayon::prelude::*;
-    let from: &[f32] = bytemuck::cast_slice(&bytes[..n * 4]);
-    let mut out = vec![0f32; n];
-    out.par_chunks_mut(COPY_PIECE / 4)
-        .zip(from.par_chunks(COPY_PIECE / 4))
-        .for_each(|(to, from)| to.copy_from_slice(from));
+/// Bytes each thread copies at a time out of a mapped buffer: small enough that a
+/// bake's batch (about 10 MB) spreads over every thread.
+const OUT_PIECE: usize = 1 << 18;
+
+/// The first `n` values of mapped bytes, copied out on all threads
+/// ([`crate::mem::extend_on_all_threads`]): a 4K frame's results or a bake's batch of
+/// column samples are tens to hundreds of megabytes.
+pub(super) fn values_of<T: bytemuck::Pod + Send + Sync>(bytes: &[u8], n: usize) -> Vec<T> {
+    let from: &[T] = bytemuck::cast_slice(&bytes[..n * std::mem::size_of::<T>()]);
+    let per_part = (OUT_PIECE / std::mem::size_of::<T>().max(1)).max(1);
+    let parts: Vec<&[T]> = from.chunks(per_part).collect();
+    let mut out = Vec::new();
+    crate::mem::extend_on_all_threads(&mut out, &parts);
     out
 }
 
