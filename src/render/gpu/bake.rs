@@ -104,6 +104,11 @@ impl GpuColumns {
             .unwrap_or([0, 0])
     }
 
+    /// The GPU the columns are marched on.
+    pub fn gpu(&self) -> &'static Gpu {
+        self.gpu
+    }
+
     pub fn times(&self) -> BakeTimes {
         BakeTimes {
             kernel: self.busy.seconds(),

@@ -32,6 +32,9 @@ pub struct Gpu {
     pub named: bool,
     /// The device writes timestamps around compute passes ([`PassTimer`]).
     pub timestamps: bool,
+    /// Seconds opening it took (finding the adapter, opening the device), until the
+    /// first render's stats take them ([`Gpu::take_open_seconds`]).
+    open_seconds: std::sync::Mutex<Option<f64>>,
 }
 
 /// The environment variable that lowers the largest buffer the GPU binds to this many
@@ -104,8 +107,16 @@ impl Gpu {
         GPU.get_or_init(Gpu::open).as_ref().map_err(Clone::clone)
     }
 
+    /// The seconds opening this GPU took, once: the stats' `gpu_open` of the render
+    /// that opened it (a sequence's later frames, or a test binary's later renders, did
+    /// not pay them).
+    pub fn take_open_seconds(&self) -> Option<f64> {
+        self.open_seconds.lock().ok().and_then(|mut s| s.take())
+    }
+
     /// The first high-performance adapter wgpu finds, or why there is none.
     pub fn open() -> Result<Gpu, String> {
+        let clock = std::time::Instant::now();
         let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
             backends,
@@ -168,6 +179,7 @@ impl Gpu {
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,
             named,
             timestamps,
+            open_seconds: std::sync::Mutex::new(Some(clock.elapsed().as_secs_f64())),
         })
     }
 
