@@ -15,7 +15,6 @@ use super::map::{BRICK, BrickSamples, side, spacing};
 use super::march::exact_integral;
 use crate::accel::{IndexRay, Spans};
 use crate::field::{Affine, Field, Sideways};
-use crate::shadow::BakeReport;
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -98,7 +97,8 @@ fn put_column<T: Copy + Into<f64>>(
 }
 
 /// Samples of the bricks `keys` at `level`, by marching columns: on `elsewhere` (the
-/// GPU) where it takes the density, else (and for the columns it could not march) here.
+/// GPU) where it takes the density, else (and for the columns it could not march) here;
+/// and how many light rays were marched.
 pub(super) fn sample_level(
     density: &dyn Field,
     chart: &Chart,
@@ -106,8 +106,7 @@ pub(super) fn sample_level(
     level: u8,
     stack_start: &BTreeMap<(i32, i32), i32>,
     elsewhere: Option<&dyn ColumnMarcher>,
-    report: &mut BakeReport,
-) -> Vec<BrickSamples> {
+) -> (Vec<BrickSamples>, u64) {
     let stacks = stacks_of(keys);
     if let Some(marcher) = elsewhere.filter(|c| c.takes(density)) {
         let done = sample_stacks(
@@ -119,9 +118,8 @@ pub(super) fn sample_level(
             stack_start,
             keys.len(),
         );
-        if let Some((out, columns)) = done {
-            report.columns += columns;
-            return out;
+        if let Some(done) = done {
+            return done;
         }
     }
     let m = side(level);
@@ -153,13 +151,14 @@ pub(super) fn sample_level(
         })
         .collect();
     let mut out = vec![BrickSamples::default(); keys.len()];
+    let mut rays = 0;
     for (bricks, columns) in results {
-        report.columns += columns;
+        rays += columns;
         for (idx, v) in bricks {
             out[idx] = v;
         }
     }
-    out
+    (out, rays)
 }
 
 /// `side` with its t measured from `t0` on.

@@ -2,10 +2,10 @@
 //! brick into the map as soon as it is decided.
 //!
 //! A level's samples are made a batch of whole brick stacks at a time
-//! ([`BAKE_BATCH_SAMPLES`]), and each brick of the batch is decided and packed before
-//! the next batch is sampled: only one batch's samples are ever held in f32 (20 bytes a
-//! sample, where the map holds 12 or 2; a GPU's batches are larger, see
-//! [`ColumnMarcher::batch_samples`]). A brick that needs the next level is packed too, at the
+//! ([`BAKE_BATCH_SAMPLES`]), and each brick of the batch is decided and packed while
+//! the next batch is sampled (a GPU marches that batch's columns meanwhile): at most two
+//! batches' samples are ever held in f32 (20 bytes a sample, where the map holds 12 or
+//! 2; see [`ColumnMarcher::batch_samples`]). A brick that needs the next level is packed too, at the
 //! level checked, in case the budget stops refinement there (then it is kept so, as it
 //! always was); if refinement goes on, the finer brick replaces it and
 //! [`ChartMap::drop_replaced`] reclaims its room. A stack's columns are marched through
@@ -109,21 +109,18 @@ pub(super) fn refine(
         let mut next: Vec<(Pending, f64)> = Vec::new();
         // Each brick on trial is packed once at this level, with at most m³ samples.
         map.reserve(pending.len(), pending.len() * m * m * m);
-        for batch in stack_batches(&pending, m * m * m, batch_samples) {
-            let batch = &pending[batch];
-            let batch_keys: Vec<IVec3> = batch.iter().map(|p| p.0).collect();
-            let vals = sample_level(
-                density,
-                &chart,
-                &batch_keys,
-                fine_level,
-                &stack_start,
-                elsewhere,
-                report,
-            );
-            // Each brick is decided and packed on its own (in parallel), then appended
-            // in key order: the map is the same for any number of threads.
-            let outcomes: Vec<Outcome> = batch
+        // The level's batches: each one's columns are marched while the batch before
+        // is decided (on a GPU, the columns of one batch and the decisions on the one
+        // before run at once; on the CPU both are parallel work for the same threads).
+        let batches: Vec<_> = stack_batches(&pending, m * m * m, batch_samples).collect();
+        let sample = |range: &std::ops::Range<usize>| {
+            let keys: Vec<IVec3> = pending[range.clone()].iter().map(|p| p.0).collect();
+            sample_level(density, &chart, &keys, fine_level, &stack_start, elsewhere)
+        };
+        // Each brick is decided and packed on its own (in parallel), then appended in
+        // key order: the map is the same for any number of threads.
+        let decide_batch = |batch: &[Pending], vals: Vec<BrickSamples>| -> Vec<Outcome> {
+            batch
                 .par_iter()
                 .zip(vals)
                 .map(|(&(key, unresolved, upstream), fine)| {
@@ -167,13 +164,26 @@ pub(super) fn refine(
                     outcome.over = over;
                     outcome
                 })
-                .collect();
-            let packed: Option<Vec<(IVec3, &EncodedBrick)>> = outcomes
-                .iter()
-                .map(|o| o.brick.as_ref().map(|b| (o.key, b)))
-                .collect();
-            map.push_encoded_all(&packed?)?;
-            for o in outcomes {
+                .collect()
+        };
+        let mut ahead = batches.first().map(sample);
+        for (k, range) in batches.iter().enumerate() {
+            let Some((vals, columns)) = ahead.take() else {
+                break;
+            };
+            report.columns += columns;
+            let batch = &pending[range.clone()];
+            let decide_and_pack = || {
+                let outcomes = decide_batch(batch, vals);
+                let packed: Option<Vec<(IVec3, &EncodedBrick)>> = outcomes
+                    .iter()
+                    .map(|o| o.brick.as_ref().map(|b| (o.key, b)))
+                    .collect();
+                map.push_encoded_all(&packed?).map(|()| outcomes)
+            };
+            let (after, outcomes) = rayon::join(|| batches.get(k + 1).map(sample), decide_and_pack);
+            ahead = after;
+            for o in outcomes? {
                 report.bricks_over_tolerance += o.over.bricks;
                 report.over_tolerance_error = report.over_tolerance_error.max(o.over.error);
                 match o.refine {
