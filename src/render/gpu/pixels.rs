@@ -265,17 +265,28 @@ pub(super) fn assemble<I: Integrator>(
             PassKind::Depth => vec![vec![f32::INFINITY; w * h]],
         })
         .collect();
-    for y in r0..r1 {
-        for x in 0..w {
-            let px = &values[((y - c0) * w + x) * stride..][..stride];
-            for (p, pass_planes) in planes.iter_mut().enumerate() {
-                let at = layout.offset(p);
-                for (c, plane) in pass_planes.iter_mut().enumerate() {
-                    plane[y * w + x] = px[at + c];
-                }
+    // Each plane filled on its own thread: at 4K, 8 M pixels of a score of channels.
+    let mut filling: Vec<(usize, &mut Vec<f32>)> = Vec::new();
+    for (p, pass_planes) in planes.iter_mut().enumerate() {
+        let at = layout.offset(p);
+        filling.extend(
+            pass_planes
+                .iter_mut()
+                .enumerate()
+                .map(|(c, plane)| (at + c, plane)),
+        );
+    }
+    filling.into_par_iter().for_each(|(slot, plane)| {
+        for y in r0..r1 {
+            let row = &values[(y - c0) * w * stride..][..w * stride];
+            for (v, px) in plane[y * w..(y + 1) * w]
+                .iter_mut()
+                .zip(row.chunks_exact(stride))
+            {
+                *v = px[slot];
             }
         }
-    }
+    });
     Ok(PixelPasses {
         width: w,
         height: h,
