@@ -7,7 +7,9 @@
 # the CPU, gathered on the GPU) and gpu-fast-lattice-gpu (swept on the GPU too), each with
 # the lattice's solve seconds and where it was swept; gpu-fast is the automatic choice.
 # Under single, gpu-single-bake-batch-large bakes the shadow map's light columns on the
-# GPU in batches sixteen times the default (MURK_GPU_BAKE_BATCH): fewer, fuller dispatches.
+# GPU in batches sixteen times the default (MURK_GPU_BAKE_BATCH): fewer, fuller dispatches;
+# gpu-single-march-cut and -whole march shadow rays through the grid cut into parts
+# (MURK_GPU_MAX_BINDING) and whole (not on an adapter that runs on the CPU).
 # Prints each run's wall and CPU seconds, the device and the stages of its --stats
 # (gpu_upload: flattening and uploading the grid, maps and lattice; render: rays, march,
 # readback and passes; multiple_scattering: the lattice's solve, of which gpu_lattice ran
@@ -24,10 +26,11 @@
 #   scripts/bench_gpu.sh [CLOUD.vdb]    (made with make_cloud.py --size 192 if not given)
 #
 # Knobs: MURK (a murk binary; default: build this tree's), BENCH_THREADS (nproc),
-# BENCH_MODES ("single fast": the scattering modes timed),
-# BENCH_RES (960x540), BENCH_ONE_THREAD=0 (no one-thread CPU runs), BENCH_PATH_RES
-# (BENCH_RES), BENCH_PATH_SPP (16), BENCH_PATH=0 (no path runs), BENCH_SEQ=0 (no sequence), BENCH_SEQ_FRAMES (5), OUT (where images and
-# stats go; a temporary folder).
+# BENCH_MODES ("single fast": the scattering modes timed), BENCH_RES (960x540),
+# BENCH_ONE_THREAD=0 (no one-thread CPU runs), BENCH_CUT=0 (no cut-grid rows),
+# BENCH_PATH_RES (BENCH_RES), BENCH_PATH_SPP (16), BENCH_PATH=0 (no path runs),
+# BENCH_SEQ=0 (no sequence), BENCH_SEQ_FRAMES (5), OUT (where images and stats go; a
+# temporary folder).
 # On a machine without a GPU it measures lavapipe (Mesa's Vulkan on the CPU), if installed.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -64,6 +67,23 @@ for mode in "${MODES[@]}"; do
         # The bake's light columns in batches of 8 M samples against the default half
         # million: the same map, in fewer and fuller dispatches.
         MURK_GPU_BAKE_BATCH=8388608 run "gpu-single-bake-batch-large" --device gpu --scattering single
+        if [[ "${BENCH_CUT:-1}" != 0 ]]; then
+            # The grid cut into parts (the largest binding lowered to 4 MiB: the values in
+            # three buffers) against the same grid whole, with shadow rays marched through
+            # it (the maps would not fit that binding). An adapter that runs on the CPU
+            # refuses a cut grid under marched shadows: not timed there.
+            adapter=$(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['device'])" \
+                "$OUT/gpu-single.json")
+            if [[ $adapter == *"(Cpu, "* ]]; then
+                echo "gpu-single-march-cut: not timed ($adapter refuses a cut grid under --shadows march)"
+            else
+                run "gpu-single-march-whole" --device gpu --scattering single --shadows march
+                MURK_GPU_MAX_BINDING=4194304 run "gpu-single-march-cut" --device gpu --scattering single --shadows march
+                /usr/bin/python3 -c "import json,sys; p=[json.load(open(f))['gpu_grid_parts'] for f in sys.argv[1:]]
+print('   grid parts (node tables, values): whole', p[0], 'cut', p[1])" \
+                    "$OUT/gpu-single-march-whole.json" "$OUT/gpu-single-march-cut.json"
+            fi
+        fi
     fi
     if [[ $mode == fast ]]; then
         for where in cpu gpu; do
