@@ -150,29 +150,7 @@ impl ChartMap {
     /// the packing (the costly part) done before, anywhere (the bake packs a batch's
     /// bricks in parallel and appends them in key order).
     pub fn push_encoded(&mut self, key: IVec3, brick: &EncodedBrick) -> Option<()> {
-        let slot = self.slot_index(key)?;
-        let offset = match brick.form {
-            BrickForm::Hermite => {
-                let offset = u32::try_from(self.samples.len()).ok()?;
-                self.samples.extend_from_slice(&brick.hermite);
-                offset
-            }
-            BrickForm::Linear => {
-                let offset = u32::try_from(self.linear.len()).ok()?;
-                self.linear.extend_from_slice(&brick.linear);
-                offset
-            }
-            BrickForm::Constant => 0,
-        };
-        self.slots[slot] = self.bricks.len() as u32;
-        self.bricks.push(Brick {
-            key,
-            level: brick.level,
-            form: brick.form,
-            offset,
-            scales: brick.scales,
-        });
-        Some(())
+        self.push_encoded_all(&[(key, brick)])
     }
 
     /// Appends `bricks` in order, as [`push_encoded`](Self::push_encoded) would one by
