@@ -23,6 +23,11 @@ pub fn release_freed_memory() {
 pub fn extend_on_all_threads<T: Copy + Send + Sync>(store: &mut Vec<T>, parts: &[&[T]]) {
     use rayon::prelude::*;
     let total: usize = parts.iter().map(|p| p.len()).sum();
+    if parts.len() < 2 {
+        // One part (a brick pushed alone, as a cache's are): no threads to hand it to.
+        parts.iter().for_each(|p| store.extend_from_slice(p));
+        return;
+    }
     store.reserve(total);
     let len = store.len();
     let mut room = &mut store.spare_capacity_mut()[..total];
@@ -56,6 +61,11 @@ mod tests {
         for p in &parts {
             expected.extend_from_slice(p);
         }
+        assert_eq!(store, expected);
+        // One part (copied on this thread) and none.
+        extend_on_all_threads(&mut store, &[&[5, 6]]);
+        extend_on_all_threads(&mut store, &[]);
+        expected.extend([5, 6]);
         assert_eq!(store, expected);
     }
 }

@@ -37,10 +37,11 @@ pub(super) fn build_scene(
 }
 
 /// The GPU's stages before the render in the stats: `gpu_open` (finding the adapter
-/// and opening the device, in the render that did), `gpu_bake_upload` (the grid's layout and upload
-/// for the columns), `gpu_bake` (the columns' batches: layout, upload, march and
-/// readback) and of it `gpu_bake_kernel` (the GPU's own time marching them, where the
-/// adapter times its passes), and a note where the GPU stopped marching them.
+/// and opening the device, in the render that did), `gpu_bake_upload` (the grid's
+/// layout and upload for the columns), `gpu_bake` (the columns' batches: layout,
+/// upload, march and readback) and of it `gpu_bake_kernel` (the GPU's own time marching
+/// them, where the adapter times its passes), and a note where the GPU stopped marching
+/// them.
 pub(super) fn report_bake(columns: Option<&gpu::GpuColumns>, report: &mut SceneReport) {
     let Some(c) = columns else { return };
     if let Some(seconds) = c.gpu().take_open_seconds() {

@@ -5,9 +5,9 @@
 //! ([`BAKE_BATCH_SAMPLES`]), and each brick of the batch is decided and packed while
 //! the next batch is sampled (a GPU marches that batch's columns meanwhile): at most two
 //! batches' samples are ever held in f32 (20 bytes a sample, where the map holds 12 or
-//! 2; see [`ColumnMarcher::batch_samples`]). A brick that needs the next level is packed too, at the
-//! level checked, in case the budget stops refinement there (then it is kept so, as it
-//! always was); if refinement goes on, the finer brick replaces it and
+//! 2; see [`ColumnMarcher::batch_samples`]). A brick that needs the next level is packed
+//! too, at the level checked, in case the budget stops refinement there (then it is kept
+//! so, as it always was); if refinement goes on, the finer brick replaces it and
 //! [`ChartMap::drop_replaced`] reclaims its room. A stack's columns are marched through
 //! all its bricks on trial at once, as before, and the packing depends on the brick
 //! alone: the map's lookups are the same as when every brick was sampled together.
