@@ -156,23 +156,29 @@ fn gpu_matches_cpu(input: &str, o: &RenderOptions) -> (f64, f64) {
         "{parts:?}"
     );
     // The GPU's own time in the march's and the columns' kernels, where the adapter
-    // times its passes (lavapipe does): part of the stage around each.
+    // times its passes (lavapipe does): part of the stages around each. The march's
+    // chunks run on the GPU while the CPU makes the rays of the chunk after and records
+    // the chunk before, so its kernel is part of the three.
+    let streamed = ["gpu_rays", "gpu_march", "gpu_record"]
+        .map(stage)
+        .iter()
+        .flatten()
+        .sum::<f64>();
     for (kernel, around, ran) in [
-        ("gpu_march_kernel", "gpu_march", true),
-        ("gpu_bake_kernel", "gpu_bake", maps),
+        ("gpu_march_kernel", Some(streamed), true),
+        ("gpu_bake_kernel", stage("gpu_bake"), maps),
     ] {
-        match (stage(kernel), stage(around)) {
-            (Some(k), Some(a)) => assert!(k > 0.0 && k <= a, "{kernel} {k} of {around} {a}"),
+        match (stage(kernel), around) {
+            (Some(k), Some(a)) => assert!(k > 0.0 && k <= a, "{kernel} {k} of {a}"),
             (k, _) => assert!(k.is_none() && !(test_gpu().timestamps && ran), "{kernel}"),
         }
     }
-    // The CPU's wait for the march: within the stage, and no less than the GPU's own
-    // time in it (which it waits for).
+    // The CPU's wait for the march's chunks: within the stage.
     let wait = stage("gpu_march_wait");
-    let (kernel, march) = (stage("gpu_march_kernel"), stage("gpu_march"));
+    let march = stage("gpu_march");
     assert!(
-        wait.is_some_and(|w| w > 0.0 && w <= march.unwrap_or(0.0) && w >= kernel.unwrap_or(0.0)),
-        "gpu_march_wait {wait:?}: gpu_march_kernel {kernel:?}, gpu_march {march:?}"
+        wait.is_some_and(|w| w > 0.0 && w <= march.unwrap_or(0.0)),
+        "gpu_march_wait {wait:?}: gpu_march {march:?}"
     );
     let (layout, render) = (stage("gpu_layout"), stage("render"));
     assert!(layout.is_some_and(|l| l > 0.0 && l <= parts[0].unwrap_or(0.0)));

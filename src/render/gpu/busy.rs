@@ -98,6 +98,27 @@ impl PassTimer {
     }
 }
 
+impl PassTimer {
+    /// The buffer the timestamps are read from, for a caller that maps it with its own
+    /// results (then [`PassTimer::mapped_seconds`]).
+    pub fn read_slice(&self) -> wgpu::BufferSlice<'_> {
+        self.read.slice(..)
+    }
+
+    /// [`PassTimer::seconds`] from the timestamps' buffer already mapped (see
+    /// [`PassTimer::read_slice`]), unmapping it.
+    pub fn mapped_seconds(&self, queue: &wgpu::Queue) -> Option<f64> {
+        let stamps = {
+            let view = self.read.slice(..).get_mapped_range().ok()?;
+            let words: Vec<u64> = bytemuck::pod_collect_to_vec(&view[..STAMP_BYTES as usize]);
+            [words[0], words[1]]
+        };
+        self.read.unmap();
+        let ticks = stamps[1].checked_sub(stamps[0])?;
+        Some(ticks as f64 * queue.get_timestamp_period() as f64 * 1e-9)
+    }
+}
+
 /// The GPU's own seconds summed over passes run from several threads: nothing until a
 /// pass was timed.
 #[derive(Debug, Default)]

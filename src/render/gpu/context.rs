@@ -1,14 +1,12 @@
 //! The GPU: an adapter found through wgpu (Vulkan, Metal or DX12), its device with the
-//! limits the adapter reports, the march's compute pipelines, and one call that marches
-//! a batch of camera samples.
+//! limits the adapter reports, the compute pipelines compiled for it, and the upload of
+//! a scene's buffers (the samples stream through them: stream.rs).
 
-use super::bind::{entry, size_text};
-use super::busy::{BusyTotal, PassTimer};
+use super::bind::size_text;
+use super::busy::BusyTotal;
 use super::grid_parts::{BindingRoom, GridBinding};
-use super::readback::{buffer_with, catching_errors, read_mapped, readback_buffer, values_of};
 use super::resident::{KeptBuffers, Making};
-use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures, RESULT_BASE, SAMPLE_FLOATS};
-use wgpu::util::DeviceExt;
+use super::upload::{Buffers, DSM_BUFFERS, MarchFeatures};
 
 /// An opened GPU and the pipelines compiled for it.
 pub struct Gpu {
@@ -263,114 +261,6 @@ impl Gpu {
         self.limits
             .max_storage_buffer_binding_size
             .min(self.limits.max_buffer_size)
-    }
-
-    /// Marches `samples` (each [`SAMPLE_FLOATS`] floats) through the uploaded scene;
-    /// returns `stride` floats per sample (see march.wgsl), in batches that fit the
-    /// adapter's buffers.
-    pub fn march(&self, scene: &Resident, samples: &[f32]) -> Result<Vec<f32>, String> {
-        let stride = scene.stride as usize;
-        let n = samples.len() / SAMPLE_FLOATS;
-        let per_sample = (SAMPLE_FLOATS.max(stride) * 4) as u64;
-        let batch = ((self.max_binding() / per_sample) as usize).clamp(1, 1 << 22);
-        catching_errors(&self.device, &self.name, "", || {
-            let mut out = Vec::with_capacity(n * stride);
-            for start in (0..n).step_by(batch) {
-                let count = batch.min(n - start);
-                let part = &samples[start * SAMPLE_FLOATS..(start + count) * SAMPLE_FLOATS];
-                out.extend(self.march_batch(scene, part, count, stride)?);
-            }
-            Ok(out)
-        })
-    }
-
-    fn march_batch(
-        &self,
-        scene: &Resident,
-        samples: &[f32],
-        count: usize,
-        stride: usize,
-    ) -> Result<Vec<f32>, String> {
-        debug_assert!(RESULT_BASE <= stride);
-        let pipeline = self.march_pipeline(scene.features)?;
-        self.dispatch(&pipeline, scene, samples, count, stride, &[])
-    }
-
-    /// Runs `pipeline` over `count` samples (`samples`, one invocation each) through the
-    /// uploaded scene, bound as the march binds it: the parameters (their `n_samples`
-    /// set) at 0, the scene's buffers, the samples at 5 and the results (`stride`
-    /// floats a sample) at 6; then `uniforms` from binding 9 on. Returns the results.
-    pub(super) fn dispatch(
-        &self,
-        pipeline: &wgpu::ComputePipeline,
-        scene: &Resident,
-        samples: &[f32],
-        count: usize,
-        stride: usize,
-        uniforms: &[&[u32]],
-    ) -> Result<Vec<f32>, String> {
-        let d = &self.device;
-        let mut params = scene.params.clone();
-        params[super::upload::N_SAMPLES_AT] = count as u32;
-        let uniform = |label: &str, words: &[u32]| {
-            d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytemuck::cast_slice(words),
-                usage: wgpu::BufferUsages::UNIFORM,
-            })
-        };
-        let params = uniform("params", &params);
-        let more: Vec<wgpu::Buffer> = uniforms.iter().map(|w| uniform("uniform", w)).collect();
-        let storage = wgpu::BufferUsages::STORAGE;
-        let input = buffer_with(d, "samples", bytemuck::cast_slice(samples), storage);
-        let bytes = (count * stride * 4).max(16) as u64;
-        let results = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("results"),
-            size: bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = readback_buffer(d, bytes);
-        let mut entries = scene.features.grid.entries(&scene.tree, &scene.vals);
-        entries.extend([
-            entry(0, &params),
-            entry(3, &scene.dsm[0]),
-            entry(4, &scene.meta),
-            entry(5, &input),
-            entry(6, &results),
-            entry(7, &scene.dsm[1]),
-            entry(8, &scene.dsm[2]),
-        ]);
-        entries.extend((9..).zip(&more).map(|(k, b)| entry(k, b)));
-        let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("samples"),
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        });
-        let mut encoder = d.create_command_encoder(&Default::default());
-        let timer = PassTimer::new(&self.device, self.timestamps);
-        let desc = PassTimer::pass(timer.as_ref());
-        encode_pass(&mut encoder, &desc, pipeline, &bind, count);
-        if let Some(t) = &timer {
-            t.resolve(&mut encoder);
-        }
-        encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, bytes);
-        let submitted = std::time::Instant::now();
-        self.queue.submit([encoder.finish()]);
-        let mut values: Vec<f32> = Vec::new();
-        let back = [readback.slice(..bytes)];
-        let mut copying = 0.0;
-        read_mapped(d, &self.name, "the results", &back, |_, bytes| {
-            let t = std::time::Instant::now();
-            values = values_of(bytes, count * stride);
-            copying = t.elapsed().as_secs_f64();
-        })?;
-        let waited = submitted.elapsed().as_secs_f64() - copying;
-        scene.waited.add(Some(waited));
-        scene
-            .busy
-            .add(timer.and_then(|t| t.seconds(&self.device, &self.queue)));
-        Ok(values)
     }
 
     /// Uploads a scene's buffers, checking each against the adapter's limits first

@@ -26,6 +26,7 @@ mod path;
 mod pixels;
 mod readback;
 mod resident;
+mod stream;
 mod sweep;
 mod upload;
 
@@ -131,19 +132,22 @@ pub struct GpuTimes {
     pub march: f64,
     /// Of `upload`: laying the grid's nodes and the maps out as flat arrays.
     pub layout: f64,
-    /// Of `march`: placing the samples and making their rays on the CPU.
+    /// Of `march`: placing the samples and making their rays on the CPU. The samples
+    /// stream through the GPU in chunks (stream.rs), and the GPU's work on one chunk
+    /// overlaps this stage's and `record`'s on its neighbours.
     pub rays: f64,
-    /// Of `march`: the GPU's part (the samples' upload, the march and the readback).
+    /// Of `march`: the CPU's part in the GPU's work: writing the samples into the
+    /// staging buffers, submitting the chunks and waiting for their results.
     pub kernel: f64,
     /// Of `march`: adding each sample's results into its pixel's passes on the CPU.
     pub record: f64,
-    /// Of `kernel`: the GPU's own time in the march's passes, where the adapter times
-    /// its passes (the rest of `kernel` is moving samples and results, and waiting).
+    /// The GPU's own time in the march's passes, where the adapter times its passes:
+    /// within `rays` + `kernel` + `record`, as the passes overlap the first and the
+    /// last.
     pub busy: Option<f64>,
-    /// Of `kernel`: the CPU waiting for the GPU, from each submission to its results
-    /// mapped (the passes, `busy`, with the copies of samples and results between host
-    /// and GPU); the rest of `kernel` is making and filling buffers on the CPU and
-    /// copying the results out of the mapping.
+    /// Of `kernel`: the CPU waiting for each chunk's results, the GPU's work (its passes,
+    /// `busy`, with the copies of samples and results between host and GPU) that the
+    /// CPU's work on the chunks around it did not hide.
     pub wait: Option<f64>,
     /// Bytes of the scene's buffers on the GPU (not the per-batch samples and results).
     pub resident_bytes: usize,

@@ -11,8 +11,9 @@
 use super::GpuTimes;
 use super::context::{GRID_WGSL, Gpu, MARCH_WGSL, Resident};
 use super::grid_parts::GridBinding;
-use super::pixels::{Pick, Placed, assemble, put_ray, sample_count};
+use super::pixels::{Pick, Placed, assemble, pick_chunks, put_ray};
 use super::readback::catching_errors;
+use super::stream;
 use super::upload::{self, SAMPLE_FLOATS};
 use crate::field::Field;
 use crate::integrate::integrator::Integrator;
@@ -31,9 +32,6 @@ const PATH_SAMPLE_FLOATS: usize = 2 * SAMPLE_FLOATS;
 /// Floats of a result before the per-light radiance (8 a light: once, more than once):
 /// the camera ray's, then the emission seen directly, after one event and after more.
 const PATH_RESULT_BASE: usize = 16;
-/// The most samples one dispatch traces: a path's cost has no bound a march's has, and
-/// a long dispatch may be stopped by the driver's watchdog.
-const PATH_BATCH: usize = 1 << 18;
 
 /// Renders the job's pixels by tracing `job.integrator`'s paths on `gpu` (the scene
 /// passed [`super::unsupported`]; `g`: its Henyey–Greenstein asymmetry), the scene's
@@ -189,9 +187,10 @@ struct PathBatch {
 }
 
 /// Traces `picks` on the GPU: each pixel's values, the mean of its samples as the CPU's
-/// pixel loop takes it, and the density samples the paths took. The pixels go in
-/// chunks of about [`PATH_BATCH`] samples, each made, traced and recorded in turn, so
-/// the samples' arrays stay that small whatever the image.
+/// pixel loop takes it, and the density samples the paths took. The pixels stream
+/// through the GPU in chunks of about [`stream::CHUNK_SAMPLES`] samples: each chunk's
+/// samples are made while the GPU traces the chunk before, and recorded while it traces
+/// the chunk after.
 fn trace_picks(
     gpu: &Gpu,
     scene: &Resident,
@@ -200,48 +199,65 @@ fn trace_picks(
     picks: &[Pick],
     times: &mut GpuTimes,
 ) -> Result<(Vec<f32>, u64), String> {
-    let per_pick = picks
-        .first()
-        .map_or(1, |&p| (sample_count(job, p) as usize).max(1));
-    let mut values = Vec::new();
-    let mut samples = 0;
-    for chunk in picks.chunks((PATH_BATCH / per_pick).max(1)) {
-        let (v, n) = trace_chunk(gpu, scene, batch, job, chunk, times)?;
-        values.extend(v);
-        samples += n;
-    }
+    let stride = job.integrator.passes().slots();
+    let frame = job.camera.frame();
+    let fit = stream::chunk_samples(gpu, PATH_SAMPLE_FLOATS, batch.stride);
+    let (chunks, per_chunk, max_samples) = pick_chunks(job, picks, fit);
+    let shape = stream::Shape {
+        in_floats: PATH_SAMPLE_FLOATS,
+        out_floats: batch.stride,
+        max_samples,
+    };
+    let mut values = vec![0f32; picks.len() * stride];
+    let mut samples = 0u64;
+    let pipeline = path_pipeline(gpu, scene.features.grid)?;
+    catching_errors(&gpu.device, &gpu.name, "", || {
+        stream::stream(
+            gpu,
+            scene,
+            &pipeline,
+            shape,
+            &[&batch.params],
+            chunks.len(),
+            |k, input| make_paths(job, &frame, chunks[k], input),
+            |k, made, results| {
+                let px = &mut values[k * per_chunk * stride..][..chunks[k].len() * stride];
+                samples += record_paths(job, batch, &made, results, px);
+            },
+            times,
+        )
+    })?;
     Ok((values, samples))
 }
 
-/// [`trace_picks`] of one chunk.
-fn trace_chunk(
-    gpu: &Gpu,
-    scene: &Resident,
-    batch: &PathBatch,
+/// What recording a chunk's paths needs of its samples besides their results: where
+/// each pick's samples start, and per sample its depth rate and the weight of its
+/// opacity (none: not computed).
+struct Made {
+    starts: Vec<usize>,
+    extra: Vec<(f64, Option<f64>)>,
+}
+
+/// Writes the samples of `picks` into `input` ([`PATH_SAMPLE_FLOATS`] each): the
+/// march's sample, then its random streams' key and whether its opacity is wanted.
+fn make_paths(
     job: &PixelJob<PathTracer>,
+    frame: &crate::scene::camera::CameraFrame,
     picks: &[Pick],
-    times: &mut GpuTimes,
-) -> Result<(Vec<f32>, u64), String> {
-    let clock = Instant::now();
+    input: &mut Vec<f32>,
+) -> Made {
     let integrator = job.integrator;
-    let layout = integrator.passes();
-    let stride = layout.slots();
-    let alpha_at = layout.offset_of_kind(PassKind::Alpha);
-    let depth_at = layout.offset_of_kind(PassKind::Depth);
-    let frame = job.camera.frame();
-    let parts = integrator.parts();
-    let density = parts.density;
+    let density = integrator.parts().density;
     let placed = Placed::new(job, picks);
-    let (starts, total) = (&placed.starts, placed.total());
-    let mut input = vec![0f32; total * PATH_SAMPLE_FLOATS];
-    // Per sample: its depth rate and the weight of its opacity (none: not computed).
+    let total = placed.total();
+    input.resize(total * PATH_SAMPLE_FLOATS, 0.0);
     let mut extra = vec![(0f64, None::<f64>); total];
     input
         .par_chunks_mut(PATH_SAMPLE_FLOATS)
         .zip(extra.par_iter_mut())
         .enumerate()
         .for_each(|(i, (out, extra))| {
-            let (_, sample, rng) = placed.sample(job, &frame, picks, i);
+            let (_, sample, rng) = placed.sample(job, frame, picks, i);
             put_ray(out, &sample.ray, density);
             let key = rng.stream_key();
             for (q, o) in out[16..20].iter_mut().enumerate() {
@@ -249,22 +265,34 @@ fn trace_chunk(
             }
             let weight = integrator.alpha_weight(rng.sample_index());
             out[20] = if weight.is_some() { 1.0 } else { 0.0 };
+            out[21..].fill(0.0);
             *extra = (sample.depth_rate, weight);
         });
-    times.rays += clock.elapsed().as_secs_f64();
-    let clock = Instant::now();
-    let mut results = Vec::with_capacity(total * batch.stride);
-    for start in (0..total).step_by(PATH_BATCH) {
-        let count = PATH_BATCH.min(total - start);
-        let part = &input[start * PATH_SAMPLE_FLOATS..(start + count) * PATH_SAMPLE_FLOATS];
-        results.extend(dispatch(gpu, scene, batch, part, count)?);
+    Made {
+        starts: placed.starts,
+        extra,
     }
-    times.kernel += clock.elapsed().as_secs_f64();
-    let clock = Instant::now();
+}
+
+/// Writes the results of a chunk's paths (`made`'s samples) into its pixels' values:
+/// the mean of each pixel's samples. Returns the density samples the paths took.
+fn record_paths(
+    job: &PixelJob<PathTracer>,
+    batch: &PathBatch,
+    made: &Made,
+    results: &[f32],
+    values: &mut [f32],
+) -> u64 {
+    let integrator = job.integrator;
+    let layout = integrator.passes();
+    let stride = layout.slots();
+    let alpha_at = layout.offset_of_kind(PassKind::Alpha);
+    let depth_at = layout.offset_of_kind(PassKind::Depth);
+    let parts = integrator.parts();
     let (passes, sigma_t) = (parts.passes, parts.sigma_t);
     let rs = batch.stride;
-    let mut values = vec![0f32; picks.len() * stride];
-    let samples: u64 = values
+    let Made { starts, extra } = made;
+    values
         .par_chunks_mut(stride)
         .enumerate()
         // Each thread's sums, cleared for each pixel (not made anew for each).
@@ -301,30 +329,7 @@ fn trace_chunk(
                 n_samples
             },
         )
-        .sum();
-    times.record += clock.elapsed().as_secs_f64();
-    Ok((values, samples))
-}
-
-/// Traces `count` samples (their floats `samples`) in one dispatch; their results.
-fn dispatch(
-    gpu: &Gpu,
-    scene: &Resident,
-    batch: &PathBatch,
-    samples: &[f32],
-    count: usize,
-) -> Result<Vec<f32>, String> {
-    let pipeline = path_pipeline(gpu, scene.features.grid)?;
-    catching_errors(&gpu.device, &gpu.name, "", || {
-        gpu.dispatch(
-            &pipeline,
-            scene,
-            samples,
-            count,
-            batch.stride,
-            &[&batch.params],
-        )
-    })
+        .sum()
 }
 
 /// Appends to `meta` how the phase function is sampled where it is a table (water

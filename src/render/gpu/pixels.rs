@@ -1,12 +1,15 @@
 //! The pixel loop of [`crate::render::pixels`] with the march on the GPU: the same
 //! samples (centres, or `--spp` jittered ones, then the silhouette pixels again on the
 //! stratified grid), the same rays and jitter, generated here in f64; the GPU marches
-//! them in batches; each sample's result (with the fast mode's multiply scattered part
-//! of it, `indirect`) is written into the pixel's passes by [`SingleScattering::record`],
-//! as the CPU's are, with the light the ground plane receives where the ray meets it.
+//! them in chunks streamed through it (stream.rs); each sample's result (with the fast
+//! mode's multiply scattered part of it, `indirect`) is written into the pixel's passes
+//! by [`SingleScattering::record`], as the CPU's are, with the light the ground plane
+//! receives where the ray meets it.
 
 use super::GpuTimes;
 use super::context::{Gpu, Resident};
+use super::readback::catching_errors;
+use super::stream;
 use super::upload::{GROUND_FLOATS, RESULT_BASE, RESULT_EMISSION, SAMPLE_FLOATS};
 use crate::field::{Field, IndexRay};
 use crate::integrate::RayResult;
@@ -19,7 +22,6 @@ use crate::render::pixels::{EDGE_ALPHA, PixelJob, PixelPasses, finish_pixel};
 use crate::scene::camera::CameraFrame;
 use glam::DVec3;
 use rayon::prelude::*;
-use std::time::Instant;
 
 /// One pixel to render: where and how it is sampled.
 #[derive(Clone, Copy)]
@@ -107,28 +109,28 @@ pub(super) fn put_ray(out: &mut [f32], ray: &WorldRay, density: &dyn Field) {
     out[12..15].copy_from_slice(&put(index.dir));
 }
 
-/// Renders `picks` on the GPU: each pixel's `stride` values, the mean of its samples as
-/// [`crate::render::pixels::render_pixels`] takes it. Returns them and the march
-/// samples the rays took.
-fn render_picks(
-    gpu: &Gpu,
-    scene: &Resident,
+/// What recording a chunk's results needs of its samples besides the results: where
+/// each pick's samples start, each sample's depth rate and where its ray meets the
+/// ground.
+struct Made {
+    starts: Vec<usize>,
+    depth_rates: Vec<f64>,
+    hits: Vec<Option<(f64, DVec3)>>,
+}
+
+/// Writes the samples of `picks` into `input` ([`SAMPLE_FLOATS`] each), their rays as
+/// SingleScattering's own sample makes them.
+fn make_rays(
     job: &PixelJob<SingleScattering>,
+    frame: &CameraFrame,
     picks: &[Pick],
-    times: &mut GpuTimes,
-) -> Result<(Vec<f32>, u64), String> {
-    let clock = Instant::now();
+    input: &mut Vec<f32>,
+) -> Made {
     let integrator = job.integrator;
-    let layout = integrator.passes();
-    let stride = layout.slots();
-    let alpha_at = layout.offset_of_kind(PassKind::Alpha);
-    let depth_at = layout.offset_of_kind(PassKind::Depth);
-    let frame = job.camera.frame();
     let density = integrator.density();
-    // Every sample's ray, in pick order.
     let placed = Placed::new(job, picks);
-    let (starts, total) = (&placed.starts, placed.total());
-    let mut input = vec![0f32; total * SAMPLE_FLOATS];
+    let total = placed.total();
+    input.resize(total * SAMPLE_FLOATS, 0.0);
     let mut depth_rates = vec![0f64; total];
     // Where each sample's ray meets the ground plane (seen before the ray's end), as
     // SingleScattering's own sample finds it.
@@ -139,7 +141,7 @@ fn render_picks(
         .zip(depth_rates.par_iter_mut().zip(hits.par_iter_mut()))
         .enumerate()
         .for_each(|(i, (out, (rate, hit)))| {
-            let (_, sample, mut rng) = placed.sample(job, &frame, picks, i);
+            let (_, sample, mut rng) = placed.sample(job, frame, picks, i);
             let mut ray = sample.ray;
             *hit = ground.and_then(|g| g.hit(ray.origin, ray.dir).filter(|(t, _)| *t <= ray.t_max));
             if let (Some(g), Some((t, _))) = (ground, *hit)
@@ -154,15 +156,37 @@ fn render_picks(
             out[15] = hit.map_or(0.0, |(t, n)| (t * n.y) as f32);
             *rate = sample.depth_rate;
         });
-    times.rays += clock.elapsed().as_secs_f64();
-    let clock = Instant::now();
-    let results = gpu.march(scene, &input)?;
-    times.kernel += clock.elapsed().as_secs_f64();
-    let clock = Instant::now();
-    let rs = scene.stride as usize;
+    Made {
+        starts: placed.starts,
+        depth_rates,
+        hits,
+    }
+}
+
+/// Writes the results of a chunk's samples (`made` of them, `rs` floats each) into its
+/// pixels' values (`stride` each: the mean of each pixel's samples), as
+/// [`crate::render::pixels::render_pixels`] takes them. Returns the march samples the
+/// rays took.
+fn record_results(
+    job: &PixelJob<SingleScattering>,
+    made: &Made,
+    results: &[f32],
+    rs: usize,
+    values: &mut [f32],
+) -> u64 {
+    let integrator = job.integrator;
+    let layout = integrator.passes();
+    let stride = layout.slots();
+    let alpha_at = layout.offset_of_kind(PassKind::Alpha);
+    let depth_at = layout.offset_of_kind(PassKind::Depth);
+    let ground = integrator.ground();
     let lights = (rs - RESULT_BASE - if ground.is_some() { GROUND_FLOATS } else { 0 }) / 4;
-    let mut values = vec![0f32; picks.len() * stride];
-    let samples: u64 = values
+    let Made {
+        starts,
+        depth_rates,
+        hits,
+    } = made;
+    values
         .par_chunks_mut(stride)
         .enumerate()
         // Each thread's sums, cleared for each pixel (not made anew for each).
@@ -197,8 +221,71 @@ fn render_picks(
                 n_samples
             },
         )
-        .sum();
-    times.record += clock.elapsed().as_secs_f64();
+        .sum()
+}
+
+/// The picks of a stream's chunks ([`super::stream`]): as many whole pixels as fit
+/// `max_samples` (each pixel of one pass takes as many samples as the first), how many
+/// that is, and the most samples a chunk holds.
+pub(super) fn pick_chunks<'p, I: Integrator>(
+    job: &PixelJob<I>,
+    picks: &'p [Pick],
+    max_samples: usize,
+) -> (Vec<&'p [Pick]>, usize, usize) {
+    let per_pick = picks
+        .first()
+        .map_or(1, |&p| (sample_count(job, p) as usize).max(1));
+    let per_chunk = (max_samples / per_pick).max(1);
+    let chunks: Vec<&[Pick]> = picks.chunks(per_chunk).collect();
+    let most = chunks
+        .iter()
+        .map(|c| c.iter().map(|&p| sample_count(job, p) as usize).sum())
+        .max()
+        .unwrap_or(0);
+    (chunks, per_chunk, most)
+}
+
+/// Renders `picks` on the GPU: each pixel's `stride` values, the mean of its samples as
+/// [`crate::render::pixels::render_pixels`] takes it. Returns them and the march
+/// samples the rays took. The picks stream through the GPU in chunks: each chunk's
+/// rays are made while the GPU marches the chunk before, and recorded while it marches
+/// the chunk after.
+fn render_picks(
+    gpu: &Gpu,
+    scene: &Resident,
+    job: &PixelJob<SingleScattering>,
+    picks: &[Pick],
+    times: &mut GpuTimes,
+) -> Result<(Vec<f32>, u64), String> {
+    let stride = job.integrator.passes().slots();
+    let frame = job.camera.frame();
+    let rs = scene.stride as usize;
+    let fit = stream::chunk_samples(gpu, SAMPLE_FLOATS, rs);
+    let (chunks, per_chunk, max_samples) = pick_chunks(job, picks, fit);
+    let shape = stream::Shape {
+        in_floats: SAMPLE_FLOATS,
+        out_floats: rs,
+        max_samples,
+    };
+    let mut values = vec![0f32; picks.len() * stride];
+    let mut samples = 0u64;
+    let pipeline = gpu.march_pipeline(scene.features)?;
+    catching_errors(&gpu.device, &gpu.name, "", || {
+        stream::stream(
+            gpu,
+            scene,
+            &pipeline,
+            shape,
+            &[],
+            chunks.len(),
+            |k, input| make_rays(job, &frame, chunks[k], input),
+            |k, made, results| {
+                let px = &mut values[k * per_chunk * stride..][..chunks[k].len() * stride];
+                samples += record_results(job, &made, results, rs, px);
+            },
+            times,
+        )
+    })?;
     Ok((values, samples))
 }
 

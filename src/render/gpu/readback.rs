@@ -1,6 +1,7 @@
-//! How every GPU stage that dispatches work and reads its results back (the march, the
-//! path tracer, the bake's columns, the lattice's sweeps, the pass timer, the test
-//! probe) waits for them and catches what went wrong: one way, with one wording.
+//! How the GPU's stages that dispatch work and read its results back (the bake's
+//! columns, the lattice's sweeps, the pass timer, the test probe) wait for them, and
+//! how every stage (the march's and the path tracer's stream too) catches what went
+//! wrong and fills and reads large mapped buffers: one way, with one wording.
 
 /// A buffer of `bytes` that results are copied into for [`read_mapped`].
 pub(super) fn readback_buffer(device: &wgpu::Device, bytes: u64) -> wgpu::Buffer {
@@ -75,8 +76,9 @@ pub(super) fn catching_errors<T>(
     result
 }
 
-/// Bytes each thread copies at a time into or out of a mapped buffer.
-const COPY_PIECE: usize = 1 << 22;
+/// Bytes each thread copies at a time into a mapped buffer: small enough that a
+/// stream's chunk of samples (16 MB) spreads over every thread.
+const COPY_PIECE: usize = 1 << 20;
 
 /// Bytes each thread copies at a time out of a mapped buffer: small enough that a
 /// bake's batch (about 10 MB) spreads over every thread.
@@ -104,7 +106,6 @@ pub(super) fn buffer_with(
     contents: &[u8],
     usage: wgpu::BufferUsages,
 ) -> wgpu::Buffer {
-    use rayon::prelude::*;
     let size = (contents.len() as u64)
         .max(16)
         .next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT);
@@ -125,17 +126,22 @@ pub(super) fn buffer_with(
                 usage,
             });
         };
-        let (pieces, mut tail) = view.slice(..contents.len()).into_chunks::<COPY_PIECE>();
-        let pieces: Vec<wgpu::WriteOnly<'_, [u8; COPY_PIECE]>> = pieces.into_iter().collect();
-        let whole = pieces.len() * COPY_PIECE;
-        pieces
-            .into_par_iter()
-            .zip(contents[..whole].par_chunks_exact(COPY_PIECE))
-            .for_each(|(piece, from)| {
-                wgpu::WriteOnly::<'_, [u8]>::from(piece).copy_from_slice(from)
-            });
-        tail.copy_from_slice(&contents[whole..]);
+        write_in_pieces(&mut view, contents);
     }
     buffer.unmap();
     buffer
+}
+
+/// Writes `contents` at the start of `view` (a buffer mapped for writing) on all
+/// threads, in pieces of [`COPY_PIECE`] bytes.
+pub(super) fn write_in_pieces(view: &mut wgpu::BufferViewMut, contents: &[u8]) {
+    use rayon::prelude::*;
+    let (pieces, mut tail) = view.slice(..contents.len()).into_chunks::<COPY_PIECE>();
+    let pieces: Vec<wgpu::WriteOnly<'_, [u8; COPY_PIECE]>> = pieces.into_iter().collect();
+    let whole = pieces.len() * COPY_PIECE;
+    pieces
+        .into_par_iter()
+        .zip(contents[..whole].par_chunks_exact(COPY_PIECE))
+        .for_each(|(piece, from)| wgpu::WriteOnly::<'_, [u8]>::from(piece).copy_from_slice(from));
+    tail.copy_from_slice(&contents[whole..]);
 }
