@@ -210,25 +210,36 @@ pub struct GridArrays {
     bases: [u32; 6],
 }
 
+/// Elements each thread copies at a time in [`grid_arrays`]: a 27 M-voxel grid's
+/// arrays are over a hundred megabytes.
+const LAYOUT_PIECE: usize = 1 << 16;
+
+/// `parts` one after another in a new array, sized once and copied in pieces on all
+/// threads ([`crate::mem::extend_on_all_threads`]); and where each part begins.
+fn joined<T: Copy + Send + Sync, const N: usize>(parts: [&[T]; N]) -> (Vec<T>, [usize; N]) {
+    let mut starts = [0; N];
+    let mut at = 0;
+    for (start, part) in starts.iter_mut().zip(parts) {
+        *start = at;
+        at += part.len();
+    }
+    let pieces: Vec<&[T]> = parts.iter().flat_map(|p| p.chunks(LAYOUT_PIECE)).collect();
+    let mut out = Vec::new();
+    crate::mem::extend_on_all_threads(&mut out, &pieces);
+    (out, starts)
+}
+
 /// Lays the grid's nodes out.
 pub fn grid_arrays(n: &GridNodes) -> GridArrays {
-    let mut tree = n.root.clone();
-    let upper_base = tree.len();
-    tree.extend(&n.upper);
-    let lower_base = tree.len();
-    tree.extend(&n.lower);
+    let (mut tree, [_, upper_base, lower_base]) = joined([&n.root, &n.upper, &n.lower]);
     pad(&mut tree);
-    let mut vals = n.leaf_values.clone();
-    let tile_base = vals.len();
-    vals.extend(&n.tile_values);
-    let mut cells = |c: &[[f32; 2]]| {
-        let at = vals.len();
-        vals.extend(c.iter().flatten());
-        at
-    };
-    let root_cells = cells(&n.root_cells);
-    let upper_cells = cells(&n.upper_cells);
-    let lower_cells = cells(&n.lower_cells);
+    let (mut vals, [_, tile_base, root_cells, upper_cells, lower_cells]) = joined([
+        &n.leaf_values,
+        &n.tile_values,
+        n.root_cells.as_flattened(),
+        n.upper_cells.as_flattened(),
+        n.lower_cells.as_flattened(),
+    ]);
     vals.resize(vals.len().max(4), 0.0);
     let bases = [
         upper_base,
