@@ -25,7 +25,7 @@ pub(super) fn build_scene(
 ) -> Result<(Scene, Option<Arc<gpu::GpuColumns>>)> {
     let may = plan.outputs.deep.is_none();
     let columns = may
-        .then(|| gpu_for(plan.sampling.device))
+        .then(|| gpu_for(plan.sampling.device, None))
         .and_then(|g| g.ok())
         .map(|g| Arc::new(gpu::GpuColumns::new(g)));
     reuse.columns = columns
@@ -44,9 +44,7 @@ pub(super) fn build_scene(
 /// them.
 pub(super) fn report_bake(columns: Option<&gpu::GpuColumns>, report: &mut SceneReport) {
     let Some(c) = columns else { return };
-    if let Some(seconds) = c.gpu().take_open_seconds() {
-        report.stages.insert("gpu_open".into(), Stage::ran(seconds));
-    }
+    report_open(c.gpu(), report);
     let times = c.times();
     if times.marched > 0 || times.upload > 0.0 {
         report
@@ -65,6 +63,14 @@ pub(super) fn report_bake(columns: Option<&gpu::GpuColumns>, report: &mut SceneR
         report.notes.push(format!(
             "the shadow bake's light columns were marched on the CPU: {why}"
         ));
+    }
+}
+
+/// `gpu_open` in the stats, where this render opened `gpu` (finding the adapter and
+/// opening the device).
+fn report_open(gpu: &gpu::Gpu, report: &mut SceneReport) {
+    if let Some(seconds) = gpu.take_open_seconds() {
+        report.stages.insert("gpu_open".into(), Stage::ran(seconds));
     }
 }
 
@@ -96,13 +102,20 @@ pub(super) fn report_sweeps(sweeper: Option<&gpu::GpuSweeper>, report: &mut Scen
 /// The GPU `device` asks for: under `gpu` any adapter; under `auto` one that is not
 /// itself run on the CPU (lavapipe, SwiftShader, WARP), which renders slower than murk's
 /// own CPU path, unless `WGPU_ADAPTER_NAME` names it; none under `cpu`. Why not, where
-/// there is none.
-fn gpu_for(device: Device) -> std::result::Result<&'static gpu::Gpu, String> {
+/// there is none. An adapter opened and not taken has its `gpu_open` in `report` (where
+/// given) all the same: the render waited for it.
+fn gpu_for(
+    device: Device,
+    report: Option<&mut SceneReport>,
+) -> std::result::Result<&'static gpu::Gpu, String> {
     match device {
         Device::Cpu => Err("--device cpu".into()),
         Device::Gpu => gpu::Gpu::shared(),
         Device::Auto => gpu::Gpu::shared().and_then(|g| {
             if g.on_cpu && !g.named {
+                if let Some(r) = report {
+                    report_open(g, r);
+                }
                 Err(format!(
                     "the only adapter, {}, runs on the CPU, slower than murk's own CPU path (--device gpu or WGPU_ADAPTER_NAME uses it)",
                     g.name
@@ -120,6 +133,7 @@ fn gpu_for(device: Device) -> std::result::Result<&'static gpu::Gpu, String> {
 pub(super) fn choose_device(
     plan: &RenderPlan,
     scene: &Scene,
+    report: &mut SceneReport,
 ) -> Result<(Option<&'static gpu::Gpu>, Option<String>)> {
     let device = plan.sampling.device;
     if device == Device::Cpu {
@@ -130,7 +144,7 @@ pub(super) fn choose_device(
         None if plan.outputs.deep.is_some() => {
             Err("the GPU backend does not write deep samples (--deep) yet".into())
         }
-        None => gpu_for(device),
+        None => gpu_for(device, Some(report)),
     };
     match opened {
         Ok(g) => Ok((Some(g), None)),

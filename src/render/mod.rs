@@ -242,7 +242,7 @@ fn render_image_prepared(
     let mut multiple_seconds = None;
     // The fast mode's lattice swept on the GPU (for its times).
     let mut sweeps = None;
-    let (mut gpu, mut device_note) = choose_device(plan, &scene)?;
+    let (mut gpu, mut device_note) = choose_device(plan, &scene, &mut st.scene)?;
     // The integrator of the plan's scattering mode.
     let (frame, render_seconds, deep_image) = match plan.transport.mode {
         ScatteringMode::Single => {
