@@ -11,16 +11,12 @@
 use super::GpuTimes;
 use super::context::{GRID_WGSL, Gpu, MARCH_WGSL, Resident};
 use super::grid_parts::GridBinding;
-use super::pixels::{Pick, Placed, assemble, pick_chunks, put_ray};
-use super::readback::catching_errors;
-use super::stream;
+use super::pixels::{Pick, Placed, Through, assemble, mean_of_samples, put_ray, stream_picks};
 use super::upload::{self, SAMPLE_FLOATS};
 use crate::field::Field;
-use crate::integrate::integrator::Integrator;
-use crate::integrate::pass::PassKind;
 use crate::integrate::path::PathTracer;
 use crate::integrate::phase::{HenyeyGreenstein, PhaseFunction};
-use crate::render::pixels::{PixelJob, PixelPasses, finish_pixel};
+use crate::render::pixels::{PixelJob, PixelPasses};
 use crate::scene::Scene;
 use crate::scene::lights::LightShadow;
 use glam::DVec3;
@@ -187,10 +183,7 @@ struct PathBatch {
 }
 
 /// Traces `picks` on the GPU: each pixel's values, the mean of its samples as the CPU's
-/// pixel loop takes it, and the density samples the paths took. The pixels stream
-/// through the GPU in chunks of about [`stream::CHUNK_SAMPLES`] samples: each chunk's
-/// samples are made while the GPU traces the chunk before, and recorded while it traces
-/// the chunk after.
+/// pixel loop takes it, and the density samples the paths took.
 fn trace_picks(
     gpu: &Gpu,
     scene: &Resident,
@@ -199,35 +192,24 @@ fn trace_picks(
     picks: &[Pick],
     times: &mut GpuTimes,
 ) -> Result<(Vec<f32>, u64), String> {
-    let stride = job.integrator.passes().slots();
     let frame = job.camera.frame();
-    let fit = stream::chunk_samples(gpu, PATH_SAMPLE_FLOATS, batch.stride);
-    let (chunks, per_chunk, max_samples) = pick_chunks(job, picks, fit);
-    let shape = stream::Shape {
+    let pipeline = path_pipeline(gpu, scene.features.grid)?;
+    let through = Through {
+        gpu,
+        scene,
+        pipeline: &pipeline,
         in_floats: PATH_SAMPLE_FLOATS,
         out_floats: batch.stride,
-        max_samples,
+        uniforms: &[&batch.params],
     };
-    let mut values = vec![0f32; picks.len() * stride];
-    let mut samples = 0u64;
-    let pipeline = path_pipeline(gpu, scene.features.grid)?;
-    catching_errors(&gpu.device, &gpu.name, "", || {
-        stream::stream(
-            gpu,
-            scene,
-            &pipeline,
-            shape,
-            &[&batch.params],
-            chunks.len(),
-            |k, input| make_paths(job, &frame, chunks[k], input),
-            |k, made, results| {
-                let px = &mut values[k * per_chunk * stride..][..chunks[k].len() * stride];
-                samples += record_paths(job, batch, &made, results, px);
-            },
-            times,
-        )
-    })?;
-    Ok((values, samples))
+    stream_picks(
+        &through,
+        job,
+        picks,
+        |chunk, input| make_paths(job, &frame, chunk, input),
+        |made, results, px| record_paths(job, batch, made, results, px),
+        times,
+    )
 }
 
 /// What recording a chunk's paths needs of its samples besides their results: where
@@ -283,53 +265,40 @@ fn record_paths(
     results: &[f32],
     values: &mut [f32],
 ) -> u64 {
-    let integrator = job.integrator;
-    let layout = integrator.passes();
-    let stride = layout.slots();
-    let alpha_at = layout.offset_of_kind(PassKind::Alpha);
-    let depth_at = layout.offset_of_kind(PassKind::Depth);
-    let parts = integrator.parts();
+    let parts = job.integrator.parts();
     let (passes, sigma_t) = (parts.passes, parts.sigma_t);
     let rs = batch.stride;
     let Made { starts, extra } = made;
-    values
-        .par_chunks_mut(stride)
-        .enumerate()
-        // Each thread's sums, cleared for each pixel (not made anew for each).
-        .map_init(
-            || vec![0f64; stride],
-            |acc, (k, px)| {
-                acc.fill(0.0);
-                let mut n_samples = 0u64;
-                for i in starts[k]..starts[k + 1] {
-                    let r = &results[i * rs..][..rs];
-                    let (depth_rate, weight) = extra[i];
-                    if let Some(w) = weight {
-                        let depth = r[0] as f64;
-                        let alpha = (DVec3::ONE - (-sigma_t * depth).exp()).element_sum() / 3.0;
-                        passes.add_alpha(acc, alpha.clamp(0.0, 1.0) * w);
-                        if r[1] >= 0.0 {
-                            passes.add_depth(acc, r[1] as f64 * depth_rate);
-                        }
-                    }
-                    n_samples += r[2] as u64;
-                    let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
-                    if parts.emits {
-                        passes.add_emission(acc, v(4));
-                        passes.add_scattered_emission(acc, 1, v(8));
-                        passes.add_scattered_emission(acc, 2, v(12));
-                    }
-                    for l in 0..batch.layers {
-                        let at = PATH_RESULT_BASE + 8 * l;
-                        passes.add_scattered(acc, l, 1, v(at));
-                        passes.add_scattered(acc, l, 2, v(at + 4));
-                    }
+    mean_of_samples(
+        job,
+        starts,
+        values,
+        || (),
+        |acc, _, i| {
+            let r = &results[i * rs..][..rs];
+            let (depth_rate, weight) = extra[i];
+            if let Some(w) = weight {
+                let depth = r[0] as f64;
+                let alpha = (DVec3::ONE - (-sigma_t * depth).exp()).element_sum() / 3.0;
+                passes.add_alpha(acc, alpha.clamp(0.0, 1.0) * w);
+                if r[1] >= 0.0 {
+                    passes.add_depth(acc, r[1] as f64 * depth_rate);
                 }
-                finish_pixel(px, acc, starts[k + 1] - starts[k], alpha_at, depth_at);
-                n_samples
-            },
-        )
-        .sum()
+            }
+            let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
+            if parts.emits {
+                passes.add_emission(acc, v(4));
+                passes.add_scattered_emission(acc, 1, v(8));
+                passes.add_scattered_emission(acc, 2, v(12));
+            }
+            for l in 0..batch.layers {
+                let at = PATH_RESULT_BASE + 8 * l;
+                passes.add_scattered(acc, l, 1, v(at));
+                passes.add_scattered(acc, l, 2, v(at + 4));
+            }
+            r[2] as u64
+        },
+    )
 }
 
 /// Appends to `meta` how the phase function is sampled where it is a table (water

@@ -175,10 +175,6 @@ fn record_results(
     values: &mut [f32],
 ) -> u64 {
     let integrator = job.integrator;
-    let layout = integrator.passes();
-    let stride = layout.slots();
-    let alpha_at = layout.offset_of_kind(PassKind::Alpha);
-    let depth_at = layout.offset_of_kind(PassKind::Depth);
     let ground = integrator.ground();
     let lights = (rs - RESULT_BASE - if ground.is_some() { GROUND_FLOATS } else { 0 }) / 4;
     let Made {
@@ -186,39 +182,64 @@ fn record_results(
         depth_rates,
         hits,
     } = made;
+    mean_of_samples(
+        job,
+        starts,
+        values,
+        || vec![DVec3::ZERO; lights],
+        |acc, per_light, i| {
+            let r = &results[i * rs..][..rs];
+            let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
+            for (l, pl) in per_light.iter_mut().enumerate() {
+                *pl = v(RESULT_BASE + 4 * l);
+            }
+            let hit = ground.zip(hits[i]).map(|(g, (t, _))| {
+                let at = RESULT_BASE + 4 * lights;
+                let (open, through) = (v(at), v(at + 4));
+                (g, t, GroundLight::through(open, through))
+            });
+            let ray = RayResult {
+                transmittance: v(4),
+                optical_depth: if r[3] != 0.0 { DVec3::INFINITY } else { v(0) },
+                emission: v(RESULT_EMISSION),
+                scatter: per_light.iter().sum(),
+                half_opacity_t: (r[7] >= 0.0).then_some(r[7] as f64),
+                samples: r[8] as u64,
+            };
+            integrator.record(&ray, hit, per_light, v(9), depth_rates[i], acc);
+            ray.samples
+        },
+    )
+}
+
+/// Each pixel's values (`values`, the job's pass slots each) as the mean of its samples
+/// (pixel k's are `starts[k]..starts[k + 1]`), on all threads: `add(sums, scratch, i)`
+/// adds sample i into the pixel's sums (cleared for each pixel) and returns the density
+/// samples it took; `scratch` makes each thread's scratch space. Returns their total.
+pub(super) fn mean_of_samples<I: Integrator, T>(
+    job: &PixelJob<I>,
+    starts: &[usize],
+    values: &mut [f32],
+    scratch: impl Fn() -> T + Sync + Send,
+    add: impl Fn(&mut [f64], &mut T, usize) -> u64 + Sync + Send,
+) -> u64 {
+    let layout = job.integrator.passes();
+    let stride = layout.slots();
+    let alpha_at = layout.offset_of_kind(PassKind::Alpha);
+    let depth_at = layout.offset_of_kind(PassKind::Depth);
     values
         .par_chunks_mut(stride)
         .enumerate()
         // Each thread's sums, cleared for each pixel (not made anew for each).
         .map_init(
-            || (vec![0f64; stride], vec![DVec3::ZERO; lights]),
-            |(acc, per_light), (k, px)| {
+            || (vec![0f64; stride], scratch()),
+            |(acc, scratch), (k, px)| {
                 acc.fill(0.0);
-                let mut n_samples = 0u64;
-                for i in starts[k]..starts[k + 1] {
-                    let r = &results[i * rs..][..rs];
-                    let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
-                    for (l, pl) in per_light.iter_mut().enumerate() {
-                        *pl = v(RESULT_BASE + 4 * l);
-                    }
-                    let hit = ground.zip(hits[i]).map(|(g, (t, _))| {
-                        let at = RESULT_BASE + 4 * lights;
-                        let (open, through) = (v(at), v(at + 4));
-                        (g, t, GroundLight::through(open, through))
-                    });
-                    let ray = RayResult {
-                        transmittance: v(4),
-                        optical_depth: if r[3] != 0.0 { DVec3::INFINITY } else { v(0) },
-                        emission: v(RESULT_EMISSION),
-                        scatter: per_light.iter().sum(),
-                        half_opacity_t: (r[7] >= 0.0).then_some(r[7] as f64),
-                        samples: r[8] as u64,
-                    };
-                    n_samples += ray.samples;
-                    integrator.record(&ray, hit, per_light, v(9), depth_rates[i], acc);
-                }
+                let samples: u64 = (starts[k]..starts[k + 1])
+                    .map(|i| add(acc, scratch, i))
+                    .sum();
                 finish_pixel(px, acc, starts[k + 1] - starts[k], alpha_at, depth_at);
-                n_samples
+                samples
             },
         )
         .sum()
@@ -227,7 +248,7 @@ fn record_results(
 /// The picks of a stream's chunks ([`super::stream`]): as many whole pixels as fit
 /// `max_samples` (each pixel of one pass takes as many samples as the first), how many
 /// that is, and the most samples a chunk holds.
-pub(super) fn pick_chunks<'p, I: Integrator>(
+fn pick_chunks<'p, I: Integrator>(
     job: &PixelJob<I>,
     picks: &'p [Pick],
     max_samples: usize,
@@ -247,9 +268,7 @@ pub(super) fn pick_chunks<'p, I: Integrator>(
 
 /// Renders `picks` on the GPU: each pixel's `stride` values, the mean of its samples as
 /// [`crate::render::pixels::render_pixels`] takes it. Returns them and the march
-/// samples the rays took. The picks stream through the GPU in chunks: each chunk's
-/// rays are made while the GPU marches the chunk before, and recorded while it marches
-/// the chunk after.
+/// samples the rays took.
 fn render_picks(
     gpu: &Gpu,
     scene: &Resident,
@@ -257,31 +276,74 @@ fn render_picks(
     picks: &[Pick],
     times: &mut GpuTimes,
 ) -> Result<(Vec<f32>, u64), String> {
-    let stride = job.integrator.passes().slots();
     let frame = job.camera.frame();
     let rs = scene.stride as usize;
-    let fit = stream::chunk_samples(gpu, SAMPLE_FLOATS, rs);
-    let (chunks, per_chunk, max_samples) = pick_chunks(job, picks, fit);
-    let shape = stream::Shape {
+    let pipeline = gpu.march_pipeline(scene.features)?;
+    let through = Through {
+        gpu,
+        scene,
+        pipeline: &pipeline,
         in_floats: SAMPLE_FLOATS,
         out_floats: rs,
+        uniforms: &[],
+    };
+    stream_picks(
+        &through,
+        job,
+        picks,
+        |chunk, input| make_rays(job, &frame, chunk, input),
+        |made, results, px| record_results(job, made, results, rs, px),
+        times,
+    )
+}
+
+/// Where [`stream_picks`] sends the samples: the pipeline run over them, the scene it
+/// reads, the floats a sample takes in and gives back, and the pipeline's own uniforms.
+pub(super) struct Through<'a> {
+    pub gpu: &'a Gpu,
+    pub scene: &'a Resident,
+    pub pipeline: &'a wgpu::ComputePipeline,
+    pub in_floats: usize,
+    pub out_floats: usize,
+    pub uniforms: &'a [&'a [u32]],
+}
+
+/// Runs `picks` through the GPU (`through`), streamed in chunks ([`stream::stream`]):
+/// each chunk's samples are made by `make` while the GPU runs the chunk before, and
+/// its pixels' values written by `record` (from what `make` kept and the results)
+/// while the GPU runs the chunk after. Returns each pixel's values (the job's pass
+/// slots each) and the density samples `record` counted.
+pub(super) fn stream_picks<I: Integrator, M>(
+    through: &Through,
+    job: &PixelJob<I>,
+    picks: &[Pick],
+    make: impl Fn(&[Pick], &mut Vec<f32>) -> M,
+    record: impl Fn(&M, &[f32], &mut [f32]) -> u64,
+    times: &mut GpuTimes,
+) -> Result<(Vec<f32>, u64), String> {
+    let Through { gpu, scene, .. } = *through;
+    let stride = job.integrator.passes().slots();
+    let fit = stream::chunk_samples(gpu, through.in_floats, through.out_floats);
+    let (chunks, per_chunk, max_samples) = pick_chunks(job, picks, fit);
+    let shape = stream::Shape {
+        in_floats: through.in_floats,
+        out_floats: through.out_floats,
         max_samples,
     };
     let mut values = vec![0f32; picks.len() * stride];
     let mut samples = 0u64;
-    let pipeline = gpu.march_pipeline(scene.features)?;
     catching_errors(&gpu.device, &gpu.name, "", || {
         stream::stream(
             gpu,
             scene,
-            &pipeline,
+            through.pipeline,
             shape,
-            &[],
+            through.uniforms,
             chunks.len(),
-            |k, input| make_rays(job, &frame, chunks[k], input),
+            |k, input| make(chunks[k], input),
             |k, made, results| {
                 let px = &mut values[k * per_chunk * stride..][..chunks[k].len() * stride];
-                samples += record_results(job, &made, results, rs, px);
+                samples += record(&made, results, px);
             },
             times,
         )
