@@ -44,9 +44,19 @@ pub fn extend_on_all_threads<T: Copy + Send + Sync>(store: &mut Vec<T>, parts: &
     unsafe { store.set_len(len + total) };
 }
 
+/// `parts` one after another in a new array, sized once and copied on all threads in
+/// pieces of at most `piece` elements ([`extend_on_all_threads`]), however few and
+/// large the parts.
+pub fn concat_on_all_threads<T: Copy + Send + Sync>(parts: &[&[T]], piece: usize) -> Vec<T> {
+    let pieces: Vec<&[T]> = parts.iter().flat_map(|p| p.chunks(piece.max(1))).collect();
+    let mut out = Vec::new();
+    extend_on_all_threads(&mut out, &pieces);
+    out
+}
+
 #[cfg(test)]
 mod tests {
-    use super::extend_on_all_threads;
+    use super::{concat_on_all_threads, extend_on_all_threads};
 
     #[test]
     fn parts_copied_on_all_threads_are_the_parts_in_order() {
@@ -67,5 +77,10 @@ mod tests {
         extend_on_all_threads(&mut store, &[]);
         expected.extend([5, 6]);
         assert_eq!(store, expected);
+        // Parts cut into pieces of 7 (some parts shorter, one empty) join as they were.
+        assert_eq!(
+            concat_on_all_threads(&slices[..40], 7),
+            expected[3..3 + slices[..40].iter().map(|p| p.len()).sum::<usize>()]
+        );
     }
 }

@@ -93,12 +93,9 @@ impl PassTimer {
             },
         )
         .ok()?;
-        let ticks = stamps[1].checked_sub(stamps[0])?;
-        Some(ticks as f64 * queue.get_timestamp_period() as f64 * 1e-9)
+        elapsed(stamps, queue)
     }
-}
 
-impl PassTimer {
     /// The buffer the timestamps are read from, for a caller that maps it with its own
     /// results (then [`PassTimer::mapped_seconds`]).
     pub fn read_slice(&self) -> wgpu::BufferSlice<'_> {
@@ -114,9 +111,14 @@ impl PassTimer {
             [words[0], words[1]]
         };
         self.read.unmap();
-        let ticks = stamps[1].checked_sub(stamps[0])?;
-        Some(ticks as f64 * queue.get_timestamp_period() as f64 * 1e-9)
+        elapsed(stamps, queue)
     }
+}
+
+/// Seconds between two timestamps of `queue`'s, where the second is not before the first.
+fn elapsed(stamps: [u64; 2], queue: &wgpu::Queue) -> Option<f64> {
+    let ticks = stamps[1].checked_sub(stamps[0])?;
+    Some(ticks as f64 * queue.get_timestamp_period() as f64 * 1e-9)
 }
 
 /// The GPU's own seconds summed over passes run from several threads: nothing until a

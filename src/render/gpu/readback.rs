@@ -85,15 +85,11 @@ const COPY_PIECE: usize = 1 << 20;
 const OUT_PIECE: usize = 1 << 18;
 
 /// The first `n` values of mapped bytes, copied out on all threads
-/// ([`crate::mem::extend_on_all_threads`]): a 4K frame's results or a bake's batch of
+/// ([`crate::mem::concat_on_all_threads`]): a 4K frame's results or a bake's batch of
 /// column samples are tens to hundreds of megabytes.
 pub(super) fn values_of<T: bytemuck::Pod + Send + Sync>(bytes: &[u8], n: usize) -> Vec<T> {
     let from: &[T] = bytemuck::cast_slice(&bytes[..n * std::mem::size_of::<T>()]);
-    let per_part = (OUT_PIECE / std::mem::size_of::<T>().max(1)).max(1);
-    let parts: Vec<&[T]> = from.chunks(per_part).collect();
-    let mut out = Vec::new();
-    crate::mem::extend_on_all_threads(&mut out, &parts);
-    out
+    crate::mem::concat_on_all_threads(&[from], OUT_PIECE / std::mem::size_of::<T>().max(1))
 }
 
 /// A buffer for `usage` holding `contents` (zero-padded to at least 16 bytes), written

@@ -37,6 +37,13 @@ pub(super) struct Shape {
     pub max_samples: usize,
 }
 
+impl Shape {
+    /// Bytes of the results of `count` samples.
+    fn out_bytes(self, count: usize) -> u64 {
+        (count * self.out_floats * 4) as u64
+    }
+}
+
 /// The buffers one chunk in flight uses.
 struct Slot {
     params: wgpu::Buffer,
@@ -111,7 +118,7 @@ pub(super) fn stream<S>(
         // Mapped again once this chunk is done: its results to be read, its staging
         // buffer to be written with the chunk after next.
         let (tx, mapped) = channel();
-        let out_bytes = (count * shape.out_floats * 4) as u64;
+        let out_bytes = shape.out_bytes(count);
         let mut maps = 0;
         for (buffer, mode) in [
             (slot.staging.slice(..), wgpu::MapMode::Write),
@@ -225,7 +232,7 @@ fn submit(
     count: usize,
 ) -> Result<wgpu::SubmissionIndex, String> {
     let in_bytes = std::mem::size_of_val(samples) as u64;
-    let out_bytes = (count * shape.out_floats * 4) as u64;
+    let out_bytes = shape.out_bytes(count);
     {
         let mut view = slot
             .staging
@@ -292,7 +299,7 @@ fn finish<S>(
         mapped.map_err(|e| failed(&e))?;
     }
     scene.waited.add(Some(clock.elapsed().as_secs_f64()));
-    let out_bytes = (f.count * shape.out_floats * 4) as u64;
+    let out_bytes = shape.out_bytes(f.count);
     let took = {
         let view = slot
             .readback

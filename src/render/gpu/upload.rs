@@ -214,8 +214,8 @@ pub struct GridArrays {
 /// arrays are over a hundred megabytes.
 const LAYOUT_PIECE: usize = 1 << 16;
 
-/// `parts` one after another in a new array, sized once and copied in pieces on all
-/// threads ([`crate::mem::extend_on_all_threads`]); and where each part begins.
+/// `parts` one after another in a new array, copied on all threads
+/// ([`crate::mem::concat_on_all_threads`]); and where each part begins.
 fn joined<T: Copy + Send + Sync, const N: usize>(parts: [&[T]; N]) -> (Vec<T>, [usize; N]) {
     let mut starts = [0; N];
     let mut at = 0;
@@ -223,10 +223,10 @@ fn joined<T: Copy + Send + Sync, const N: usize>(parts: [&[T]; N]) -> (Vec<T>, [
         *start = at;
         at += part.len();
     }
-    let pieces: Vec<&[T]> = parts.iter().flat_map(|p| p.chunks(LAYOUT_PIECE)).collect();
-    let mut out = Vec::new();
-    crate::mem::extend_on_all_threads(&mut out, &pieces);
-    (out, starts)
+    (
+        crate::mem::concat_on_all_threads(&parts, LAYOUT_PIECE),
+        starts,
+    )
 }
 
 /// Lays the grid's nodes out.
