@@ -167,34 +167,75 @@ pub fn reconstruct(
     lateral: [LateralBlend; 2],
 ) -> f64 {
     let base = cell[0] + m * (cell[1] + m * cell[2]);
-    let dz = m * m;
-    let (z0, zs0, z1, zs1) = hermite(f.z);
-    // Slope per unit of f along the column: density × world length of one sample step.
-    let step = h * unit;
-    let column = |d: usize| -> [f64; 4] {
-        let (a, b) = (base + d, base + d + dz);
+    let depth = DepthBlend::new(f.z, h, unit);
+    let column = |d: usize| depth.column(samples, base + d, m * m);
+    blend_across(
+        [column(0), column(1), column(m), column(m + 1)],
+        f.x,
+        f.y,
+        lateral,
+    )
+}
+
+/// The blend along one column of a cell at place `t` ∈ [0, 1] in depth, for
+/// [`reconstruct`]: τ cubic Hermite (τ and ρ at both ends), the lateral slopes and twist
+/// linear, each scaled for the blend across.
+#[derive(Clone, Copy)]
+pub struct DepthBlend {
+    hermite: (f64, f64, f64, f64),
+    t: f64,
+    h: f64,
+    /// Slope per unit of t along the column: density × world length of one sample step.
+    step: f64,
+}
+
+impl DepthBlend {
+    #[inline]
+    pub fn new(t: f64, h: f64, unit: f64) -> Self {
+        DepthBlend {
+            hermite: hermite(t),
+            t,
+            h,
+            step: h * unit,
+        }
+    }
+
+    /// The column whose top sample is `a` (its bottom `a + dz`): τ there, and the lateral
+    /// slopes and twist times the sample spacing.
+    #[inline]
+    pub fn column(&self, samples: &impl Samples, a: usize, dz: usize) -> [f64; 4] {
+        let (z0, zs0, z1, zs1) = self.hermite;
+        let (h, b) = (self.h, a + dz);
         let v = |q: usize, k: usize| samples.get(q, k);
-        let lin = |q: usize| v(q, a) + (v(q, b) - v(q, a)) * f.z;
+        let lin = |q: usize| v(q, a) + (v(q, b) - v(q, a)) * self.t;
         [
-            z0 * v(0, a) + z1 * v(0, b) + step * (zs0 * v(1, a) + zs1 * v(1, b)),
+            z0 * v(0, a) + z1 * v(0, b) + self.step * (zs0 * v(1, a) + zs1 * v(1, b)),
             h * lin(2),
             h * lin(3),
             h * h * lin(4),
         ]
-    };
+    }
+}
+
+/// The blend across a cell of its four columns' [`DepthBlend::column`]s (x low y low,
+/// x high y low, x low y high, x high y high) at `(fx, fy)`: bicubic Hermite, or linear
+/// along an axis where `lateral` says so.
+#[inline]
+pub fn blend_across(columns: [[f64; 4]; 4], fx: f64, fy: f64, lateral: [LateralBlend; 2]) -> f64 {
     let weights = |blend: LateralBlend, t: f64| match blend {
         LateralBlend::Hermite => hermite(t),
         LateralBlend::Linear => (1.0 - t, 0.0, t, 0.0),
     };
-    let (x0, xs0, x1, xs1) = weights(lateral[0], f.x);
-    let (y0, ys0, y1, ys1) = weights(lateral[1], f.y);
+    let (x0, xs0, x1, xs1) = weights(lateral[0], fx);
+    let (y0, ys0, y1, ys1) = weights(lateral[1], fy);
     let corner = |c: [f64; 4], (wx, wsx): (f64, f64), (wy, wsy): (f64, f64)| {
         c[0] * wx * wy + c[1] * wsx * wy + c[2] * wx * wsy + c[3] * wsx * wsy
     };
-    corner(column(0), (x0, xs0), (y0, ys0))
-        + corner(column(1), (x1, xs1), (y0, ys0))
-        + corner(column(m), (x0, xs0), (y1, ys1))
-        + corner(column(m + 1), (x1, xs1), (y1, ys1))
+    let [c00, c10, c01, c11] = columns;
+    corner(c00, (x0, xs0), (y0, ys0))
+        + corner(c10, (x1, xs1), (y0, ys0))
+        + corner(c01, (x0, xs0), (y1, ys1))
+        + corner(c11, (x1, xs1), (y1, ys1))
 }
 
 /// How a brick holds its values.

@@ -56,6 +56,9 @@ fn sample_points<'j, I: Integrator>(
 pub(super) struct Placed {
     points: Vec<(f64, f64, u32)>,
     pub starts: Vec<usize>,
+    /// The samples each pick takes, where all take as many (as within one pass): a
+    /// sample's pick is then found by a division, not a search of `starts`.
+    per_pick: Option<usize>,
 }
 
 impl Placed {
@@ -67,11 +70,18 @@ impl Placed {
             total += sample_count(job, p) as usize;
         }
         starts.push(total);
+        let first = picks.first().map(|&p| sample_count(job, p) as usize);
+        let per_pick =
+            first.filter(|&n| n > 0 && picks.iter().all(|&p| sample_count(job, p) as usize == n));
         let points = picks
             .par_iter()
             .flat_map_iter(|&p| sample_points(job, p))
             .collect();
-        Placed { points, starts }
+        Placed {
+            points,
+            starts,
+            per_pick,
+        }
     }
 
     /// The samples in all.
@@ -87,7 +97,10 @@ impl Placed {
         picks: &[Pick],
         i: usize,
     ) -> (Pick, CameraSample, SampleRng) {
-        let k = self.starts.partition_point(|&s| s <= i) - 1;
+        let k = match self.per_pick {
+            Some(n) => i / n,
+            None => self.starts.partition_point(|&s| s <= i) - 1,
+        };
         let (p, (jx, jy, stream)) = (picks[k], self.points[i]);
         let sample = job.camera_sample(frame, p.x, p.y, jx, jy, None);
         let (sx, sy) = job.stream_pixel(p.x, p.y);
