@@ -282,10 +282,25 @@ pub(super) fn linear_scale(tau: &[f32]) -> (f32, f32) {
     (lo, (hi - lo) / u16::MAX as f32)
 }
 
+/// `x.round().clamp(lo, hi)` (halves away from zero) as an integer, NaN as 0, for
+/// bounds within ±2²⁴: the same numbers without the call into `roundf` that `f32::round`
+/// is on x86-64's baseline instruction set (it has no rounding instruction before
+/// SSE4.1), which took most of a brick's packing.
+#[inline]
+pub(super) fn round_clamped(x: f32, lo: f32, hi: f32) -> i32 {
+    let v = x.clamp(lo, hi) as f64;
+    // |v| ≤ 2²⁴: v + ½ is exact in f64, and `as` truncates toward zero.
+    if v >= 0.0 {
+        (v + 0.5) as i32
+    } else {
+        -((0.5 - v) as i32)
+    }
+}
+
 #[inline]
 pub(super) fn quantise(t: f32, base: f32, step: f32) -> u16 {
     if step > 0.0 {
-        ((t - base) / step).round().clamp(0.0, u16::MAX as f32) as u16
+        round_clamped((t - base) / step, 0.0, u16::MAX as f32) as u16
     } else {
         0
     }
@@ -360,11 +375,8 @@ impl EncodedBrick {
                         1.0
                     }
                 });
-                let pack = |v: f32, scale: f32| {
-                    (v / scale)
-                        .round()
-                        .clamp(-(i16::MAX as f32), i16::MAX as f32) as i16
-                };
+                let limit = i16::MAX as f32;
+                let pack = |v: f32, scale: f32| round_clamped(v / scale, -limit, limit) as i16;
                 brick.hermite = (0..n)
                     .map(|k| PackedSample {
                         tau: planes[0][k],
@@ -388,5 +400,39 @@ impl EncodedBrick {
             BrickForm::Constant => brick.scales = [*samples.tau.first()?, 0.0, 0.0, 0.0],
         }
         Some(brick)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `round_clamped` is `f32::round` then `clamp` for the packers' bounds: over a
+    /// spread of every f32 bit pattern (both signs, subnormals, infinities, NaN) and the
+    /// halves where rounding turns.
+    #[test]
+    fn round_clamped_is_round_then_clamp() {
+        let halves = [
+            0.5,
+            1.5,
+            2.5,
+            0.499_999_97,
+            32_766.5,
+            32_767.5,
+            65_534.5,
+            65_535.5,
+            8_388_607.5,
+        ];
+        let spread = (0..u32::MAX / 61).map(|k| f32::from_bits(k * 61));
+        let values = halves.iter().flat_map(|&h: &f32| [h, -h]).chain(spread);
+        for x in values {
+            for (lo, hi) in [
+                (-(i16::MAX as f32), i16::MAX as f32),
+                (0.0, u16::MAX as f32),
+            ] {
+                let want = x.round().clamp(lo, hi) as i32;
+                assert_eq!(round_clamped(x, lo, hi), want, "{x:e} in [{lo}, {hi}]");
+            }
+        }
     }
 }
