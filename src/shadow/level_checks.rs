@@ -77,52 +77,57 @@ pub(super) fn coarse_error(
     };
     let rounding = worst;
     let steepest = sigmas.iter().copied().fold(0.0, f64::max);
-    for k in 0..m {
-        for j in 0..m {
-            for i in 0..m {
-                let at = i + m * (j + m * k);
-                // At voxel spacing and finer, only where there is density, and on the
-                // bottom face (points downstream of the brick read it): nothing else looks
-                // the map up. (Coarser samples could step over density: all count.)
-                if (i % 2 == 0 && j % 2 == 0 && k % 2 == 0)
-                    || (level_fine >= VOXEL_LEVEL && k + 1 < m && fine.rho[at] <= 0.0)
-                {
-                    continue;
-                }
-                let (c, f) = (
-                    [cell(i), cell(j), cell(k)],
-                    DVec3::new(frac(i), frac(j), frac(k)),
-                );
-                let got = match form {
-                    BrickForm::Linear => {
-                        let base = c[0] + mc * (c[1] + mc * c[2]);
-                        trilinear(|d| coarse.tau[base + d] as f64, mc, f)
-                    }
-                    _ => blend_across(
-                        [
-                            column(c[0], c[1], k),
-                            column(c[0] + 1, c[1], k),
-                            column(c[0], c[1] + 1, k),
-                            column(c[0] + 1, c[1] + 1, k),
-                        ],
-                        f.x,
-                        f.y,
-                        chart.lateral,
-                    ),
-                };
-                let exact = fine.tau[at] as f64;
-                // |e^{−σa} − e^{−σb}| ≤ σ·|a − b| where a, b ≥ 0: a sample that bound
-                // puts under the worst so far cannot raise it, and needs no exp.
-                if got.min(exact) >= 0.0 && steepest * (got - exact).abs() + rounding <= worst {
-                    continue;
-                }
-                for &s in sigmas {
-                    worst = worst.max(((-s * got).exp() - (-s * exact).exp()).abs() + rounding);
-                }
+    for ([i, j, k], at) in checked_samples(fine, level_fine) {
+        let (c, f) = (
+            [cell(i), cell(j), cell(k)],
+            DVec3::new(frac(i), frac(j), frac(k)),
+        );
+        let got = match form {
+            BrickForm::Linear => {
+                let base = c[0] + mc * (c[1] + mc * c[2]);
+                trilinear(|d| coarse.tau[base + d] as f64, mc, f)
             }
+            _ => blend_across(
+                [
+                    column(c[0], c[1], k),
+                    column(c[0] + 1, c[1], k),
+                    column(c[0], c[1] + 1, k),
+                    column(c[0] + 1, c[1] + 1, k),
+                ],
+                f.x,
+                f.y,
+                chart.lateral,
+            ),
+        };
+        let exact = fine.tau[at] as f64;
+        // |e^{−σa} − e^{−σb}| ≤ σ·|a − b| where a, b ≥ 0: a sample that bound
+        // puts under the worst so far cannot raise it, and needs no exp.
+        if got.min(exact) >= 0.0 && steepest * (got - exact).abs() + rounding <= worst {
+            continue;
+        }
+        for &s in sigmas {
+            worst = worst.max(((-s * got).exp() - (-s * exact).exp()).abs() + rounding);
         }
     }
     worst
+}
+
+/// The fine samples (level `level_fine`) the check compares, as their place `[i, j, k]`
+/// and index: not the coarse level's own samples and, at voxel spacing and finer, only
+/// where there is density or on the bottom face (points downstream of the brick read
+/// it): nothing else looks the map up. (Coarser samples could step over density: all
+/// count.)
+fn checked_samples(
+    fine: &BrickSamples,
+    level_fine: u8,
+) -> impl Iterator<Item = ([usize; 3], usize)> + '_ {
+    let m = side(level_fine);
+    let places = (0..m).flat_map(move |k| (0..m).flat_map(move |j| (0..m).map(move |i| [i, j, k])));
+    places.zip(0..).filter(move |&([i, j, k], at)| {
+        let coarse = i % 2 == 0 && j % 2 == 0 && k % 2 == 0;
+        let unread = level_fine >= VOXEL_LEVEL && k + 1 < m && fine.rho[at] <= 0.0;
+        !(coarse || unread)
+    })
 }
 
 /// The even-index samples of `fine`: the same brick one level coarser.
@@ -236,33 +241,23 @@ mod tests {
         chart: &Chart,
         sigmas: &[f64],
     ) -> f64 {
-        let (m, mc) = (side(level_fine), side(level_fine - 1));
+        let mc = side(level_fine - 1);
         let cell = |i: usize| (i / 2).min(mc - 2);
         let frac = |i: usize| (i as f64 - 2.0 * cell(i) as f64) / 2.0;
         let mut worst: f64 = 0.0;
-        for k in 0..m {
-            for j in 0..m {
-                for i in 0..m {
-                    let at = i + m * (j + m * k);
-                    if (i % 2 == 0 && j % 2 == 0 && k % 2 == 0)
-                        || (level_fine >= VOXEL_LEVEL && k + 1 < m && fine.rho[at] <= 0.0)
-                    {
-                        continue;
-                    }
-                    let got = reconstruct(
-                        &coarse.planes(),
-                        mc,
-                        [cell(i), cell(j), cell(k)],
-                        DVec3::new(frac(i), frac(j), frac(k)),
-                        spacing(level_fine - 1),
-                        chart.unit,
-                        chart.lateral,
-                    );
-                    for &s in sigmas {
-                        let exact = fine.tau[at] as f64;
-                        worst = worst.max(((-s * got).exp() - (-s * exact).exp()).abs());
-                    }
-                }
+        for ([i, j, k], at) in checked_samples(fine, level_fine) {
+            let got = reconstruct(
+                &coarse.planes(),
+                mc,
+                [cell(i), cell(j), cell(k)],
+                DVec3::new(frac(i), frac(j), frac(k)),
+                spacing(level_fine - 1),
+                chart.unit,
+                chart.lateral,
+            );
+            for &s in sigmas {
+                let exact = fine.tau[at] as f64;
+                worst = worst.max(((-s * got).exp() - (-s * exact).exp()).abs());
             }
         }
         worst
