@@ -262,6 +262,9 @@ fn submit(
     Ok(gpu.queue.submit([encoder.finish()]))
 }
 
+/// How long a finished chunk's mappings may take to be called back.
+const MAP_PATIENCE: std::time::Duration = std::time::Duration::from_secs(30);
+
 /// Waits for chunk `f` to finish, hands its results to `take` straight from their
 /// mapping, and leaves its slot's staging buffer mapped for the chunk after next.
 fn finish<S>(
@@ -282,12 +285,21 @@ fn finish<S>(
         })
         .map_err(|e| format!("{}: {e}", gpu.name))?;
     let failed = |e: &dyn std::fmt::Debug| format!("{}: reading the results back: {e:?}", gpu.name);
+    let done = Instant::now();
     for _ in 0..f.maps {
         // The submission is done; its mappings are called back by this wait, or (where
-        // another thread polls the device too) by that thread's poll.
+        // another thread polls the device too) by that thread's poll: a driver that
+        // never calls back fails the render instead of hanging it.
         let mapped = loop {
             match f.mapped.recv_timeout(std::time::Duration::from_millis(1)) {
                 Ok(r) => break r,
+                Err(RecvTimeoutError::Timeout) if done.elapsed() > MAP_PATIENCE => {
+                    return Err(format!(
+                        "{}: the results were not handed back {} s after the GPU finished",
+                        gpu.name,
+                        MAP_PATIENCE.as_secs()
+                    ));
+                }
                 Err(RecvTimeoutError::Timeout) => {
                     gpu.device
                         .poll(wgpu::PollType::Poll)
