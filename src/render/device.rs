@@ -266,6 +266,7 @@ fn render_frame_gpu(
     }
     st.scene.gpu_memory_bytes = times.resident_bytes;
     st.scene.gpu_upload_bytes = times.uploaded_bytes;
+    st.scene.gpu_stream_bytes = times.stream_bytes;
     st.scene.gpu_grid_parts = times.grid_parts;
     st.rays = passes.rays;
     st.samples = passes.samples;

@@ -411,15 +411,17 @@ fn render_image_prepared(
         .map(|s| s.to_string())
         .collect();
     let gpu_stages = std::mem::take(&mut st.scene.stages);
-    let (gpu_memory_bytes, gpu_upload_bytes, gpu_grid_parts) = (
+    let (gpu_memory_bytes, gpu_upload_bytes, gpu_stream_bytes, gpu_grid_parts) = (
         st.scene.gpu_memory_bytes,
         st.scene.gpu_upload_bytes,
+        st.scene.gpu_stream_bytes,
         st.scene.gpu_grid_parts,
     );
     st.scene = scene.report;
     st.scene.stages.extend(gpu_stages);
     st.scene.gpu_memory_bytes = gpu_memory_bytes;
     st.scene.gpu_upload_bytes = gpu_upload_bytes;
+    st.scene.gpu_stream_bytes = gpu_stream_bytes;
     st.scene.gpu_grid_parts = gpu_grid_parts;
     st.scene.notes.extend(device_note);
     report_bake(columns.as_deref(), &mut st.scene);

@@ -25,6 +25,15 @@ pub struct Camera {
     pub height: usize,
 }
 
+/// A camera's rays as affine maps of the pixel position ([`Camera::ray_affine`]).
+#[derive(Clone, Copy, Debug)]
+pub struct RayAffine {
+    pub origin: [DVec3; 3],
+    pub dir: [DVec3; 3],
+    /// Whether the direction is normalised (a pinhole's), else already unit length.
+    pub diverge: bool,
+}
+
 /// An orthonormal camera frame.
 #[derive(Clone, Copy, Debug)]
 pub struct CameraFrame {
@@ -85,6 +94,30 @@ impl Camera {
     /// The ray through the continuous pixel position (px, py) (pixel centres at +0.5,
     /// top row first): origin and unit direction.
     pub fn ray(&self, frame: &CameraFrame, px: f64, py: f64) -> (DVec3, DVec3) {
+        let (o, d) = self.ray_unnormalised(frame, px, py);
+        (
+            o,
+            if self.rays_diverge() {
+                d.normalize()
+            } else {
+                d
+            },
+        )
+    }
+
+    /// Whether rays leave one point (a pinhole: directions normalised), rather than run
+    /// parallel along the view axis.
+    fn rays_diverge(&self) -> bool {
+        match self.projection {
+            Projection::Perspective { .. } => true,
+            Projection::Orthographic { .. } => false,
+            Projection::Film(w) => !w.orthographic,
+        }
+    }
+
+    /// [`Camera::ray`]'s origin and direction before the direction is normalised: both
+    /// affine in (px, py).
+    fn ray_unnormalised(&self, frame: &CameraFrame, px: f64, py: f64) -> (DVec3, DVec3) {
         let sx = px / self.width as f64 * 2.0 - 1.0;
         let sy = 1.0 - py / self.height as f64 * 2.0;
         match self.projection {
@@ -92,7 +125,7 @@ impl Camera {
                 let t = (fov_deg.to_radians() * 0.5).tan();
                 let d =
                     frame.forward + frame.right * (sx * t) + frame.up * (sy * t * self.aspect());
-                (self.eye, d.normalize())
+                (self.eye, d)
             }
             Projection::Orthographic { width } => {
                 let half = width * 0.5;
@@ -106,10 +139,23 @@ impl Camera {
                 if w.orthographic {
                     (self.eye + frame.right * x + frame.up * y, frame.forward)
                 } else {
-                    let d = frame.forward + frame.right * x + frame.up * y;
-                    (self.eye, d.normalize())
+                    (self.eye, frame.forward + frame.right * x + frame.up * y)
                 }
             }
+        }
+    }
+
+    /// [`Camera::ray`] as affine maps of the pixel position, for a GPU to make the rays
+    /// from: the ray through (px, py) leaves `origin[0] + origin[1]·px + origin[2]·py`
+    /// along `dir[0] + dir[1]·px + dir[2]·py`, normalised where `diverge`.
+    pub fn ray_affine(&self, frame: &CameraFrame) -> RayAffine {
+        let (o0, d0) = self.ray_unnormalised(frame, 0.0, 0.0);
+        let (ox, dx) = self.ray_unnormalised(frame, 1.0, 0.0);
+        let (oy, dy) = self.ray_unnormalised(frame, 0.0, 1.0);
+        RayAffine {
+            origin: [o0, ox - o0, oy - o0],
+            dir: [d0, dx - d0, dy - d0],
+            diverge: self.rays_diverge(),
         }
     }
 
@@ -318,6 +364,53 @@ mod tests {
         // World → camera puts the target on −z at distance 5.
         let p = cam.world_to_camera().transform_point3(DVec3::ZERO);
         assert!((p - DVec3::new(0.0, 0.0, -5.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn the_affine_rays_are_the_cameras_rays_for_every_projection() {
+        let film = |orthographic| {
+            Projection::Film(Window {
+                orthographic,
+                left: -0.3,
+                right: 0.5,
+                bottom: -0.2,
+                top: 0.25,
+                near: 0.1,
+                far: 100.0,
+            })
+        };
+        for projection in [
+            Projection::Perspective { fov_deg: 40.0 },
+            Projection::Orthographic { width: 3.0 },
+            film(false),
+            film(true),
+        ] {
+            let cam = Camera {
+                projection,
+                eye: DVec3::new(0.4, 1.0, 18.0),
+                look_at: DVec3::new(0.0, -0.4, 0.0),
+                up: DVec3::Y,
+                width: 960,
+                height: 540,
+            };
+            let f = cam.frame();
+            let a = cam.ray_affine(&f);
+            let at = |m: [DVec3; 3], px: f64, py: f64| m[0] + m[1] * px + m[2] * py;
+            for (px, py) in [(0.0, 0.0), (959.5, 0.25), (480.5, 539.5), (13.7, 301.2)] {
+                let (o, d) = cam.ray(&f, px, py);
+                let d_affine = at(a.dir, px, py);
+                let d_affine = if a.diverge {
+                    d_affine.normalize()
+                } else {
+                    d_affine
+                };
+                assert!(
+                    (at(a.origin, px, py) - o).length() < 1e-12,
+                    "{projection:?}"
+                );
+                assert!((d_affine - d).length() < 1e-12, "{projection:?}");
+            }
+        }
     }
 
     #[test]

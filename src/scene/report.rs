@@ -66,6 +66,10 @@ pub struct SceneReport {
     /// Of those, the bytes this render uploaded: all of them, but in a sequence only
     /// those that differ from the frame before's (0: the frame before's were all kept).
     pub gpu_upload_bytes: u64,
+    /// With the march on a GPU: the bytes of the GPU's buffers the camera samples stream
+    /// through (the inputs and results of the two chunks in flight), besides
+    /// `gpu_memory_bytes`: they grow with the image up to a bound, not with the scene.
+    pub gpu_stream_bytes: u64,
     /// With the march on a GPU: the buffers the grids' node tables and their values
     /// went in, `[tables, values]` (1 each while they fit the adapter's largest binding,
     /// else up to 4 parts each); `[0, 0]` on the CPU.

@@ -37,7 +37,16 @@ fn the_gpus_buffers_are_at_most_one_and_a_half_times_the_cpus_density_and_maps()
         let o = options("16x9");
         let cpu = render(input, &o, Device::Cpu);
         assert_eq!(cpu.stats.scene.gpu_memory_bytes, 0, "{input}: on the CPU");
+        assert_eq!(cpu.stats.scene.gpu_stream_bytes, 0, "{input}: on the CPU");
         let s = render(input, &o, Device::Gpu).stats.scene;
+        // The samples' buffers, apart: two chunks of at most the frame's 144 centres
+        // (16 bytes in, 4 bytes a result float out) or its silhouette pixels' 4×4 each.
+        let most = 2 * 144 * 16 * (16 + 4 * 64);
+        assert!(
+            s.gpu_stream_bytes > 0 && s.gpu_stream_bytes <= most,
+            "{input}: {} bytes streamed through",
+            s.gpu_stream_bytes
+        );
         let held = s.density_memory_bytes + s.shadow_map_memory_bytes;
         let ratio = s.gpu_memory_bytes as f64 / held as f64;
         eprintln!(
@@ -49,4 +58,18 @@ fn the_gpus_buffers_are_at_most_one_and_a_half_times_the_cpus_density_and_maps()
             "{input}: the GPU holds {ratio:.3}× the CPU's"
         );
     }
+}
+
+#[test]
+fn the_gpu_makes_the_cpus_jittered_rays_in_an_overscanned_frame() {
+    need_gpu!();
+    // Rays made on the GPU from each sample's pixel: four jittered samples a pixel, and
+    // an overscan, whose pixels left of and above the image key their random streams by
+    // wrapped (negative) coordinates. Jitter drawn from other numbers than the CPU's
+    // moves a 4-sample pixel's mean by its noise, far past the tolerance.
+    let mut o = options("24x14");
+    o.spp = Some(4);
+    o.overscan = Some("3,2".into());
+    let (e, a) = gpu_matches_cpu("cloud.vdb", &o);
+    eprintln!("jittered, overscanned: radiance rel. RMSE {e:e}, alpha RMSE {a:e}");
 }

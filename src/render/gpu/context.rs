@@ -62,8 +62,9 @@ pub(super) type Pipelines = std::sync::Mutex<Vec<(GridBinding, wgpu::ComputePipe
 
 /// The march's sources after grid.wgsl and the arrays' accessors, in the order they are
 /// compiled (the path tracer's follow).
-pub(super) const MARCH_WGSL: [&str; 5] = [
+pub(super) const MARCH_WGSL: [&str; 6] = [
     include_str!("march.wgsl"),
+    include_str!("rays.wgsl"),
     include_str!("dsm.wgsl"),
     include_str!("lattice.wgsl"),
     include_str!("emission.wgsl"),

@@ -20,8 +20,8 @@ pub struct BindingRoom<'a> {
 /// The most buffers each array is cut into.
 pub const PARTS: usize = 4;
 /// Where the parts of `tree` and of `vals` are bound: the first where the whole is,
-/// the others after every binding a pipeline uses (the march 0–8, its uniforms from 9,
-/// the column march 9–12).
+/// the others after every binding a pipeline uses (the march 0–8 and its camera's 10,
+/// the path tracer's uniform 9, the column march 9–12).
 const TREE_BINDINGS: [u32; PARTS] = [1, 13, 14, 15];
 const VALS_BINDINGS: [u32; PARTS] = [2, 16, 17, 18];
 /// The largest part: 2^30 words (4 GiB), which four parts of cover every u32 index.

@@ -17,7 +17,9 @@ struct Sample {
 
 @group(0) @binding(3) var<storage, read> dsm0: array<u32>;
 @group(0) @binding(4) var<storage, read> meta_: array<f32>;
-@group(0) @binding(5) var<storage, read> samples: array<Sample>;
+// The samples' inputs: the march's, one vec4 a sample (rays.wgsl, camera_sample); the
+// path tracer's, two `Sample`s a sample (path.wgsl, sample_at).
+@group(0) @binding(5) var<storage, read> samples: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> results: array<f32>;
 @group(0) @binding(7) var<storage, read> dsm1: array<u32>;
 @group(0) @binding(8) var<storage, read> dsm2: array<u32>;
@@ -317,15 +319,16 @@ fn depth_to_light(l: u32, pw: vec3<f32>, pi: vec3<f32>) -> f32 {
 // Results of one sample at results[i * stride]: optical depth (rgb) and 1 where the
 // march terminated, transmittance (rgb) and the half-opacity t (−1: none), the density
 // samples taken and the multiply scattered radiance of all lights (rgb), the emitted
-// radiance (rgb) and 0, then per light its scattered radiance (rgb, every order) and 0;
-// then, where a ground plane is lit, the light it receives (ground_light).
+// radiance (rgb) and the ray's depth rate (camera depth per unit of t), then per light its
+// scattered radiance (rgb, every order) and 0; then, where a ground plane is lit, the
+// light it receives (ground_light).
 @compute @workgroup_size(64)
 fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x + id.y * 65535u * 64u;
     if (i >= P.n_samples) {
         return;
     }
-    let smp = samples[i];
+    let smp = camera_sample(i);
     let wo = smp.world_origin.xyz;
     let wd = smp.world_dir.xyz;
     let u = clamp(smp.world_origin.w, 0.0, 1.0);
@@ -498,6 +501,7 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     results[out + 12u] = emission.x;
     results[out + 13u] = emission.y;
     results[out + 14u] = emission.z;
+    results[out + 15u] = dot(wd, C.forward.xyz);
     for (var l = 0u; l < n_lights; l++) {
         let o = out + 16u + 4u * l;
         results[o] = per_light[l].x;

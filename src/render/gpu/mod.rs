@@ -132,7 +132,8 @@ pub struct GpuTimes {
     pub march: f64,
     /// Of `upload`: laying the grid's nodes and the maps out as flat arrays.
     pub layout: f64,
-    /// Of `march`: placing the samples and making their rays on the CPU. The samples
+    /// Of `march`: placing the samples on the CPU (each one's pixel and index, the GPU
+    /// making its ray; the path tracer's rays made here). The samples
     /// stream through the GPU in chunks (stream.rs), and the GPU's work on one chunk
     /// overlaps this stage's and `record`'s on its neighbours.
     pub rays: f64,
@@ -149,11 +150,14 @@ pub struct GpuTimes {
     /// `busy`, with the copies of samples and results between host and GPU) that the
     /// CPU's work on the chunks around it did not hide.
     pub wait: Option<f64>,
-    /// Bytes of the scene's buffers on the GPU (not the per-batch samples and results).
+    /// Bytes of the scene's buffers on the GPU (not the samples and results streamed).
     pub resident_bytes: usize,
     /// Of them, the bytes this frame uploaded: all of them, but in a sequence only those
     /// that differ from the frame before's (see [`KeptBuffers`]).
     pub uploaded_bytes: u64,
+    /// Bytes of the buffers on the GPU the samples stream through (stream.rs: the inputs
+    /// and results of the chunks in flight), the most any of the render's streams held.
+    pub stream_bytes: u64,
     /// The buffers the grids' node tables and their values went in: 1 each while they
     /// fit the adapter's largest binding, else up to 4 parts each.
     pub grid_parts: [usize; 2],

@@ -200,7 +200,7 @@ fn trace_picks(
         pipeline: &pipeline,
         in_floats: PATH_SAMPLE_FLOATS,
         out_floats: batch.stride,
-        uniforms: &[&batch.params],
+        uniforms: &[(9, &batch.params)],
     };
     stream_picks(
         &through,

@@ -5,9 +5,10 @@
 // light's deep shadow map, dsm.wgsl, or by ratio tracking), a uniform dome found by the
 // paths themselves, Henyey–Greenstein sampled exactly, Russian roulette from the third
 // event; the camera ray's exact opacity and depth on the samples the CPU computes them
-// on. Random numbers: SplitMix64 on pairs of u32 (WGSL has no u64), each flight's and
-// shadow ray's stream derived from the sample's key as the CPU's `SampleRng::stream`
-// derives it, so both draw the same numbers (the GPU keeps the top 24 bits of each).
+// on. Random numbers: SplitMix64 on pairs of u32 (WGSL has no u64; rays.wgsl), each
+// flight's and shadow ray's stream derived from the sample's key as the CPU's
+// `SampleRng::stream` derives it, so both draw the same numbers (the GPU keeps the top
+// 24 bits of each).
 // The tracking is in path_tracking.wgsl. Compiled after grid.wgsl, march.wgsl (its
 // bindings, the integral walk, clipping, the lights), dsm.wgsl and lattice.wgsl.
 
@@ -35,43 +36,6 @@ struct PathParams {
 };
 
 @group(0) @binding(9) var<uniform> Q: PathParams;
-
-// ---- SplitMix64 on (lo, hi) pairs of u32 ----
-
-fn add64(a: vec2<u32>, b: vec2<u32>) -> vec2<u32> {
-    let lo = a.x + b.x;
-    return vec2<u32>(lo, a.y + b.y + select(0u, 1u, lo < a.x));
-}
-
-// The full 64-bit product of two u32.
-fn mul32(a: u32, b: u32) -> vec2<u32> {
-    let a0 = a & 0xffffu;
-    let a1 = a >> 16u;
-    let b0 = b & 0xffffu;
-    let b1 = b >> 16u;
-    let p00 = a0 * b0;
-    let p01 = a0 * b1;
-    let p10 = a1 * b0;
-    let mid = (p00 >> 16u) + (p01 & 0xffffu) + (p10 & 0xffffu);
-    return vec2<u32>((p00 & 0xffffu) | (mid << 16u), a1 * b1 + (p01 >> 16u) + (p10 >> 16u) + (mid >> 16u));
-}
-
-// The low 64 bits of a · b.
-fn mul64(a: vec2<u32>, b: vec2<u32>) -> vec2<u32> {
-    let p = mul32(a.x, b.x);
-    return vec2<u32>(p.x, p.y + a.x * b.y + a.y * b.x);
-}
-
-// a >> n for 0 < n < 32.
-fn shr64(a: vec2<u32>, n: u32) -> vec2<u32> {
-    return vec2<u32>((a.x >> n) | (a.y << (32u - n)), a.y >> n);
-}
-
-fn mix64(z0: vec2<u32>) -> vec2<u32> {
-    var z = mul64(z0 ^ shr64(z0, 30u), vec2<u32>(0x1CE4E5B9u, 0xBF58476Du));
-    z = mul64(z ^ shr64(z, 27u), vec2<u32>(0x133111EBu, 0x94D049BBu));
-    return z ^ shr64(z, 31u);
-}
 
 // Stream `id` of the sample whose key is `key` (SampleRng::stream).
 fn stream(key: vec2<u32>, id: vec2<u32>) -> vec2<u32> {
@@ -297,14 +261,20 @@ fn event_stream(key: vec2<u32>, events: u32, lo: u32) -> vec2<u32> {
 // than once (rgb, 0). The samples: two `Sample`s each, the march's, then the key of its
 // random streams in four 16-bit parts (world_origin) and 1 where its opacity is
 // computed (world_dir.x).
+// The k-th `Sample` of the inputs.
+fn sample_at(k: u32) -> Sample {
+    let b = 4u * k;
+    return Sample(samples[b], samples[b + 1u], samples[b + 2u], samples[b + 3u]);
+}
+
 @compute @workgroup_size(64)
 fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x + id.y * 65535u * 64u;
     if (i >= P.n_samples) {
         return;
     }
-    let smp = samples[2u * i];
-    let extra = samples[2u * i + 1u];
+    let smp = sample_at(2u * i);
+    let extra = sample_at(2u * i + 1u);
     let kw = vec4<u32>(extra.world_origin);
     let key = vec2<u32>(kw.x | (kw.y << 16u), kw.z | (kw.w << 16u));
     let out = i * Q.stride;

@@ -1,7 +1,8 @@
 //! The pixel loop of [`crate::render::pixels`] with the march on the GPU: the same
 //! samples (centres, or `--spp` jittered ones, then the silhouette pixels again on the
-//! stratified grid), the same rays and jitter, generated here in f64; the GPU marches
-//! them in chunks streamed through it (stream.rs); each sample's result (with the fast
+//! stratified grid) and the same rays and jitter, made on the GPU from each sample's
+//! pixel (rays.wgsl) and marched there in chunks streamed through it (stream.rs); each
+//! sample's result (with the fast
 //! mode's multiply scattered part of it, `indirect`) is written into the pixel's passes
 //! by [`SingleScattering::record`], as the CPU's are, with the light the ground plane
 //! receives where the ray meets it.
@@ -10,7 +11,7 @@ use super::GpuTimes;
 use super::context::{Gpu, Resident};
 use super::readback::catching_errors;
 use super::stream;
-use super::upload::{GROUND_FLOATS, RESULT_BASE, RESULT_EMISSION, SAMPLE_FLOATS};
+use super::upload::{GROUND_FLOATS, RESULT_BASE, RESULT_EMISSION};
 use crate::field::{Field, IndexRay};
 use crate::integrate::RayResult;
 use crate::integrate::WorldRay;
@@ -19,7 +20,7 @@ use crate::integrate::integrator::{CameraSample, Integrator, SampleRng};
 use crate::integrate::pass::PassKind;
 use crate::integrate::single::SingleScattering;
 use crate::render::pixels::{EDGE_ALPHA, PixelJob, PixelPasses, finish_pixel};
-use crate::scene::camera::CameraFrame;
+use crate::scene::camera::{CameraFrame, Projection};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -122,57 +123,111 @@ pub(super) fn put_ray(out: &mut [f32], ray: &WorldRay, density: &dyn Field) {
     out[12..15].copy_from_slice(&put(index.dir));
 }
 
-/// What recording a chunk's results needs of its samples besides the results: where
-/// each pick's samples start, each sample's depth rate and where its ray meets the
-/// ground.
-struct Made {
-    starts: Vec<usize>,
-    depth_rates: Vec<f64>,
-    hits: Vec<Option<(f64, DVec3)>>,
+/// Floats of a march sample's input: its pixel's x and y, the holdout's depth there (−1:
+/// none), its index among the pixel's samples. The GPU makes its ray from them as
+/// SingleScattering's own sample makes it (rays.wgsl, `camera_sample`).
+pub(super) const PICK_FLOATS: usize = 4;
+
+/// The binding of the camera's rays (rays.wgsl's `CameraRays`).
+const CAMERA_BINDING: u32 = 10;
+
+/// The words of rays.wgsl's `CameraRays` for `job`'s camera seen in `frame`, and the
+/// samples of picks on a `grid`² stratified grid (0: the job's samples).
+fn camera_rays(job: &PixelJob<SingleScattering>, frame: &CameraFrame, grid: u32) -> Vec<u32> {
+    let integrator = job.integrator;
+    let tr = integrator.density().transform();
+    let rays = job.camera.ray_affine(frame);
+    let [o0, ox, oy] = rays.origin;
+    let index = [
+        tr.world_to_index(o0),
+        tr.world_dir_to_index(ox),
+        tr.world_dir_to_index(oy),
+    ];
+    let columns = [DVec3::X, DVec3::Y, DVec3::Z].map(|e| tr.world_dir_to_index(e));
+    let (clipped, near, far) = match job.camera.projection {
+        Projection::Film(w) => (1.0, w.near, w.far),
+        _ => (0.0, 0.0, f64::INFINITY),
+    };
+    let ground = integrator.ground();
+    let vec = |v: DVec3, w: f64| {
+        [v.x, v.y, v.z, w].map(|c| (c.clamp(-F32_MAX, F32_MAX) as f32).to_bits())
+    };
+    let mut words = Vec::with_capacity(64);
+    words.extend(vec(o0, if rays.diverge { 1.0 } else { 0.0 }));
+    words.extend(vec(ox, clipped));
+    words.extend(vec(oy, 0.0));
+    for d in rays.dir {
+        words.extend(vec(d, 0.0));
+    }
+    for v in index.into_iter().chain(columns) {
+        words.extend(vec(v, 0.0));
+    }
+    words.extend(vec(frame.forward, 0.0));
+    words.extend(vec(
+        DVec3::new(near, far, ground.map_or(0.0, |g| g.height)),
+        0.0,
+    ));
+    let wide = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
+    words.extend([
+        job.seed as u32,
+        (job.seed >> 32) as u32,
+        wide(job.overscan.0),
+        wide(job.overscan.1),
+    ]);
+    words.extend([
+        grid,
+        u32::from(job.spp == 1 || job.centred),
+        ground.map_or(0, |g| if g.visible { 2 } else { 1 }),
+        0,
+    ]);
+    words
 }
 
-/// Writes the samples of `picks` into `input` ([`SAMPLE_FLOATS`] each), their rays as
-/// SingleScattering's own sample makes them.
-fn make_rays(
+/// The largest finite f32, as f64.
+const F32_MAX: f64 = f32::MAX as f64;
+
+/// Writes the samples of `picks` into `input` ([`PICK_FLOATS`] each). Returns where each
+/// pick's samples start (the total last).
+fn make_picks(
     job: &PixelJob<SingleScattering>,
-    frame: &CameraFrame,
     picks: &[Pick],
     input: &mut Vec<f32>,
-) -> Made {
-    let integrator = job.integrator;
-    let density = integrator.density();
-    let placed = Placed::new(job, picks);
-    let total = placed.total();
-    input.resize(total * SAMPLE_FLOATS, 0.0);
-    let mut depth_rates = vec![0f64; total];
-    // Where each sample's ray meets the ground plane (seen before the ray's end), as
-    // SingleScattering's own sample finds it.
-    let ground = integrator.ground();
-    let mut hits: Vec<Option<(f64, DVec3)>> = vec![None; total];
-    input
-        .par_chunks_mut(SAMPLE_FLOATS)
-        .zip(depth_rates.par_iter_mut().zip(hits.par_iter_mut()))
-        .enumerate()
-        .for_each(|(i, (out, (rate, hit)))| {
-            let (_, sample, mut rng) = placed.sample(job, frame, picks, i);
-            let mut ray = sample.ray;
-            *hit = ground.and_then(|g| g.hit(ray.origin, ray.dir).filter(|(t, _)| *t <= ray.t_max));
-            if let (Some(g), Some((t, _))) = (ground, *hit)
-                && g.visible
-            {
-                // The opaque floor ends the ray.
-                ray.t_max = t;
-            }
-            put_ray(out, &ray, density);
-            out[3] = rng.uniform() as f32;
-            // The ground's distance, signed by the side of the plane the camera sees.
-            out[15] = hit.map_or(0.0, |(t, n)| (t * n.y) as f32);
-            *rate = sample.depth_rate;
-        });
-    Made {
-        starts: placed.starts,
-        depth_rates,
-        hits,
+) -> Vec<usize> {
+    let mut starts = Vec::with_capacity(picks.len() + 1);
+    let mut total = 0;
+    for &p in picks {
+        starts.push(total);
+        total += sample_count(job, p) as usize;
+    }
+    starts.push(total);
+    input.resize(total * PICK_FLOATS, 0.0);
+    // Each pick's floats, filled on all threads.
+    let mut rest = input.as_mut_slice();
+    let mut pieces = Vec::with_capacity(picks.len());
+    for k in 0..picks.len() {
+        let (piece, after) = rest.split_at_mut((starts[k + 1] - starts[k]) * PICK_FLOATS);
+        pieces.push(piece);
+        rest = after;
+    }
+    pieces.into_par_iter().zip(picks).for_each(|(piece, p)| {
+        let holdout = job
+            .holdout
+            .and_then(|h| h.get(p.y * job.camera.width + p.x))
+            .map_or(-1.0, |&d| holdout_input(d));
+        for (s, out) in piece.chunks_exact_mut(PICK_FLOATS).enumerate() {
+            out.copy_from_slice(&[p.x as f32, p.y as f32, holdout, s as f32]);
+        }
+    });
+    starts
+}
+
+/// A holdout's depth as the GPU takes it: −1 where it cuts nothing (NaN or +∞, past any
+/// ray's end), else the depth, at least 0 (a ray cut at a negative depth ends at 0).
+fn holdout_input(depth: f32) -> f32 {
+    if depth.is_nan() || depth == f32::INFINITY {
+        -1.0
+    } else {
+        depth.max(0.0)
     }
 }
 
@@ -182,7 +237,7 @@ fn make_rays(
 /// rays took.
 fn record_results(
     job: &PixelJob<SingleScattering>,
-    made: &Made,
+    starts: &[usize],
     results: &[f32],
     rs: usize,
     values: &mut [f32],
@@ -190,11 +245,6 @@ fn record_results(
     let integrator = job.integrator;
     let ground = integrator.ground();
     let lights = (rs - RESULT_BASE - if ground.is_some() { GROUND_FLOATS } else { 0 }) / 4;
-    let Made {
-        starts,
-        depth_rates,
-        hits,
-    } = made;
     mean_of_samples(
         job,
         starts,
@@ -206,10 +256,11 @@ fn record_results(
             for (l, pl) in per_light.iter_mut().enumerate() {
                 *pl = v(RESULT_BASE + 4 * l);
             }
-            let hit = ground.zip(hits[i]).map(|(g, (t, _))| {
-                let at = RESULT_BASE + 4 * lights;
+            // Where the ray met the ground (0: it did not).
+            let at = RESULT_BASE + 4 * lights;
+            let hit = ground.filter(|_| r[at + 3] > 0.0).map(|g| {
                 let (open, through) = (v(at), v(at + 4));
-                (g, t, GroundLight::through(open, through))
+                (g, r[at + 3] as f64, GroundLight::through(open, through))
             });
             let ray = RayResult {
                 transmittance: v(4),
@@ -219,7 +270,8 @@ fn record_results(
                 half_opacity_t: (r[7] >= 0.0).then_some(r[7] as f64),
                 samples: r[8] as u64,
             };
-            integrator.record(&ray, hit, per_light, v(9), depth_rates[i], acc);
+            let depth_rate = r[RESULT_EMISSION + 3] as f64;
+            integrator.record(&ray, hit, per_light, v(9), depth_rate, acc);
             ray.samples
         },
     )
@@ -290,22 +342,24 @@ fn render_picks(
     times: &mut GpuTimes,
 ) -> Result<(Vec<f32>, u64), String> {
     let frame = job.camera.frame();
+    // One pass's picks share their stratified grid.
+    let camera = camera_rays(job, &frame, picks.first().map_or(0, |p| p.grid));
     let rs = scene.stride as usize;
     let pipeline = gpu.march_pipeline(scene.features)?;
     let through = Through {
         gpu,
         scene,
         pipeline: &pipeline,
-        in_floats: SAMPLE_FLOATS,
+        in_floats: PICK_FLOATS,
         out_floats: rs,
-        uniforms: &[],
+        uniforms: &[(CAMERA_BINDING, &camera)],
     };
     stream_picks(
         &through,
         job,
         picks,
-        |chunk, input| make_rays(job, &frame, chunk, input),
-        |made, results, px| record_results(job, made, results, rs, px),
+        |chunk, input| make_picks(job, chunk, input),
+        |starts, results, px| record_results(job, starts, results, rs, px),
         times,
     )
 }
@@ -318,7 +372,8 @@ pub(super) struct Through<'a> {
     pub pipeline: &'a wgpu::ComputePipeline,
     pub in_floats: usize,
     pub out_floats: usize,
-    pub uniforms: &'a [&'a [u32]],
+    /// Each uniform's binding and words.
+    pub uniforms: &'a [(u32, &'a [u32])],
 }
 
 /// Runs `picks` through the GPU (`through`), streamed in chunks ([`stream::stream`]):

@@ -69,7 +69,7 @@ struct InFlight<S> {
 
 /// Runs `pipeline` over `chunks` chunks of samples through the uploaded `scene`, bound
 /// as the march binds it (the parameters with their `n_samples` at 0, the scene's
-/// buffers, the samples at 5, the results at 6, then `uniforms` from 9 on). `make(k,
+/// buffers, the samples at 5, the results at 6, then each of `uniforms` at its binding). `make(k,
 /// into)` writes chunk k's samples into `into` (empty; at most `shape.max_samples`) and
 /// returns what `take` needs of them besides their results; `take(k, kept, results)`
 /// gets that and the chunk's results (`shape.out_floats` a sample), in chunk order.
@@ -81,16 +81,16 @@ pub(super) fn stream<S>(
     scene: &Resident,
     pipeline: &wgpu::ComputePipeline,
     shape: Shape,
-    uniforms: &[&[u32]],
+    uniforms: &[(u32, &[u32])],
     chunks: usize,
     mut make: impl FnMut(usize, &mut Vec<f32>) -> S,
     mut take: impl FnMut(usize, S, &[f32]),
     times: &mut GpuTimes,
 ) -> Result<(), String> {
     let d = &gpu.device;
-    let uniforms: Vec<wgpu::Buffer> = uniforms
+    let uniforms: Vec<(u32, wgpu::Buffer)> = uniforms
         .iter()
-        .map(|w| uniform(d, "uniform", w, wgpu::BufferUsages::empty()))
+        .map(|&(k, w)| (k, uniform(d, "uniform", w, wgpu::BufferUsages::empty())))
         .collect();
     let mut slots: Vec<Slot> = Vec::with_capacity(2);
     let mut host: Vec<f32> = Vec::new();
@@ -153,6 +153,11 @@ pub(super) fn stream<S>(
     if let Some(last) = flight {
         finish(gpu, scene, &slots, shape, last, &mut take, times)?;
     }
+    let held: u64 = slots
+        .iter()
+        .map(|s| s.input.size() + s.results.size())
+        .sum();
+    times.stream_bytes = times.stream_bytes.max(held);
     Ok(())
 }
 
@@ -172,7 +177,7 @@ fn make_slot(
     scene: &Resident,
     pipeline: &wgpu::ComputePipeline,
     shape: Shape,
-    uniforms: &[wgpu::Buffer],
+    uniforms: &[(u32, wgpu::Buffer)],
 ) -> Slot {
     use wgpu::BufferUsages as U;
     let d = &gpu.device;
@@ -202,7 +207,7 @@ fn make_slot(
         entry(7, &scene.dsm[1]),
         entry(8, &scene.dsm[2]),
     ]);
-    entries.extend((9..).zip(uniforms).map(|(k, b)| entry(k, b)));
+    entries.extend(uniforms.iter().map(|(k, b)| entry(*k, b)));
     let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("samples"),
         layout: &pipeline.get_bind_group_layout(0),

@@ -82,7 +82,7 @@ fn light_depth(l: u32, pw: vec3<f32>, pi: vec3<f32>) -> f32 {
 // The ground plane where the camera ray r (world origin wo, direction wd) meets it at
 // |tg| (the sign: the side of the plane the camera is on, the normal's y): the
 // irradiance of the lights that light that side, without the volume and through it
-// (Ground::light_at), written at results[at..at + 8] (rgb, 0, rgb, 0).
+// (Ground::light_at), written at results[at..at + 8] (rgb, |tg|, rgb, 0).
 fn ground_light(wo: vec3<f32>, wd: vec3<f32>, r: Ray, tg: f32, at: u32) {
     var open = vec3<f32>(0.0);
     var through = vec3<f32>(0.0);
@@ -106,7 +106,7 @@ fn ground_light(wo: vec3<f32>, wd: vec3<f32>, r: Ray, tg: f32, at: u32) {
     results[at] = open.x;
     results[at + 1u] = open.y;
     results[at + 2u] = open.z;
-    results[at + 3u] = 0.0;
+    results[at + 3u] = abs(tg);
     results[at + 4u] = through.x;
     results[at + 5u] = through.y;
     results[at + 6u] = through.z;
