@@ -42,6 +42,19 @@ pub(super) fn sample_count<I: Integrator>(job: &PixelJob<I>, p: Pick) -> u32 {
     }
 }
 
+/// Where each of `picks`' samples start when they are laid one pick after another (the
+/// total last).
+fn sample_starts<I: Integrator>(job: &PixelJob<I>, picks: &[Pick]) -> Vec<usize> {
+    let mut starts = Vec::with_capacity(picks.len() + 1);
+    let mut total = 0;
+    for &p in picks {
+        starts.push(total);
+        total += sample_count(job, p) as usize;
+    }
+    starts.push(total);
+    starts
+}
+
 /// The samples of pixel `p`: their jitter inside the pixel and their stream.
 fn sample_points<'j, I: Integrator>(
     job: &'j PixelJob<'_, I>,
@@ -64,13 +77,7 @@ pub(super) struct Placed {
 
 impl Placed {
     pub fn new<I: Integrator>(job: &PixelJob<I>, picks: &[Pick]) -> Self {
-        let mut starts = Vec::with_capacity(picks.len() + 1);
-        let mut total = 0;
-        for &p in picks {
-            starts.push(total);
-            total += sample_count(job, p) as usize;
-        }
-        starts.push(total);
+        let starts = sample_starts(job, picks);
         let first = picks.first().map(|&p| sample_count(job, p) as usize);
         let per_pick =
             first.filter(|&n| n > 0 && picks.iter().all(|&p| sample_count(job, p) as usize == n));
@@ -193,13 +200,8 @@ fn make_picks(
     picks: &[Pick],
     input: &mut Vec<f32>,
 ) -> Vec<usize> {
-    let mut starts = Vec::with_capacity(picks.len() + 1);
-    let mut total = 0;
-    for &p in picks {
-        starts.push(total);
-        total += sample_count(job, p) as usize;
-    }
-    starts.push(total);
+    let starts = sample_starts(job, picks);
+    let total = starts.last().copied().unwrap_or(0);
     input.resize(total * PICK_FLOATS, 0.0);
     // Each pick's floats, filled on all threads.
     let mut rest = input.as_mut_slice();
