@@ -404,8 +404,10 @@ mod tests {
                 } else {
                     d_affine
                 };
+                // Within f64's rounding of an origin 18 units out, a thousand pixels
+                // across (the GPU takes them in f32, 1e-6 apart).
                 assert!(
-                    (at(a.origin, px, py) - o).length() < 1e-12,
+                    (at(a.origin, px, py) - o).length() < 1e-10,
                     "{projection:?}"
                 );
                 assert!((d_affine - d).length() < 1e-12, "{projection:?}");
