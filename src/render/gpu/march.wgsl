@@ -328,7 +328,7 @@ fn march_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     if (i >= P.n_samples) {
         return;
     }
-    let smp = camera_sample(i);
+    let smp = camera_sample(samples[i]);
     let wo = smp.world_origin.xyz;
     let wd = smp.world_dir.xyz;
     let u = clamp(smp.world_origin.w, 0.0, 1.0);

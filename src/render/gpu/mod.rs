@@ -23,6 +23,7 @@ mod grid_parts;
 mod grid_probe;
 mod grids;
 mod path;
+mod picks;
 mod pixels;
 mod readback;
 mod resident;
@@ -133,7 +134,7 @@ pub struct GpuTimes {
     /// Of `upload`: laying the grid's nodes and the maps out as flat arrays.
     pub layout: f64,
     /// Of `march`: placing the samples on the CPU (each one's pixel and index, the GPU
-    /// making its ray; the path tracer's rays made here). The samples
+    /// making its ray). The samples
     /// stream through the GPU in chunks (stream.rs), and the GPU's work on one chunk
     /// overlaps this stage's and `record`'s on its neighbours.
     pub rays: f64,

@@ -1,18 +1,22 @@
 //! `--scattering path` on the GPU: the CPU's path tracer (src/integrate/path.rs) as a
 //! compute shader (path.wgsl, path_tracking.wgsl), one invocation per camera sample,
 //! over the march's uploaded grid and shadow maps and the path tracer's majorant grid
-//! (its blocks' maxima and minima appended to `meta`). Each sample carries its random
-//! streams' key ([`crate::integrate::integrator::SampleRng::stream_key`]), so the GPU draws the CPU's numbers: where
-//! f32 and f64 agree on every decision a path is the CPU's path. The samples, their rays
-//! and the pixels' two passes are the single march's ([`super::pixels::assemble`]); each
+//! (its blocks' maxima and minima appended to `meta`). Each sample's ray and its random
+//! streams' key ([`crate::integrate::integrator::SampleRng::stream_key`]) are made on the
+//! GPU from its pixel, as the march's are (rays.wgsl), so the GPU draws the CPU's numbers:
+//! where f32 and f64 agree on every decision a path is the CPU's path. The samples and
+//! the pixels' two passes are the single march's ([`super::pixels::assemble`]); each
 //! sample's values are written into the pixel's passes on the CPU by the path tracer's
 //! own [`crate::integrate::scatter_passes::ScatterPasses`].
 
 use super::GpuTimes;
 use super::context::{GRID_WGSL, Gpu, MARCH_WGSL, Resident};
 use super::grid_parts::GridBinding;
-use super::pixels::{Pick, Placed, Through, assemble, mean_of_samples, put_ray, stream_picks};
-use super::upload::{self, SAMPLE_FLOATS};
+use super::picks::{
+    CAMERA_BINDING, PICK_FLOATS, Pick, camera_rays, make_picks, sample_count, sample_stream,
+};
+use super::pixels::{Through, assemble, mean_of_samples, stream_picks};
+use super::upload;
 use crate::field::Field;
 use crate::integrate::path::PathTracer;
 use crate::integrate::phase::{HenyeyGreenstein, PhaseFunction};
@@ -23,8 +27,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// Floats a path sample takes in the input: the march's sample, then its key and flags.
-const PATH_SAMPLE_FLOATS: usize = 2 * SAMPLE_FLOATS;
+/// Floats a path sample takes in the input: its pick, then its flags.
+const PATH_SAMPLE_FLOATS: usize = 2 * PICK_FLOATS;
+/// The binding of the path tracer's parameters (path.wgsl's `PathParams`).
+const PATH_BINDING: u32 = 9;
 /// Floats of a result before the per-light radiance (8 a light: once, more than once):
 /// the camera ray's, then the emission seen directly, after one event and after more.
 const PATH_RESULT_BASE: usize = 16;
@@ -193,6 +199,9 @@ fn trace_picks(
     times: &mut GpuTimes,
 ) -> Result<(Vec<f32>, u64), String> {
     let frame = job.camera.frame();
+    let density = job.integrator.parts().density;
+    let grid = picks.first().map_or(0, |p| p.grid);
+    let camera = camera_rays(job, &frame, grid, density, None);
     let pipeline = path_pipeline(gpu, scene.features.grid)?;
     let through = Through {
         gpu,
@@ -200,60 +209,45 @@ fn trace_picks(
         pipeline: &pipeline,
         in_floats: PATH_SAMPLE_FLOATS,
         out_floats: batch.stride,
-        uniforms: &[(9, &batch.params)],
+        uniforms: &[(PATH_BINDING, &batch.params), (CAMERA_BINDING, &camera)],
     };
     stream_picks(
         &through,
         job,
         picks,
-        |chunk, input| make_paths(job, &frame, chunk, input),
+        |chunk, input| make_paths(job, chunk, input),
         |made, results, px| record_paths(job, batch, made, results, px),
         times,
     )
 }
 
 /// What recording a chunk's paths needs of its samples besides their results: where
-/// each pick's samples start, and per sample its depth rate and the weight of its
-/// opacity (none: not computed).
+/// each pick's samples start, and per sample the weight of its opacity (none: not
+/// computed).
 struct Made {
     starts: Vec<usize>,
-    extra: Vec<(f64, Option<f64>)>,
+    weights: Vec<Option<f64>>,
 }
 
-/// Writes the samples of `picks` into `input` ([`PATH_SAMPLE_FLOATS`] each): the
-/// march's sample, then its random streams' key and whether its opacity is wanted.
-fn make_paths(
-    job: &PixelJob<PathTracer>,
-    frame: &crate::scene::camera::CameraFrame,
-    picks: &[Pick],
-    input: &mut Vec<f32>,
-) -> Made {
+/// Writes the samples of `picks` into `input` ([`PATH_SAMPLE_FLOATS`] each): its pick
+/// (the GPU makes its ray and its random streams' key from it), then 1 where its
+/// opacity is wanted.
+fn make_paths(job: &PixelJob<PathTracer>, picks: &[Pick], input: &mut Vec<f32>) -> Made {
     let integrator = job.integrator;
-    let density = integrator.parts().density;
-    let placed = Placed::new(job, picks);
-    let total = placed.total();
-    input.resize(total * PATH_SAMPLE_FLOATS, 0.0);
-    let mut extra = vec![(0f64, None::<f64>); total];
-    input
-        .par_chunks_mut(PATH_SAMPLE_FLOATS)
-        .zip(extra.par_iter_mut())
-        .enumerate()
-        .for_each(|(i, (out, extra))| {
-            let (_, sample, rng) = placed.sample(job, frame, picks, i);
-            put_ray(out, &sample.ray, density);
-            let key = rng.stream_key();
-            for (q, o) in out[16..20].iter_mut().enumerate() {
-                *o = ((key >> (16 * q)) & 0xffff) as f32;
-            }
-            let weight = integrator.alpha_weight(rng.sample_index());
-            out[20] = if weight.is_some() { 1.0 } else { 0.0 };
-            out[21..].fill(0.0);
-            *extra = (sample.depth_rate, weight);
-        });
-    Made {
-        starts: placed.starts,
-        extra,
-    }
+    let starts = make_picks(job, picks, PATH_SAMPLE_FLOATS, input, |stream, rest| {
+        rest[0] = if integrator.alpha_weight(stream).is_some() {
+            1.0
+        } else {
+            0.0
+        };
+    });
+    let weights = picks
+        .par_iter()
+        .flat_map_iter(|&p| {
+            (0..sample_count(job, p)).map(move |s| integrator.alpha_weight(sample_stream(p, s)))
+        })
+        .collect();
+    Made { starts, weights }
 }
 
 /// Writes the results of a chunk's paths (`made`'s samples) into its pixels' values:
@@ -268,7 +262,7 @@ fn record_paths(
     let parts = job.integrator.parts();
     let (passes, sigma_t) = (parts.passes, parts.sigma_t);
     let rs = batch.stride;
-    let Made { starts, extra } = made;
+    let Made { starts, weights } = made;
     mean_of_samples(
         job,
         starts,
@@ -276,8 +270,8 @@ fn record_paths(
         || (),
         |acc, _, i| {
             let r = &results[i * rs..][..rs];
-            let (depth_rate, weight) = extra[i];
-            if let Some(w) = weight {
+            let depth_rate = r[3] as f64;
+            if let Some(w) = weights[i] {
                 let depth = r[0] as f64;
                 let alpha = (DVec3::ONE - (-sigma_t * depth).exp()).element_sum() / 3.0;
                 passes.add_alpha(acc, alpha.clamp(0.0, 1.0) * w);

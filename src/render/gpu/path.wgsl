@@ -256,27 +256,21 @@ fn event_stream(key: vec2<u32>, events: u32, lo: u32) -> vec2<u32> {
 
 // Results of sample i at results[i * Q.stride]: the camera ray's ∫ρ (0 where its
 // opacity is not computed), the half-opacity t (−1: none), the density samples taken,
-// 0; the emission seen directly, after one scattering event and after more (rgb, 0
-// each); then per light (the environment last) its light scattered once (rgb, 0) and more
-// than once (rgb, 0). The samples: two `Sample`s each, the march's, then the key of its
-// random streams in four 16-bit parts (world_origin) and 1 where its opacity is
-// computed (world_dir.x).
-// The k-th `Sample` of the inputs.
-fn sample_at(k: u32) -> Sample {
-    let b = 4u * k;
-    return Sample(samples[b], samples[b + 1u], samples[b + 2u], samples[b + 3u]);
-}
-
+// the ray's depth rate; the emission seen directly, after one scattering event and after
+// more (rgb, 0 each); then per light (the environment last) its light scattered once
+// (rgb, 0) and more than once (rgb, 0). The samples: two vec4s each, its pick (the ray
+// and the key of its random streams made from it, rays.wgsl), then 1 where its opacity
+// is computed (x).
 @compute @workgroup_size(64)
 fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x + id.y * 65535u * 64u;
     if (i >= P.n_samples) {
         return;
     }
-    let smp = sample_at(2u * i);
-    let extra = sample_at(2u * i + 1u);
-    let kw = vec4<u32>(extra.world_origin);
-    let key = vec2<u32>(kw.x | (kw.y << 16u), kw.z | (kw.w << 16u));
+    let pick = samples[2u * i];
+    let smp = camera_sample(pick);
+    let key = stream_key(pick);
+    let opacity = samples[2u * i + 1u].x != 0.0;
     let out = i * Q.stride;
     var n = 0u;
     var half = -1.0;
@@ -284,7 +278,7 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     var r = Ray(smp.index_origin.xyz, smp.index_dir.xyz);
     var t_min = smp.index_origin.w;
     var t_max = smp.world_dir.w;
-    if (extra.world_dir.x != 0.0) {
+    if (opacity) {
         depth = camera_ray(r, t_min, t_max, &half, &n);
     }
     var once: array<vec3<f32>, 9>;
@@ -396,7 +390,7 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     results[out] = depth;
     results[out + 1u] = half;
     results[out + 2u] = f32(n);
-    results[out + 3u] = 0.0;
+    results[out + 3u] = dot(smp.world_dir.xyz, C.forward.xyz);
     for (var k = 0u; k < 3u; k++) {
         let o = out + 4u + 4u * k;
         results[o] = glow[k].x;

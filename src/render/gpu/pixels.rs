@@ -1,237 +1,25 @@
 //! The pixel loop of [`crate::render::pixels`] with the march on the GPU: the same
 //! samples (centres, or `--spp` jittered ones, then the silhouette pixels again on the
 //! stratified grid) and the same rays and jitter, made on the GPU from each sample's
-//! pixel (rays.wgsl) and marched there in chunks streamed through it (stream.rs); each
-//! sample's result (with the fast
-//! mode's multiply scattered part of it, `indirect`) is written into the pixel's passes
-//! by [`SingleScattering::record`], as the CPU's are, with the light the ground plane
-//! receives where the ray meets it.
+//! pixel (picks.rs, rays.wgsl) and marched there in chunks streamed through it
+//! (stream.rs); each sample's result (with the fast mode's multiply scattered part of
+//! it, `indirect`) is written into the pixel's passes by [`SingleScattering::record`],
+//! as the CPU's are, with the light the ground plane receives where the ray meets it.
 
 use super::GpuTimes;
 use super::context::{Gpu, Resident};
+use super::picks::{CAMERA_BINDING, PICK_FLOATS, Pick, camera_rays, make_picks, sample_count};
 use super::readback::catching_errors;
 use super::stream;
 use super::upload::{GROUND_FLOATS, RESULT_BASE, RESULT_EMISSION};
-use crate::field::{Field, IndexRay};
 use crate::integrate::RayResult;
-use crate::integrate::WorldRay;
 use crate::integrate::ground::GroundLight;
-use crate::integrate::integrator::{CameraSample, Integrator, SampleRng};
+use crate::integrate::integrator::Integrator;
 use crate::integrate::pass::PassKind;
 use crate::integrate::single::SingleScattering;
 use crate::render::pixels::{EDGE_ALPHA, PixelJob, PixelPasses, finish_pixel};
-use crate::scene::camera::{CameraFrame, Projection};
 use glam::DVec3;
 use rayon::prelude::*;
-
-/// One pixel to render: where and how it is sampled.
-#[derive(Clone, Copy)]
-pub(super) struct Pick {
-    pub x: usize,
-    pub y: usize,
-    /// The stratified grid's size (0: the job's samples, or the centre).
-    pub grid: u32,
-}
-
-/// How many samples pixel `p` takes.
-pub(super) fn sample_count<I: Integrator>(job: &PixelJob<I>, p: Pick) -> u32 {
-    if p.grid == 0 {
-        job.spp
-    } else {
-        p.grid * p.grid
-    }
-}
-
-/// Where each of `picks`' samples start when they are laid one pick after another (the
-/// total last).
-fn sample_starts<I: Integrator>(job: &PixelJob<I>, picks: &[Pick]) -> Vec<usize> {
-    let mut starts = Vec::with_capacity(picks.len() + 1);
-    let mut total = 0;
-    for &p in picks {
-        starts.push(total);
-        total += sample_count(job, p) as usize;
-    }
-    starts.push(total);
-    starts
-}
-
-/// The samples of pixel `p`: their jitter inside the pixel and their stream.
-fn sample_points<'j, I: Integrator>(
-    job: &'j PixelJob<'_, I>,
-    p: Pick,
-) -> impl Iterator<Item = (f64, f64, u32)> + 'j {
-    let (sx, sy) = job.stream_pixel(p.x, p.y);
-    (0..sample_count(job, p)).map(move |s| job.sample_point(sx, sy, p.grid, s))
-}
-
-/// Every sample of some picks, in pick order: each pick's samples (their jitter and
-/// stream, [`sample_points`]) in one array, and where each pick's samples start (the
-/// total last).
-pub(super) struct Placed {
-    points: Vec<(f64, f64, u32)>,
-    pub starts: Vec<usize>,
-    /// The samples each pick takes, where all take as many (as within one pass): a
-    /// sample's pick is then found by a division, not a search of `starts`.
-    per_pick: Option<usize>,
-}
-
-impl Placed {
-    pub fn new<I: Integrator>(job: &PixelJob<I>, picks: &[Pick]) -> Self {
-        let starts = sample_starts(job, picks);
-        let first = picks.first().map(|&p| sample_count(job, p) as usize);
-        let per_pick =
-            first.filter(|&n| n > 0 && picks.iter().all(|&p| sample_count(job, p) as usize == n));
-        let points = picks
-            .par_iter()
-            .flat_map_iter(|&p| sample_points(job, p))
-            .collect();
-        Placed {
-            points,
-            starts,
-            per_pick,
-        }
-    }
-
-    /// The samples in all.
-    pub fn total(&self) -> usize {
-        self.starts.last().copied().unwrap_or(0)
-    }
-
-    /// Sample `i`'s pick (of `picks`), its camera sample and its random numbers.
-    pub fn sample<I: Integrator>(
-        &self,
-        job: &PixelJob<I>,
-        frame: &CameraFrame,
-        picks: &[Pick],
-        i: usize,
-    ) -> (Pick, CameraSample, SampleRng) {
-        let k = match self.per_pick {
-            Some(n) => i / n,
-            None => self.starts.partition_point(|&s| s <= i) - 1,
-        };
-        let (p, (jx, jy, stream)) = (picks[k], self.points[i]);
-        let sample = job.camera_sample(frame, p.x, p.y, jx, jy, None);
-        let (sx, sy) = job.stream_pixel(p.x, p.y);
-        (p, sample, SampleRng::new(job.seed, sx, sy, stream))
-    }
-}
-
-/// Writes `ray` into a sample's floats as the march's `Sample` holds it: the world
-/// origin, direction and end, then in `density`'s index space the origin, the near
-/// end and the direction (floats 3 and 15 are the caller's).
-pub(super) fn put_ray(out: &mut [f32], ray: &WorldRay, density: &dyn Field) {
-    let index = IndexRay::new(density, ray.origin, ray.dir);
-    let put = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
-    out[..3].copy_from_slice(&put(ray.origin));
-    out[4..7].copy_from_slice(&put(ray.dir));
-    out[7] = ray.t_max.min(f32::MAX as f64) as f32;
-    out[8..11].copy_from_slice(&put(index.origin));
-    out[11] = ray.t_min.min(f32::MAX as f64) as f32;
-    out[12..15].copy_from_slice(&put(index.dir));
-}
-
-/// Floats of a march sample's input: its pixel's x and y, the holdout's depth there (−1:
-/// none), its index among the pixel's samples. The GPU makes its ray from them as
-/// SingleScattering's own sample makes it (rays.wgsl, `camera_sample`).
-pub(super) const PICK_FLOATS: usize = 4;
-
-/// The binding of the camera's rays (rays.wgsl's `CameraRays`).
-const CAMERA_BINDING: u32 = 10;
-
-/// The words of rays.wgsl's `CameraRays` for `job`'s camera seen in `frame`, and the
-/// samples of picks on a `grid`² stratified grid (0: the job's samples).
-fn camera_rays(job: &PixelJob<SingleScattering>, frame: &CameraFrame, grid: u32) -> Vec<u32> {
-    let integrator = job.integrator;
-    let tr = integrator.density().transform();
-    let rays = job.camera.ray_affine(frame);
-    let [o0, ox, oy] = rays.origin;
-    let index = [
-        tr.world_to_index(o0),
-        tr.world_dir_to_index(ox),
-        tr.world_dir_to_index(oy),
-    ];
-    let columns = [DVec3::X, DVec3::Y, DVec3::Z].map(|e| tr.world_dir_to_index(e));
-    let (clipped, near, far) = match job.camera.projection {
-        Projection::Film(w) => (1.0, w.near, w.far),
-        _ => (0.0, 0.0, f64::INFINITY),
-    };
-    let ground = integrator.ground();
-    let vec = |v: DVec3, w: f64| {
-        [v.x, v.y, v.z, w].map(|c| (c.clamp(-F32_MAX, F32_MAX) as f32).to_bits())
-    };
-    let mut words = Vec::with_capacity(64);
-    words.extend(vec(o0, if rays.diverge { 1.0 } else { 0.0 }));
-    words.extend(vec(ox, clipped));
-    words.extend(vec(oy, 0.0));
-    for d in rays.dir {
-        words.extend(vec(d, 0.0));
-    }
-    for v in index.into_iter().chain(columns) {
-        words.extend(vec(v, 0.0));
-    }
-    words.extend(vec(frame.forward, 0.0));
-    words.extend(vec(
-        DVec3::new(near, far, ground.map_or(0.0, |g| g.height)),
-        0.0,
-    ));
-    let wide = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
-    words.extend([
-        job.seed as u32,
-        (job.seed >> 32) as u32,
-        wide(job.overscan.0),
-        wide(job.overscan.1),
-    ]);
-    words.extend([
-        grid,
-        u32::from(job.spp == 1 || job.centred),
-        ground.map_or(0, |g| if g.visible { 2 } else { 1 }),
-        0,
-    ]);
-    words
-}
-
-/// The largest finite f32, as f64.
-const F32_MAX: f64 = f32::MAX as f64;
-
-/// Writes the samples of `picks` into `input` ([`PICK_FLOATS`] each). Returns where each
-/// pick's samples start (the total last).
-fn make_picks(
-    job: &PixelJob<SingleScattering>,
-    picks: &[Pick],
-    input: &mut Vec<f32>,
-) -> Vec<usize> {
-    let starts = sample_starts(job, picks);
-    let total = starts.last().copied().unwrap_or(0);
-    input.resize(total * PICK_FLOATS, 0.0);
-    // Each pick's floats, filled on all threads.
-    let mut rest = input.as_mut_slice();
-    let mut pieces = Vec::with_capacity(picks.len());
-    for k in 0..picks.len() {
-        let (piece, after) = rest.split_at_mut((starts[k + 1] - starts[k]) * PICK_FLOATS);
-        pieces.push(piece);
-        rest = after;
-    }
-    pieces.into_par_iter().zip(picks).for_each(|(piece, p)| {
-        let holdout = job
-            .holdout
-            .and_then(|h| h.get(p.y * job.camera.width + p.x))
-            .map_or(-1.0, |&d| holdout_input(d));
-        for (s, out) in piece.chunks_exact_mut(PICK_FLOATS).enumerate() {
-            out.copy_from_slice(&[p.x as f32, p.y as f32, holdout, s as f32]);
-        }
-    });
-    starts
-}
-
-/// A holdout's depth as the GPU takes it: −1 where it cuts nothing (NaN or +∞, past any
-/// ray's end), else the depth, at least 0 (a ray cut at a negative depth ends at 0).
-fn holdout_input(depth: f32) -> f32 {
-    if depth.is_nan() || depth == f32::INFINITY {
-        -1.0
-    } else {
-        depth.max(0.0)
-    }
-}
 
 /// Writes the results of a chunk's samples (`made` of them, `rs` floats each) into its
 /// pixels' values (`stride` each: the mean of each pixel's samples), as
@@ -345,7 +133,14 @@ fn render_picks(
 ) -> Result<(Vec<f32>, u64), String> {
     let frame = job.camera.frame();
     // One pass's picks share their stratified grid.
-    let camera = camera_rays(job, &frame, picks.first().map_or(0, |p| p.grid));
+    let integrator = job.integrator;
+    let camera = camera_rays(
+        job,
+        &frame,
+        picks.first().map_or(0, |p| p.grid),
+        integrator.density(),
+        integrator.ground(),
+    );
     let rs = scene.stride as usize;
     let pipeline = gpu.march_pipeline(scene.features)?;
     let through = Through {
@@ -360,7 +155,7 @@ fn render_picks(
         &through,
         job,
         picks,
-        |chunk, input| make_picks(job, chunk, input),
+        |chunk, input| make_picks(job, chunk, PICK_FLOATS, input, |_, _| ()),
         |starts, results, px| record_results(job, starts, results, rs, px),
         times,
     )

@@ -77,18 +77,37 @@ fn pixel_key(x: u32, overscan: u32) -> vec2<u32> {
     return vec2<u32>(x - overscan, select(0u, 0xffffffffu, x < overscan));
 }
 
+// seed + x·C1 + y·C2 (wrapping): what the CPU's `unit_random` and `stream_key` hash the
+// pixel (its streams' coordinates sx, sy) by, before the sample's part.
+fn pixel_hash(sx: vec2<u32>, sy: vec2<u32>) -> vec2<u32> {
+    let z = add64(C.keys.xy, mul64(sx, vec2<u32>(0x7F4A7C15u, 0x9E3779B9u)));
+    return add64(z, mul64(sy, vec2<u32>(0x27D4EB4Fu, 0xC2B2AE3Du)));
+}
+
 // `unit_random(seed, x, y, s, k)` of the CPU, to 24 bits.
 fn unit_random(sx: vec2<u32>, sy: vec2<u32>, s: u32, k: u32) -> f32 {
-    var z = add64(C.keys.xy, mul64(sx, vec2<u32>(0x7F4A7C15u, 0x9E3779B9u)));
-    z = add64(z, mul64(sy, vec2<u32>(0x27D4EB4Fu, 0xC2B2AE3Du)));
-    z = add64(z, mul64(vec2<u32>(k, s), vec2<u32>(0x9E3779F9u, 0x165667B1u)));
+    let z = add64(pixel_hash(sx, sy), mul64(vec2<u32>(k, s), vec2<u32>(0x9E3779F9u, 0x165667B1u)));
     return f32(mix64(z).y >> 8u) * (1.0 / 16777216.0);
 }
 
-// Sample i's ray, from its pick (`samples[i]`: the pixel's x and y, the holdout's depth
-// there or −1, the sample's index in the pixel), as the march's `Sample` holds one.
-fn camera_sample(i: u32) -> Sample {
-    let pick = samples[i];
+// The random stream of the sample `pick` names (`sample_point`'s): its index, one more on
+// the stratified grid (the centre's is 0).
+fn pick_stream(pick: vec4<f32>) -> u32 {
+    let s = u32(pick.w);
+    return select(s, s + 1u, C.flags.x > 0u);
+}
+
+// The key of every random stream of the sample `pick` names (`SampleRng::stream_key`).
+fn stream_key(pick: vec4<f32>) -> vec2<u32> {
+    let sx = pixel_key(u32(pick.x), C.keys.z);
+    let sy = pixel_key(u32(pick.y), C.keys.w);
+    let s = vec2<u32>(pick_stream(pick), 0u);
+    return mix64(add64(pixel_hash(sx, sy), mul64(s, vec2<u32>(0x9E3779F9u, 0x165667B1u))));
+}
+
+// A sample's ray, from its pick (the pixel's x and y, the holdout's depth there or −1,
+// the sample's index in the pixel), as the march's `Sample` holds one.
+fn camera_sample(pick: vec4<f32>) -> Sample {
     let x = u32(pick.x);
     let y = u32(pick.y);
     let s = u32(pick.w);
@@ -96,10 +115,9 @@ fn camera_sample(i: u32) -> Sample {
     let sy = pixel_key(y, C.keys.w);
     // The jitter inside the pixel and the sample's stream (sample_point).
     var jitter = vec2<f32>(0.5);
-    var stream = s;
+    let stream = pick_stream(pick);
     let grid = C.flags.x;
     if (grid > 0u) {
-        stream = s + 1u;
         let cell = vec2<f32>(f32(s % grid), f32(s / grid));
         let u = vec2<f32>(unit_random(sx, sy, stream, 1u), unit_random(sx, sy, stream, 2u));
         jitter = (cell + u) / f32(grid);

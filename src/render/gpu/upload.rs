@@ -19,10 +19,6 @@ use crate::shadow::map::ChartSelect;
 use glam::DVec3;
 use rayon::prelude::*;
 
-/// Floats per camera sample uploaded: world origin and jitter, world direction and
-/// `t_max`, index origin and `t_min`, index direction and 0 (`t_min`, `t_max`: the
-/// clipping planes and the holdout, along the ray).
-pub const SAMPLE_FLOATS: usize = 16;
 /// Floats of a result before the per-light radiance (4 a light).
 pub const RESULT_BASE: usize = 16;
 /// Where the emitted radiance sits in a result.
