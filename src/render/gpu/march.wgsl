@@ -17,8 +17,8 @@ struct Sample {
 
 @group(0) @binding(3) var<storage, read> dsm0: array<u32>;
 @group(0) @binding(4) var<storage, read> meta_: array<f32>;
-// The samples' inputs: the march's, one vec4 a sample (rays.wgsl, camera_sample); the
-// path tracer's, two `Sample`s a sample (path.wgsl, sample_at).
+// The samples' inputs: each one's pick (its pixel, the holdout's depth there and its
+// index, from which rays.wgsl makes its ray), then for the path tracer a vec4 of flags.
 @group(0) @binding(5) var<storage, read> samples: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> results: array<f32>;
 @group(0) @binding(7) var<storage, read> dsm1: array<u32>;

@@ -10,7 +10,8 @@
 // `SampleRng::stream` derives it, so both draw the same numbers (the GPU keeps the top
 // 24 bits of each).
 // The tracking is in path_tracking.wgsl. Compiled after grid.wgsl, march.wgsl (its
-// bindings, the integral walk, clipping, the lights), dsm.wgsl and lattice.wgsl.
+// bindings, the integral walk, clipping, the lights), rays.wgsl (the camera rays),
+// dsm.wgsl and lattice.wgsl.
 
 struct PathParams {
     to_index_x: vec4<f32>,   // world → local index: the inverse linear map's columns,
