@@ -90,20 +90,20 @@ impl<I: Integrator> PixelJob<'_, I> {
     /// stratified grid, on streams 1.. (the centre's is 0); else `spp` samples, the
     /// pixel's centre alone at one sample a pixel or when `centred`.
     pub(super) fn sample_point(&self, sx: usize, sy: usize, grid: u32, s: u32) -> (f64, f64, u32) {
+        let stream = sample_stream(grid, s);
         if grid > 0 {
-            let s1 = s + 1;
             (
-                ((s % grid) as f64 + unit_random(self.seed, sx, sy, s1, 1)) / grid as f64,
-                ((s / grid) as f64 + unit_random(self.seed, sx, sy, s1, 2)) / grid as f64,
-                s1,
+                ((s % grid) as f64 + unit_random(self.seed, sx, sy, stream, 1)) / grid as f64,
+                ((s / grid) as f64 + unit_random(self.seed, sx, sy, stream, 2)) / grid as f64,
+                stream,
             )
         } else if self.spp == 1 || self.centred {
-            (0.5, 0.5, s)
+            (0.5, 0.5, stream)
         } else {
             (
-                unit_random(self.seed, sx, sy, s, 1),
-                unit_random(self.seed, sx, sy, s, 2),
-                s,
+                unit_random(self.seed, sx, sy, stream, 1),
+                unit_random(self.seed, sx, sy, stream, 2),
+                stream,
             )
         }
     }
@@ -175,6 +175,12 @@ impl<I: Integrator> PixelJob<'_, I> {
         let (c0, c1) = self.centre_rows();
         self.camera.width.div_ceil(TILE) * c1.saturating_sub(c0).div_ceil(TILE)
     }
+}
+
+/// The random stream of sample `s` of a pixel sampled on a `grid`² stratified grid
+/// (0: the job's samples): its index, one more on the grid (the centre's is 0).
+pub(super) fn sample_stream(grid: u32, s: u32) -> u32 {
+    if grid > 0 { s + 1 } else { s }
 }
 
 /// The alpha difference to a neighbour above which a pixel is an edge (0.05 resampled

@@ -232,15 +232,24 @@ impl Camera {
         }
     }
 
-    /// The stretch `[t_min, t_max]` of the ray along unit `dir` between the clipping
-    /// planes: a film back's, else the whole ray.
-    pub fn clip(&self, frame: &CameraFrame, dir: DVec3) -> (f64, f64) {
+    /// The clipping planes' depths `(near, far)` along the view direction: a film
+    /// back's (none for the other projections, whose rays run whole).
+    pub fn clip_planes(&self) -> Option<(f64, f64)> {
         match self.projection {
-            Projection::Film(w) => {
+            Projection::Film(w) => Some((w.near, w.far)),
+            _ => None,
+        }
+    }
+
+    /// The stretch `[t_min, t_max]` of the ray along unit `dir` between the clipping
+    /// planes, else the whole ray.
+    pub fn clip(&self, frame: &CameraFrame, dir: DVec3) -> (f64, f64) {
+        match self.clip_planes() {
+            Some((near, far)) => {
                 let cos = dir.dot(frame.forward).max(1e-300);
-                (w.near / cos, w.far / cos)
+                (near / cos, far / cos)
             }
-            _ => (0.0, f64::INFINITY),
+            None => (0.0, f64::INFINITY),
         }
     }
 

@@ -12,15 +12,13 @@
 use super::GpuTimes;
 use super::context::{GRID_WGSL, Gpu, MARCH_WGSL, Resident};
 use super::grid_parts::GridBinding;
-use super::picks::{
-    CAMERA_BINDING, PICK_FLOATS, Pick, camera_rays, make_picks, sample_count, sample_stream,
-};
+use super::picks::{CAMERA_BINDING, PICK_FLOATS, Pick, camera_rays, make_picks, sample_count};
 use super::pixels::{Through, assemble, mean_of_samples, stream_picks};
 use super::upload;
 use crate::field::Field;
 use crate::integrate::path::PathTracer;
 use crate::integrate::phase::{HenyeyGreenstein, PhaseFunction};
-use crate::render::pixels::{PixelJob, PixelPasses};
+use crate::render::pixels::{PixelJob, PixelPasses, sample_stream};
 use crate::scene::Scene;
 use crate::scene::lights::LightShadow;
 use glam::DVec3;
@@ -234,19 +232,18 @@ struct Made {
 /// opacity is wanted.
 fn make_paths(job: &PixelJob<PathTracer>, picks: &[Pick], input: &mut Vec<f32>) -> Made {
     let integrator = job.integrator;
-    let starts = make_picks(job, picks, PATH_SAMPLE_FLOATS, input, |stream, rest| {
-        rest[0] = if integrator.alpha_weight(stream).is_some() {
-            1.0
-        } else {
-            0.0
-        };
-    });
-    let weights = picks
+    let starts = make_picks(job, picks, PATH_SAMPLE_FLOATS, input);
+    let weights: Vec<Option<f64>> = picks
         .par_iter()
         .flat_map_iter(|&p| {
-            (0..sample_count(job, p)).map(move |s| integrator.alpha_weight(sample_stream(p, s)))
+            (0..sample_count(job, p))
+                .map(move |s| integrator.alpha_weight(sample_stream(p.grid, s)))
         })
         .collect();
+    input
+        .par_chunks_exact_mut(PATH_SAMPLE_FLOATS)
+        .zip(&weights)
+        .for_each(|(sample, w)| sample[PICK_FLOATS] = if w.is_some() { 1.0 } else { 0.0 });
     Made { starts, weights }
 }
 

@@ -8,7 +8,7 @@ use crate::field::Field;
 use crate::integrate::ground::Ground;
 use crate::integrate::integrator::Integrator;
 use crate::render::pixels::PixelJob;
-use crate::scene::camera::{CameraFrame, Projection};
+use crate::scene::camera::CameraFrame;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -70,9 +70,9 @@ pub(super) fn camera_rays<I: Integrator>(
         tr.world_dir_to_index(oy),
     ];
     let columns = [DVec3::X, DVec3::Y, DVec3::Z].map(|e| tr.world_dir_to_index(e));
-    let (clipped, near, far) = match job.camera.projection {
-        Projection::Film(w) => (1.0, w.near, w.far),
-        _ => (0.0, 0.0, f64::INFINITY),
+    let (clipped, (near, far)) = match job.camera.clip_planes() {
+        Some(planes) => (1.0, planes),
+        None => (0.0, (0.0, f64::INFINITY)),
     };
     let vec = |v: DVec3, w: f64| {
         [v.x, v.y, v.z, w].map(|c| (c.clamp(-F32_MAX, F32_MAX) as f32).to_bits())
@@ -111,16 +111,14 @@ pub(super) fn camera_rays<I: Integrator>(
 /// The largest finite f32, as f64.
 const F32_MAX: f64 = f32::MAX as f64;
 
-/// Writes the samples of `picks` into `input`, `floats` each (at least [`PICK_FLOATS`]):
-/// each one's pick first ([`PICK_FLOATS`]), then what `more(stream, rest)` writes in the
-/// rest (the sample's random stream given). Returns where each pick's samples start
-/// (the total last).
+/// Writes the samples of `picks` into `input`, `floats` each (at least [`PICK_FLOATS`],
+/// the rest left 0): each one's pick. Returns where each pick's samples start (the
+/// total last).
 pub(super) fn make_picks<I: Integrator>(
     job: &PixelJob<I>,
     picks: &[Pick],
     floats: usize,
     input: &mut Vec<f32>,
-    more: impl Fn(u32, &mut [f32]) + Sync,
 ) -> Vec<usize> {
     let starts = sample_starts(job, picks);
     let total = starts.last().copied().unwrap_or(0);
@@ -140,18 +138,10 @@ pub(super) fn make_picks<I: Integrator>(
             .and_then(|h| h.get(p.y * job.camera.width + p.x))
             .map_or(-1.0, |&d| holdout_input(d));
         for (s, out) in piece.chunks_exact_mut(floats).enumerate() {
-            let (pick, rest) = out.split_at_mut(PICK_FLOATS);
-            pick.copy_from_slice(&[p.x as f32, p.y as f32, holdout, s as f32]);
-            more(sample_stream(*p, s as u32), rest);
+            out[..PICK_FLOATS].copy_from_slice(&[p.x as f32, p.y as f32, holdout, s as f32]);
         }
     });
     starts
-}
-
-/// The random stream of sample `s` of pick `p` (`sample_point`'s): its index, one more
-/// on the stratified grid (the centre's is 0).
-pub(super) fn sample_stream(p: Pick, s: u32) -> u32 {
-    if p.grid > 0 { s + 1 } else { s }
 }
 
 /// A holdout's depth as the GPU takes it: −1 where it cuts nothing (NaN or +∞, past any

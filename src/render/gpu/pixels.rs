@@ -155,7 +155,7 @@ fn render_picks(
         &through,
         job,
         picks,
-        |chunk, input| make_picks(job, chunk, PICK_FLOATS, input, |_, _| ()),
+        |chunk, input| make_picks(job, chunk, PICK_FLOATS, input),
         |starts, results, px| record_results(job, starts, results, rs, px),
         times,
     )
