@@ -51,7 +51,7 @@ run() { # NAME FLAGS...
     shift
     /usr/bin/time -f "$n: wall %e s, cpu %U+%S s" "$MURK" "${A[@]}" --res "${RUN_RES:-$RES}" -o "$OUT/$n.exr" \
         --stats "$OUT/$n.json" "$@" 2>&1 | tail -1
-    /usr/bin/python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print('  ', s['device'], {k: round(v['seconds'], 4) for k, v in s['stages'].items() if 'seconds' in v}); m=s.get('multiple_scattering'); m and print('   lattice', m['dims'], 'swept on', m['swept_on'], 'solve', round(m['solve_seconds'], 4), 's'); g=s['gpu_memory_bytes']; c=s['density_memory_bytes']+s['shadow_map_memory_bytes']; g and print(f'   GPU memory: the scene {g/1e6:.1f} MB ({g/max(c,1):.2f}x the CPU density and maps, {c/1e6:.1f} MB), the stream {s.get(\"gpu_stream_bytes\", 0)/1e6:.1f} MB')" "$OUT/$n.json"
+    /usr/bin/python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print('  ', s['device'], {k: round(v['seconds'], 4) for k, v in s['stages'].items() if 'seconds' in v}); m=s.get('multiple_scattering'); m and print('   lattice', m['dims'], 'swept on', m['swept_on'], 'solve', round(m['solve_seconds'], 4), 's'); [print('   bake of', m['light'], {k.removesuffix('_seconds'): round(v, 4) for k, v in m.get('phases', {}).items()}) for m in s.get('shadow_maps', [])]; g=s['gpu_memory_bytes']; c=s['density_memory_bytes']+s['shadow_map_memory_bytes']; g and print(f'   GPU memory: the scene {g/1e6:.1f} MB ({g/max(c,1):.2f}x the CPU density and maps, {c/1e6:.1f} MB), the stream {s.get(\"gpu_stream_bytes\", 0)/1e6:.1f} MB')" "$OUT/$n.json"
 }
 MODES=(${BENCH_MODES:-single fast})
 # Warm-up runs: a new process compiles each pipeline it uses (seconds on some drivers,

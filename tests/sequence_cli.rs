@@ -56,15 +56,21 @@ fn every_pattern_style_renders_the_sequence_as_direct_renders() {
     assert!(!differs(&dir.join("a_0001.exr"), &dir.join("a_0002.exr")));
     assert!(differs(&dir.join("a_0002.exr"), &dir.join("a_0003.exr")));
     // Frame 2's shadow map is frame 1's (same density hash); frame 3's is baked.
+    // Each frame's map's source, and whether it reports a bake's phases.
     let source = |f: u32| {
         let st: serde_json::Value =
             serde_json::from_str(&fs::read_to_string(dir.join(format!("a_{f:04}.json"))).unwrap())
                 .unwrap();
-        st["shadow_maps"][0]["source"].as_str().unwrap().to_string()
+        let map = &st["shadow_maps"][0];
+        (
+            map["source"].as_str().unwrap().to_string(),
+            map.get("phases").is_some(),
+        )
     };
-    assert_eq!(source(1), "baked");
-    assert!(source(2).starts_with("reused"), "{}", source(2));
-    assert_eq!(source(3), "baked");
+    assert_eq!(source(1), ("baked".into(), true));
+    let (reused, phases) = source(2);
+    assert!(reused.starts_with("reused") && !phases, "{reused}");
+    assert_eq!(source(3), ("baked".into(), true));
 }
 
 #[test]

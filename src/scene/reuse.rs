@@ -61,10 +61,15 @@ impl FrameReuse {
         self.shadow_maps_reused += 1;
         let stats = stats
             .iter()
-            .map(|s| ShadowMapStats {
-                source: "reused: the density is unchanged since the previous frame".into(),
-                bake_seconds: 0.0,
-                ..s.clone()
+            .map(|s| {
+                let mut reused = ShadowMapStats {
+                    source: "reused: the density is unchanged since the previous frame".into(),
+                    bake_seconds: 0.0,
+                    ..s.clone()
+                };
+                // No bake this frame: none of its time to report.
+                reused.bake.phases = None;
+                reused
             })
             .collect();
         Some((maps.clone(), stats))

@@ -34,10 +34,12 @@ use super::lattice::{
 };
 use super::map::{BRICK, ChartMap, ChartSelect, LEVELS, ShadowMap};
 use super::refine::refine;
+use super::settings::BakePhases;
 pub use super::settings::{BakeReport, BakeSettings, LightGeometry};
 use crate::field::Field;
 use glam::{DVec3, IVec3};
 use std::collections::{BTreeMap, HashSet};
+use std::time::Instant;
 
 /// The lattice step of a bake made `coarsenings` times twice coarser than the density's
 /// smallest voxel edge (1 when that edge is not a positive number).
@@ -127,6 +129,7 @@ fn bake_at(
     edge: i32,
     columns: Option<&dyn ColumnMarcher>,
 ) -> Option<(ShadowMap, BakeReport)> {
+    let clock = Instant::now();
     // A block maps to up to 2³ bricks at least: more blocks than an eighth of the brick
     // budget cannot fit, and would only cost their enumeration.
     let blocks = block_corners(density, edge, settings.max_bricks / 8)?;
@@ -194,12 +197,19 @@ fn bake_at(
     }
     let mut maps = Vec::with_capacity(charts.len());
     let mut cells = first;
+    let mut phases = BakePhases {
+        marking_seconds: clock.elapsed().as_secs_f64(),
+        ..Default::default()
+    };
     for (chart, keys) in charts.iter().zip(&marked) {
+        let clock = Instant::now();
         let mut map = ChartMap::empty(
             *chart,
             keys.iter().copied(),
             settings.max_bricks.saturating_mul(16),
         )?;
+        phases.marking_seconds += clock.elapsed().as_secs_f64();
+        report.phases = Some(phases);
         refine(
             density,
             keys,
@@ -209,10 +219,14 @@ fn bake_at(
             &mut map,
             columns,
         )?;
+        phases = report.phases.unwrap_or(phases);
         maps.push(map);
     }
     // The bake's samples are packed and freed: return them before the render.
+    let clock = Instant::now();
     crate::mem::release_freed_memory();
+    phases.compacting_seconds += clock.elapsed().as_secs_f64();
+    report.phases = Some(phases);
     let map = ShadowMap {
         charts: maps,
         select,

@@ -26,7 +26,7 @@ pub use bake::{bake, bake_with};
 pub use column_marcher::{BAKE_BATCH_SAMPLES, ColumnJob, ColumnMarcher, MarchedColumns};
 pub use map::ShadowMap;
 pub use march::{ShadowQuadrature, density_integral};
-pub use settings::{BakeReport, BakeSettings, LightGeometry};
+pub use settings::{BakePhases, BakeReport, BakeSettings, LightGeometry};
 pub use verify::{VerifyReport, verify};
 
 /// A light as a shadow map and its cache know it: a name (the cache's grids carry it)
@@ -37,7 +37,7 @@ pub trait CachedLight {
 }
 
 /// A deep shadow map as the stats report it.
-#[derive(Clone, Debug, Default, serde::Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct ShadowMapStats {
     pub light: String,
     /// `baked`, or `cache: FILE`.

@@ -23,6 +23,7 @@ use crate::field::Field;
 use glam::IVec3;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
+use std::time::Instant;
 
 /// Below a voxel, how much halving the spacing typically divides a brick's error by:
 /// the Hermite blend's error goes as the spacing³ where τ is smooth. Measured from one
@@ -45,8 +46,9 @@ const CHECK_FRACTION: f64 = 0.5;
 /// `unresolved_bounds`), and at the first level what lies above it.
 type Pending = (IVec3, f64, Upstream);
 
-/// Chooses every brick's level and form, and packs each into `map`. `None` if the map
-/// refuses a brick (outside its table).
+/// Chooses every brick's level and form, and packs each into `map`, adding the time
+/// each part took to `report`'s phases. `None` if the map refuses a brick (outside its
+/// table).
 pub(super) fn refine(
     density: &dyn Field,
     keys: &[IVec3],
@@ -70,7 +72,10 @@ pub(super) fn refine(
         let e = stack_start.entry((k.x, k.y)).or_insert(k.z);
         *e = (*e).min(k.z);
     }
+    let mut phases = report.phases.unwrap_or_default();
+    let clock = Instant::now();
     let bounds = unresolved_bounds(density, &chart, keys, &sigmas);
+    phases.bounds_seconds += clock.elapsed().as_secs_f64();
     // Dark bricks: at least `upstream` of ∫ρ ds lies above every point of the brick, so
     // the light there is at most e^{−σ·upstream} ≤ `allowed` in every channel, and so is
     // the error of reading τ = upstream anywhere in it (or below it). They are the tails
@@ -113,9 +118,13 @@ pub(super) fn refine(
         // is decided (on a GPU, the columns of one batch and the decisions on the one
         // before run at once; on the CPU both are parallel work for the same threads).
         let batches: Vec<_> = stack_batches(&pending, m * m * m, batch_samples).collect();
+        // A batch's samples, its columns and the seconds they took.
         let sample = |range: &std::ops::Range<usize>| {
+            let clock = Instant::now();
             let keys: Vec<IVec3> = pending[range.clone()].iter().map(|p| p.0).collect();
-            sample_level(density, &chart, &keys, fine_level, &stack_start, elsewhere)
+            let (vals, columns) =
+                sample_level(density, &chart, &keys, fine_level, &stack_start, elsewhere);
+            (vals, columns, clock.elapsed().as_secs_f64())
         };
         // Each brick is decided and packed on its own (in parallel), then appended in
         // key order: the map is the same for any number of threads.
@@ -167,23 +176,36 @@ pub(super) fn refine(
                 .collect()
         };
         let mut ahead = batches.first().map(sample);
+        // The first batch's columns have nothing to be decided beside them.
+        phases.waiting_seconds += ahead.as_ref().map_or(0.0, |a| a.2);
         for (k, range) in batches.iter().enumerate() {
-            let Some((vals, columns)) = ahead.take() else {
+            let Some((vals, columns, seconds)) = ahead.take() else {
                 break;
             };
             report.columns += columns;
+            phases.columns_seconds += seconds;
             let batch = &pending[range.clone()];
+            // The outcomes, and the seconds deciding and packing took.
             let decide_and_pack = || {
+                let clock = Instant::now();
                 let outcomes = decide_batch(batch, vals);
+                let decided = clock.elapsed().as_secs_f64();
                 let packed: Option<Vec<(IVec3, &EncodedBrick)>> = outcomes
                     .iter()
                     .map(|o| o.brick.as_ref().map(|b| (o.key, b)))
                     .collect();
-                map.push_encoded_all(&packed?).map(|()| outcomes)
+                let clock = Instant::now();
+                map.push_encoded_all(&packed?)?;
+                Some((outcomes, decided, clock.elapsed().as_secs_f64()))
             };
-            let (after, outcomes) = rayon::join(|| batches.get(k + 1).map(sample), decide_and_pack);
+            let clock = Instant::now();
+            let (after, done) = rayon::join(|| batches.get(k + 1).map(sample), decide_and_pack);
+            let (outcomes, decided, packed) = done?;
+            phases.decisions_seconds += decided;
+            phases.packing_seconds += packed;
+            phases.waiting_seconds += (clock.elapsed().as_secs_f64() - decided - packed).max(0.0);
             ahead = after;
-            for o in outcomes? {
+            for o in outcomes {
                 report.bricks_over_tolerance += o.over.bricks;
                 report.over_tolerance_error = report.over_tolerance_error.max(o.over.error);
                 match o.refine {
@@ -262,12 +284,17 @@ pub(super) fn refine(
             reserved = 0;
             next.append(&mut deferred);
         }
+        let clock = Instant::now();
         map.drop_replaced();
         pending = next.into_iter().map(|(p, _)| p).collect();
         crate::mem::release_freed_memory();
+        phases.compacting_seconds += clock.elapsed().as_secs_f64();
     }
     // Bricks refined past a level they were packed at leave that copy behind.
+    let clock = Instant::now();
     map.drop_replaced();
+    phases.compacting_seconds += clock.elapsed().as_secs_f64();
+    report.phases = Some(phases);
     Some(())
 }
 

@@ -90,7 +90,7 @@ pub fn finest_level(tolerance: f64) -> u8 {
 }
 
 /// What a bake did.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct BakeReport {
     /// Lattice step in world units (the density's smallest voxel edge, or a multiple).
     pub lattice_step: f64,
@@ -119,6 +119,32 @@ pub struct BakeReport {
     /// Light columns marched.
     pub columns: u64,
     pub memory_bytes: usize,
+    /// Where the bake's time went (none for a map read from a cache).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub phases: Option<BakePhases>,
+}
+
+/// Where a bake's wall time went, in seconds. The columns of one batch are marched while
+/// the batch before is decided and packed, so `columns_seconds` overlaps
+/// `decisions_seconds` and `packing_seconds`; the others are each their own stretch of
+/// the bake.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct BakePhases {
+    /// Finding the bricks: the density's blocks mapped into the light's charts.
+    pub marking_seconds: f64,
+    /// The density's range over each brick and over the bricks above it toward the light.
+    pub bounds_seconds: f64,
+    /// Marching the light columns, batch by batch (on the CPU's threads or a GPU).
+    pub columns_seconds: f64,
+    /// Deciding each brick's level and form and encoding it, on all threads.
+    pub decisions_seconds: f64,
+    /// Appending the encoded bricks to the map.
+    pub packing_seconds: f64,
+    /// Waiting for columns with nothing to decide: the first batch of each level, and
+    /// the batches whose columns took longer than deciding and packing the batch before.
+    pub waiting_seconds: f64,
+    /// Between levels: dropping the bricks refined past and giving their memory back.
+    pub compacting_seconds: f64,
 }
 
 impl BakeReport {

@@ -73,6 +73,8 @@ fn a_shadow_cache_for_other_lights_is_refused() {
             .starts_with("cache: "),
         "{doc}"
     );
+    // A map read from a cache has no bake's phases to report.
+    assert!(doc["shadow_maps"][0].get("phases").is_none(), "{doc}");
 }
 
 /// `bake-shadows` takes the flags that decide a map and refuses camera and image flags
@@ -159,6 +161,11 @@ fn shadow_budget_shortfall_is_a_warning_even_when_quiet() {
     let lines: Vec<&str> = stderr.lines().collect();
     assert_eq!(lines.len(), 1, "{stderr}");
     let map = &stats["shadow_maps"][0];
+    // A bake says where its time went.
+    assert!(
+        map["phases"]["columns_seconds"].as_f64().unwrap() > 0.0,
+        "{map}"
+    );
     let stopped = map["bricks_stopped_by_budget"].as_u64().unwrap();
     assert!(stopped > 0, "{map}");
     assert!(

@@ -1,4 +1,5 @@
-//! What the bake reports when a budget stops it, and the thread count it keeps to.
+//! What the bake reports when a budget stops it and where its time went, and the thread
+//! count it keeps to.
 
 use super::*;
 
@@ -119,4 +120,46 @@ fn bricks_kept_at_one_voxel_over_the_tolerance_name_the_error_to_expect() {
             "{name}: named {named:e} against {r:?}"
         );
     }
+}
+
+/// The bake says where its time went, and its parts add up: the stretches that are each
+/// their own (finding the bricks, their bounds, deciding, packing, waiting for columns,
+/// compacting between levels) fit in the bake's wall time, and so do the columns (which
+/// overlap the decisions). A cloud at a tight tolerance takes several levels and
+/// batches, and each part takes some time.
+#[test]
+fn the_bakes_phases_fit_in_its_time() {
+    let g = fixture("cloud.vdb");
+    let light = LightGeometry::Sun {
+        travel: -DVec3::new(0.6, 1.0, 0.5).normalize(),
+    };
+    let clock = std::time::Instant::now();
+    let report = bake(&g, light, &BakeSettings::new(1e-4, DVec3::splat(SIGMA))).1;
+    let wall = clock.elapsed().as_secs_f64();
+    let p = report.phases.expect("a bake says where its time went");
+    let own = [
+        p.marking_seconds,
+        p.bounds_seconds,
+        p.decisions_seconds,
+        p.packing_seconds,
+        p.waiting_seconds,
+        p.compacting_seconds,
+    ];
+    for t in own.iter().chain([&p.columns_seconds]) {
+        assert!(t.is_finite() && *t >= 0.0, "{p:?}");
+    }
+    assert!(own.iter().sum::<f64>() <= wall, "{p:?} in {wall} s");
+    assert!(p.columns_seconds <= wall, "{p:?} in {wall} s");
+    for t in [
+        p.marking_seconds,
+        p.bounds_seconds,
+        p.columns_seconds,
+        p.decisions_seconds,
+        p.packing_seconds,
+    ] {
+        assert!(t > 0.0, "{p:?}");
+    }
+    // The columns are most of a CPU bake: the waits are for them, and they are at least
+    // as long as the waits.
+    assert!(p.columns_seconds >= p.waiting_seconds, "{p:?}");
 }
