@@ -24,6 +24,12 @@ impl<'a> FieldUnion<'a> {
         self.others.push((field, offset));
         self
     }
+
+    /// The primary field where it is the union's only one: its cells are the union's,
+    /// and their value ranges its own.
+    pub fn alone(&self) -> Option<&'a dyn Field> {
+        self.others.is_empty().then_some(self.primary)
+    }
 }
 
 impl Field for FieldUnion<'_> {

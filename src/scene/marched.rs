@@ -92,7 +92,9 @@ impl Scene {
                 .color
                 .as_ref()
                 .map(|c| ColorTint::new(c.as_ref() as &dyn ColorField, density)),
-            traversal,
+            // The density alone where nothing else is traversed: the march then knows
+            // its cells' ranges for the density's (a constant cell needs no integral).
+            traversal: traversal.alone().unwrap_or(traversal),
             // A coarse level's steps span several of its voxels: two samples a step.
             sampled_means: self.density_level.as_ref().is_some_and(|l| l.level > 0),
             motion: self.motion.as_ref().map(|m| m.motion()),
