@@ -178,8 +178,13 @@ impl ScatterPasses {
 
     /// One sample's camera-space depth where its opacity crosses 0.5.
     pub fn add_depth(&self, acc: &mut [f64], depth: f64) {
-        acc[self.at.depth] += depth;
-        acc[self.at.depth + 1] += 1.0;
+        self.add_depths(acc, depth, 1.0);
+    }
+
+    /// The sum of `count` samples' depths (as [`add_depth`](Self::add_depth) adds each).
+    pub fn add_depths(&self, acc: &mut [f64], sum: f64, count: f64) {
+        acc[self.at.depth] += sum;
+        acc[self.at.depth + 1] += count;
     }
 
     pub fn add_emission(&self, acc: &mut [f64], v: DVec3) {

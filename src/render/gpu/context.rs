@@ -19,6 +19,8 @@ pub struct Gpu {
     columns: Pipelines,
     /// The path tracer (path.wgsl), compiled on first use for each layout.
     pub(super) path: Pipelines,
+    /// The sums of each pixel's paths (path_sums.wgsl), compiled on first use.
+    pub(super) path_sums: std::sync::Mutex<Option<wgpu::ComputePipeline>>,
     /// The adapter as it names itself, its device type and backend.
     pub name: String,
     pub limits: wgpu::Limits,
@@ -173,6 +175,7 @@ impl Gpu {
             marches: std::sync::Mutex::new(Vec::new()),
             columns: Pipelines::default(),
             path: Pipelines::default(),
+            path_sums: std::sync::Mutex::new(None),
             name,
             limits,
             on_cpu: info.device_type == wgpu::DeviceType::Cpu,

@@ -6,19 +6,23 @@
 //! GPU from its pixel, as the march's are (rays.wgsl), so the GPU draws the CPU's numbers:
 //! where f32 and f64 agree on every decision a path is the CPU's path. The samples and
 //! the pixels' two passes are the single march's ([`super::pixels::assemble`]); each
-//! sample's values are written into the pixel's passes on the CPU by the path tracer's
-//! own [`crate::integrate::scatter_passes::ScatterPasses`].
+//! pixel's samples are summed on the GPU (path_sums.wgsl), and the sums written into
+//! the pixel's passes on the CPU by the path tracer's own
+//! [`crate::integrate::scatter_passes::ScatterPasses`].
 
 use super::GpuTimes;
 use super::context::{GRID_WGSL, Gpu, MARCH_WGSL, Resident};
 use super::grid_parts::GridBinding;
 use super::picks::{CAMERA_BINDING, PICK_FLOATS, Pick, camera_rays, make_picks, sample_count};
-use super::pixels::{Through, assemble, mean_of_samples, stream_picks};
+use super::pixels::{Through, assemble, stream_picks};
+use super::stream::Sums;
 use super::upload;
 use crate::field::Field;
+use crate::integrate::integrator::Integrator;
+use crate::integrate::pass::PassKind;
 use crate::integrate::path::PathTracer;
 use crate::integrate::phase::{HenyeyGreenstein, PhaseFunction};
-use crate::render::pixels::{PixelJob, PixelPasses, sample_stream};
+use crate::render::pixels::{PixelJob, PixelPasses, finish_pixel, sample_stream};
 use crate::scene::Scene;
 use crate::scene::lights::LightShadow;
 use glam::DVec3;
@@ -187,7 +191,7 @@ struct PathBatch {
 }
 
 /// Traces `picks` on the GPU: each pixel's values, the mean of its samples as the CPU's
-/// pixel loop takes it, and the density samples the paths took.
+/// pixel loop takes it (summed on the GPU), and the density samples the paths took.
 fn trace_picks(
     gpu: &Gpu,
     scene: &Resident,
@@ -197,10 +201,13 @@ fn trace_picks(
     times: &mut GpuTimes,
 ) -> Result<(Vec<f32>, u64), String> {
     let frame = job.camera.frame();
-    let density = job.integrator.parts().density;
+    let parts = job.integrator.parts();
+    // One pass's picks share their stratified grid, and so their samples' streams.
     let grid = picks.first().map_or(0, |p| p.grid);
-    let camera = camera_rays(job, &frame, grid, density, None);
+    let per_pixel = picks.first().map_or(1, |&p| sample_count(job, p) as usize);
+    let camera = camera_rays(job, &frame, grid, parts.density, None);
     let pipeline = path_pipeline(gpu, scene.features.grid)?;
+    let sums = sums_pipeline(gpu)?;
     let through = Through {
         gpu,
         scene,
@@ -208,88 +215,95 @@ fn trace_picks(
         in_floats: PATH_SAMPLE_FLOATS,
         out_floats: batch.stride,
         uniforms: &[(PATH_BINDING, &batch.params), (CAMERA_BINDING, &camera)],
+        sums: Some(Sums {
+            pipeline: &sums,
+            per_pixel,
+            sigma_t: parts.sigma_t.to_array().map(|c| c as f32),
+        }),
     };
+    // The weight of each sample's opacity (none: not computed), the same in every pixel.
+    let weights: Vec<Option<f64>> = (0..per_pixel as u32)
+        .map(|s| job.integrator.alpha_weight(sample_stream(grid, s)))
+        .collect();
+    let weight = weights.iter().flatten().next().copied().unwrap_or(0.0);
+    if weights.iter().flatten().any(|&w| w != weight) {
+        return Err("samples whose opacities are weighted differently".into());
+    }
     stream_picks(
         &through,
         job,
         picks,
-        |chunk, input| make_paths(job, chunk, input),
-        |made, results, px| record_paths(job, batch, made, results, px),
+        |chunk, input| make_paths(job, chunk, &weights, input),
+        |(), sums, px| record_paths(job, batch, weight, per_pixel, sums, px),
         times,
     )
 }
 
-/// What recording a chunk's paths needs of its samples besides their results: where
-/// each pick's samples start, and per sample the weight of its opacity (none: not
-/// computed).
-struct Made {
-    starts: Vec<usize>,
-    weights: Vec<Option<f64>>,
-}
-
 /// Writes the samples of `picks` into `input` ([`PATH_SAMPLE_FLOATS`] each): its pick
 /// (the GPU makes its ray and its random streams' key from it), then 1 where its
-/// opacity is wanted.
-fn make_paths(job: &PixelJob<PathTracer>, picks: &[Pick], input: &mut Vec<f32>) -> Made {
-    let integrator = job.integrator;
-    let starts = make_picks(job, picks, PATH_SAMPLE_FLOATS, input);
-    let weights: Vec<Option<f64>> = picks
-        .par_iter()
-        .flat_map_iter(|&p| {
-            (0..sample_count(job, p))
-                .map(move |s| integrator.alpha_weight(sample_stream(p.grid, s)))
-        })
-        .collect();
+/// opacity is wanted (`weights`: each of a pixel's samples').
+fn make_paths(
+    job: &PixelJob<PathTracer>,
+    picks: &[Pick],
+    weights: &[Option<f64>],
+    input: &mut Vec<f32>,
+) {
+    make_picks(job, picks, PATH_SAMPLE_FLOATS, input);
     input
-        .par_chunks_exact_mut(PATH_SAMPLE_FLOATS)
-        .zip(&weights)
-        .for_each(|(sample, w)| sample[PICK_FLOATS] = if w.is_some() { 1.0 } else { 0.0 });
-    Made { starts, weights }
+        .par_chunks_exact_mut(PATH_SAMPLE_FLOATS * weights.len().max(1))
+        .for_each(|pixel| {
+            for (sample, w) in pixel.chunks_exact_mut(PATH_SAMPLE_FLOATS).zip(weights) {
+                sample[PICK_FLOATS] = if w.is_some() { 1.0 } else { 0.0 };
+            }
+        });
 }
 
-/// Writes the results of a chunk's paths (`made`'s samples) into its pixels' values:
-/// the mean of each pixel's samples. Returns the density samples the paths took.
+/// Writes a chunk's pixels' sums (path_sums.wgsl: `per_pixel` samples each) into their
+/// values: the mean of each pixel's samples, the opacities weighted by `weight`. Returns
+/// the density samples the paths took.
 fn record_paths(
     job: &PixelJob<PathTracer>,
     batch: &PathBatch,
-    made: &Made,
-    results: &[f32],
+    weight: f64,
+    per_pixel: usize,
+    sums: &[f32],
     values: &mut [f32],
 ) -> u64 {
     let parts = job.integrator.parts();
-    let (passes, sigma_t) = (parts.passes, parts.sigma_t);
-    let rs = batch.stride;
-    let Made { starts, weights } = made;
-    mean_of_samples(
-        job,
-        starts,
-        values,
-        || (),
-        |acc, _, i| {
-            let r = &results[i * rs..][..rs];
-            let depth_rate = r[3] as f64;
-            if let Some(w) = weights[i] {
-                let depth = r[0] as f64;
-                let alpha = (DVec3::ONE - (-sigma_t * depth).exp()).element_sum() / 3.0;
-                passes.add_alpha(acc, alpha.clamp(0.0, 1.0) * w);
-                if r[1] >= 0.0 {
-                    passes.add_depth(acc, r[1] as f64 * depth_rate);
+    let passes = parts.passes;
+    let layout = job.integrator.passes();
+    let stride = layout.slots();
+    let (alpha_at, depth_at) = (
+        layout.offset_of_kind(PassKind::Alpha),
+        layout.offset_of_kind(PassKind::Depth),
+    );
+    values
+        .par_chunks_mut(stride)
+        .zip(sums.par_chunks_exact(batch.stride))
+        // Each thread's sums, cleared for each pixel (not made anew for each).
+        .map_init(
+            || vec![0f64; stride],
+            |acc, (px, r)| {
+                acc.fill(0.0);
+                passes.add_alpha(acc, r[0] as f64 * weight);
+                passes.add_depths(acc, r[1] as f64, r[3] as f64);
+                let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
+                if parts.emits {
+                    passes.add_emission(acc, v(4));
+                    passes.add_scattered_emission(acc, 1, v(8));
+                    passes.add_scattered_emission(acc, 2, v(12));
                 }
-            }
-            let v = |j: usize| DVec3::new(r[j] as f64, r[j + 1] as f64, r[j + 2] as f64);
-            if parts.emits {
-                passes.add_emission(acc, v(4));
-                passes.add_scattered_emission(acc, 1, v(8));
-                passes.add_scattered_emission(acc, 2, v(12));
-            }
-            for l in 0..batch.layers {
-                let at = PATH_RESULT_BASE + 8 * l;
-                passes.add_scattered(acc, l, 1, v(at));
-                passes.add_scattered(acc, l, 2, v(at + 4));
-            }
-            r[2] as u64
-        },
-    )
+                for l in 0..batch.layers {
+                    let at = PATH_RESULT_BASE + 8 * l;
+                    passes.add_scattered(acc, l, 1, v(at));
+                    passes.add_scattered(acc, l, 2, v(at + 4));
+                }
+                finish_pixel(px, acc, per_pixel, alpha_at, depth_at);
+                // The samples' count, summed as an integer.
+                u64::from(r[2].to_bits())
+            },
+        )
+        .sum()
 }
 
 /// Appends to `meta` how the phase function is sampled where it is a table (water
@@ -312,6 +326,21 @@ fn phase_sampling(phase: &dyn PhaseFunction, meta: &mut Vec<f32>) -> Result<[u32
         meta.extend([hi, lo, t.one_minus_cos[i] as f32, pdf as f32]);
     }
     Ok([1, base as u32, (n - 1) as u32, 0])
+}
+
+/// The pass that sums each pixel's paths (path_sums.wgsl), compiled on first use.
+fn sums_pipeline(gpu: &Gpu) -> Result<wgpu::ComputePipeline, String> {
+    let mut held = gpu.path_sums.lock().map_err(|_| "a poisoned lock")?;
+    if let Some(p) = held.as_ref() {
+        return Ok(p.clone());
+    }
+    let pipeline = gpu.compile(
+        "path pixel sums",
+        &[include_str!("path_sums.wgsl")],
+        "path_pixel_sums",
+    )?;
+    *held = Some(pipeline.clone());
+    Ok(pipeline)
 }
 
 /// The path tracer's pipeline (path.wgsl and path_tracking.wgsl after the march's

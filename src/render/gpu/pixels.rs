@@ -150,6 +150,7 @@ fn render_picks(
         in_floats: PICK_FLOATS,
         out_floats: rs,
         uniforms: &[(CAMERA_BINDING, &camera)],
+        sums: None,
     };
     stream_picks(
         &through,
@@ -162,7 +163,8 @@ fn render_picks(
 }
 
 /// Where [`stream_picks`] sends the samples: the pipeline run over them, the scene it
-/// reads, the floats a sample takes in and gives back, and the pipeline's own uniforms.
+/// reads, the floats a sample takes in and gives back, the pipeline's own uniforms, and
+/// where each pixel's results are summed on the GPU, how.
 pub(super) struct Through<'a> {
     pub gpu: &'a Gpu,
     pub scene: &'a Resident,
@@ -171,12 +173,13 @@ pub(super) struct Through<'a> {
     pub out_floats: usize,
     /// Each uniform's binding and words.
     pub uniforms: &'a [(u32, &'a [u32])],
+    pub sums: Option<stream::Sums<'a>>,
 }
 
 /// Runs `picks` through the GPU (`through`), streamed in chunks ([`stream::stream`]):
 /// each chunk's samples are made by `make` while the GPU runs the chunk before, and
-/// its pixels' values written by `record` (from what `make` kept and the results)
-/// while the GPU runs the chunk after. Returns each pixel's values (the job's pass
+/// its pixels' values written by `record` (from what `make` kept and the results, or
+/// with `through.sums` each pixel's sums) while the GPU runs the chunk after. Returns each pixel's values (the job's pass
 /// slots each) and the density samples `record` counted.
 pub(super) fn stream_picks<I: Integrator, M>(
     through: &Through,
@@ -190,10 +193,21 @@ pub(super) fn stream_picks<I: Integrator, M>(
     let stride = job.integrator.passes().slots();
     let fit = stream::chunk_samples(gpu, through.in_floats, through.out_floats);
     let (chunks, per_chunk, max_samples) = pick_chunks(job, picks, fit);
+    if let Some(m) = through.sums
+        && picks
+            .iter()
+            .any(|&p| sample_count(job, p) as usize != m.per_pixel)
+    {
+        return Err(format!(
+            "{}: pixels summed on the GPU that take other than {} samples",
+            gpu.name, m.per_pixel
+        ));
+    }
     let shape = stream::Shape {
         in_floats: through.in_floats,
         out_floats: through.out_floats,
         max_samples,
+        sums: through.sums,
     };
     let mut values = vec![0f32; picks.len() * stride];
     let mut samples = 0u64;

@@ -28,19 +28,40 @@ pub(super) fn chunk_samples(gpu: &Gpu, in_floats: usize, out_floats: usize) -> u
     ((gpu.max_binding() / per_sample) as usize).clamp(1, CHUNK_SAMPLES)
 }
 
-/// What a stream moves: floats a sample takes in and gives back, and the most samples
-/// any of its chunks holds.
+/// What a stream moves: floats a sample takes in and gives back, the most samples any
+/// of its chunks holds, and where the results are summed on the GPU before they come
+/// back, how.
 #[derive(Clone, Copy)]
-pub(super) struct Shape {
+pub(super) struct Shape<'a> {
     pub in_floats: usize,
     pub out_floats: usize,
     pub max_samples: usize,
+    pub sums: Option<Sums<'a>>,
 }
 
-impl Shape {
-    /// Bytes of the results of `count` samples.
+/// A pass after the samples' that sums each pixel's results (`per_pixel` samples, laid
+/// one pixel after another) into one of the same floats (path_sums.wgsl): the sums come
+/// back, not the samples' results.
+#[derive(Clone, Copy)]
+pub(super) struct Sums<'a> {
+    pub pipeline: &'a wgpu::ComputePipeline,
+    pub per_pixel: usize,
+    /// The medium's extinction per channel (the opacity of a sample is summed).
+    pub sigma_t: [f32; 3],
+}
+
+impl Shape<'_> {
+    /// How many results `count` samples give back: one a sample, or one a pixel.
+    fn returned(self, count: usize) -> usize {
+        match self.sums {
+            Some(s) => count / s.per_pixel.max(1),
+            None => count,
+        }
+    }
+
+    /// Bytes of what `count` samples give back.
     fn out_bytes(self, count: usize) -> u64 {
-        (count * self.out_floats * 4) as u64
+        (self.returned(count) * self.out_floats * 4) as u64
     }
 }
 
@@ -52,6 +73,8 @@ struct Slot {
     results: wgpu::Buffer,
     readback: wgpu::Buffer,
     bind: wgpu::BindGroup,
+    /// Where the results are summed per pixel: the sums, their uniform and bind group.
+    sums: Option<(wgpu::Buffer, wgpu::Buffer, wgpu::BindGroup)>,
     timer: Option<PassTimer>,
 }
 
@@ -72,7 +95,8 @@ struct InFlight<S> {
 /// buffers, the samples at 5, the results at 6, then each of `uniforms` at its binding). `make(k,
 /// into)` writes chunk k's samples into `into` (empty; at most `shape.max_samples`) and
 /// returns what `take` needs of them besides their results; `take(k, kept, results)`
-/// gets that and the chunk's results (`shape.out_floats` a sample), in chunk order.
+/// gets that and the chunk's results (`shape.out_floats` a sample, or a pixel where
+/// `shape.sums` sums them), in chunk order.
 /// Adds the seconds of `make` to `times.rays`, of `take` to `times.record`, and the
 /// rest (filling the staging buffers, submitting, waiting) to `times.kernel`.
 #[allow(clippy::too_many_arguments)]
@@ -106,6 +130,15 @@ pub(super) fn stream<S>(
             return Err(format!(
                 "{}: a chunk of {count} samples where {} at most were made room for",
                 gpu.name, shape.max_samples
+            ));
+        }
+        if shape
+            .sums
+            .is_some_and(|m| !count.is_multiple_of(m.per_pixel.max(1)))
+        {
+            return Err(format!(
+                "{}: a chunk of {count} samples that are not whole pixels",
+                gpu.name
             ));
         }
         let s = k % 2;
@@ -155,7 +188,7 @@ pub(super) fn stream<S>(
     }
     let held: u64 = slots
         .iter()
-        .map(|s| s.input.size() + s.results.size())
+        .map(|s| s.input.size() + s.results.size() + s.sums.as_ref().map_or(0, |m| m.0.size()))
         .sum();
     times.stream_bytes = times.stream_bytes.max(held);
     Ok(())
@@ -181,22 +214,40 @@ fn make_slot(
 ) -> Slot {
     use wgpu::BufferUsages as U;
     let d = &gpu.device;
-    let buffer = |label: &str, floats: usize, usage: U, mapped: bool| {
+    // A buffer of `count` items of `floats` each.
+    let buffer = |label: &str, count: usize, floats: usize, usage: U, mapped: bool| {
         d.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
-            size: ((shape.max_samples * floats * 4) as u64)
+            size: ((count * floats * 4) as u64)
                 .max(16)
                 .next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT),
             usage,
             mapped_at_creation: mapped,
         })
     };
-    let (i, o) = (shape.in_floats, shape.out_floats);
+    let (i, o, n) = (shape.in_floats, shape.out_floats, shape.max_samples);
+    let back = shape.returned(n);
     let params = uniform(d, "params", &scene.params, U::COPY_DST);
-    let staging = buffer("samples staging", i, U::MAP_WRITE | U::COPY_SRC, true);
-    let input = buffer("samples", i, U::STORAGE | U::COPY_DST, false);
-    let results = buffer("results", o, U::STORAGE | U::COPY_SRC, false);
-    let readback = buffer("readback", o, U::MAP_READ | U::COPY_DST, false);
+    let staging = buffer("samples staging", n, i, U::MAP_WRITE | U::COPY_SRC, true);
+    let input = buffer("samples", n, i, U::STORAGE | U::COPY_DST, false);
+    let results = buffer("results", n, o, U::STORAGE | U::COPY_SRC, false);
+    let readback = buffer("readback", back, o, U::MAP_READ | U::COPY_DST, false);
+    let sums = shape.sums.map(|m| {
+        let sums = buffer("pixel sums", back, o, U::STORAGE | U::COPY_SRC, false);
+        let words = sums_words(m, shape, 0);
+        let params = uniform(d, "pixel sums", &words, U::COPY_DST);
+        let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pixel sums"),
+            layout: &m.pipeline.get_bind_group_layout(0),
+            entries: &[
+                entry(0, &params),
+                entry(1, &results),
+                entry(2, &input),
+                entry(3, &sums),
+            ],
+        });
+        (sums, params, bind)
+    });
     let mut entries = scene.features.grid.entries(&scene.tree, &scene.vals);
     entries.extend([
         entry(0, &params),
@@ -220,8 +271,25 @@ fn make_slot(
         results,
         readback,
         bind,
+        sums,
         timer: PassTimer::new(d, gpu.timestamps),
     }
+}
+
+/// The words of path_sums.wgsl's `Sums` for a chunk of `pixels` pixels.
+fn sums_words(m: Sums, shape: Shape, pixels: usize) -> [u32; 8] {
+    let [r, g, b] = m.sigma_t.map(f32::to_bits);
+    let word = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
+    [
+        r,
+        g,
+        b,
+        0,
+        word(pixels),
+        word(m.per_pixel),
+        word(shape.out_floats),
+        word(shape.in_floats),
+    ]
 }
 
 /// Writes `samples` (`count` of them) into the slot's staging buffer (mapped for
@@ -261,8 +329,17 @@ fn submit(
     if let Some(t) = &slot.timer {
         t.resolve(&mut encoder);
     }
+    let mut back = &slot.results;
+    if let (Some(m), Some((sums, params, bind))) = (shape.sums, &slot.sums) {
+        let pixels = shape.returned(count);
+        let words = sums_words(m, shape, pixels);
+        gpu.queue
+            .write_buffer(params, 0, bytemuck::cast_slice(&words));
+        encode_pass(&mut encoder, &Default::default(), m.pipeline, bind, pixels);
+        back = sums;
+    }
     if out_bytes > 0 {
-        encoder.copy_buffer_to_buffer(&slot.results, 0, &slot.readback, 0, out_bytes);
+        encoder.copy_buffer_to_buffer(back, 0, &slot.readback, 0, out_bytes);
     }
     Ok(gpu.queue.submit([encoder.finish()]))
 }
