@@ -216,8 +216,9 @@ fn half_crossing(r: Ray, t0: f32, t1: f32, before: f32) -> f32 {
 }
 
 // The camera ray's ∫ρ over [t_min, t_max], exact per cell, and in `half` where the
-// mean transmittance first falls to ½ (−1: nowhere).
-fn camera_ray(r: Ray, t_min: f32, t_max: f32, half: ptr<function, f32>, n: ptr<function, u32>) -> f32 {
+// mean transmittance first falls to ½ (−1: nowhere). Its cells' integrals are not
+// counted among the density samples, as the CPU's are not.
+fn camera_ray(r: Ray, t_min: f32, t_max: f32, half: ptr<function, f32>) -> f32 {
     *half = -1.0;
     let speed = length(r.d);
     if (!(speed > 0.0 && speed < BIG)) {
@@ -239,7 +240,6 @@ fn camera_ray(r: Ray, t_min: f32, t_max: f32, half: ptr<function, f32>, n: ptr<f
         } else {
             part = integral_over(r, t0, t1);
         }
-        *n += 1u;
         if (*half < 0.0 && mean_transmittance(total + part) <= 0.5) {
             *half = half_crossing(r, t0, t1, total);
         }
@@ -280,7 +280,7 @@ fn path_samples(@builtin(global_invocation_id) id: vec3<u32>) {
     var t_min = smp.index_origin.w;
     var t_max = smp.world_dir.w;
     if (opacity) {
-        depth = camera_ray(r, t_min, t_max, &half, &n);
+        depth = camera_ray(r, t_min, t_max, &half);
     }
     var once: array<vec3<f32>, 9>;
     var more: array<vec3<f32>, 9>;
