@@ -209,17 +209,16 @@ fn bake_at(
             settings.max_bricks.saturating_mul(16),
         )?;
         phases.marking_seconds += clock.elapsed().as_secs_f64();
-        report.phases = Some(phases);
         refine(
             density,
             keys,
             settings,
             &mut report,
+            &mut phases,
             &mut cells,
             &mut map,
             columns,
         )?;
-        phases = report.phases.unwrap_or(phases);
         maps.push(map);
     }
     // The bake's samples are packed and freed: return them before the render.

@@ -18,6 +18,7 @@ use super::columns::sample_level;
 use super::lattice::{cells_per_column, cells_per_unit, column_cells};
 use super::level_checks::{Upstream, channels, coarse_error, coarsen, unresolved_bounds};
 use super::map::{BrickForm, BrickSamples, ChartMap, EncodedBrick, VOXEL_LEVEL, side};
+use super::settings::BakePhases;
 use super::{BakeReport, BakeSettings};
 use crate::field::Field;
 use glam::IVec3;
@@ -47,13 +48,14 @@ const CHECK_FRACTION: f64 = 0.5;
 type Pending = (IVec3, f64, Upstream);
 
 /// Chooses every brick's level and form, and packs each into `map`, adding the time
-/// each part took to `report`'s phases. `None` if the map refuses a brick (outside its
-/// table).
+/// each part took to `phases`. `None` if the map refuses a brick (outside its table).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn refine(
     density: &dyn Field,
     keys: &[IVec3],
     settings: &BakeSettings,
     report: &mut BakeReport,
+    phases: &mut BakePhases,
     cells: &mut f64,
     map: &mut ChartMap,
     elsewhere: Option<&dyn ColumnMarcher>,
@@ -72,7 +74,6 @@ pub(super) fn refine(
         let e = stack_start.entry((k.x, k.y)).or_insert(k.z);
         *e = (*e).min(k.z);
     }
-    let mut phases = report.phases.unwrap_or_default();
     let clock = Instant::now();
     let bounds = unresolved_bounds(density, &chart, keys, &sigmas);
     phases.bounds_seconds += clock.elapsed().as_secs_f64();
@@ -294,7 +295,6 @@ pub(super) fn refine(
     let clock = Instant::now();
     map.drop_replaced();
     phases.compacting_seconds += clock.elapsed().as_secs_f64();
-    report.phases = Some(phases);
     Some(())
 }
 
