@@ -248,7 +248,18 @@ impl VoxelGrid {
     /// The stored value of channel `c` at a global index coordinate.
     #[inline]
     pub(super) fn voxel(&self, g: IVec3, c: usize) -> f32 {
-        match self.lookup(g) {
+        self.slot_value(self.lookup(g), g, c)
+    }
+
+    /// [`VoxelGrid::voxel`], its block looked up through `cache`.
+    #[inline]
+    pub(super) fn voxel_cached(&self, g: IVec3, c: usize, cache: &mut LeafCache) -> f32 {
+        self.slot_value(self.lookup_cached(g, cache), g, c)
+    }
+
+    #[inline(always)]
+    fn slot_value(&self, slot: Slot, g: IVec3, c: usize) -> f32 {
+        match slot {
             Slot::Tile(t) => self.tile_values[t as usize * self.channels + c],
             Slot::Leaf(l) => {
                 self.leaf_values[(l as usize * LEAF_VOXELS + leaf_offset(g)) * self.channels + c]
@@ -268,7 +279,13 @@ impl VoxelGrid {
     /// values sit at integer points and blend with the weights of the fractional part.
     #[inline]
     pub fn sample_channel(&self, p: DVec3, c: usize) -> f32 {
-        match self.stencil(p, c) {
+        self.sample_channel_cached(p, c, &mut LeafCache::new())
+    }
+
+    /// [`VoxelGrid::sample_channel`], its blocks looked up through `cache`.
+    #[inline(always)]
+    pub(super) fn sample_channel_cached(&self, p: DVec3, c: usize, cache: &mut LeafCache) -> f32 {
+        match self.stencil(p, c, cache) {
             Stencil::Constant(v) => v,
             Stencil::Corners(v, t) => trilinear(&v, t.as_vec3()),
         }
@@ -299,7 +316,7 @@ impl VoxelGrid {
     /// f32): what the reference render's exact integrals use.
     #[inline]
     pub fn sample_channel_f64(&self, p: DVec3, c: usize) -> f64 {
-        match self.stencil(p, c) {
+        match self.stencil(p, c, &mut LeafCache::new()) {
             Stencil::Constant(v) => v as f64,
             Stencil::Corners(v, t) => trilinear_f64(&v, t),
         }
@@ -308,7 +325,7 @@ impl VoxelGrid {
     /// The eight voxel values around `p` and its fractional position among them, or the
     /// value where all eight are one tile.
     #[inline(always)]
-    fn stencil(&self, p: DVec3, c: usize) -> Stencil {
+    fn stencil(&self, p: DVec3, c: usize, cache: &mut LeafCache) -> Stencil {
         if !(p.abs().max_element() < LOOKUP_LIMIT) || c >= self.channels {
             return Stencil::Constant(if c < self.channels {
                 self.tile_values[c]
@@ -317,7 +334,7 @@ impl VoxelGrid {
             });
         }
         let i = IVec3::new(floor_i32(p.x), floor_i32(p.y), floor_i32(p.z));
-        self.stencil_in(i, p - i.as_dvec3(), c, &mut LeafCache::new())
+        self.stencil_in(i, p - i.as_dvec3(), c, cache)
     }
 
     /// The slot of the 8³ block holding global voxel `g`, from `cache` when the last

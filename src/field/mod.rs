@@ -22,6 +22,7 @@ mod grid_integrals;
 mod grid_levels;
 pub mod grid_nodes;
 mod grid_ranges;
+pub mod grid_reader;
 pub mod mesh;
 pub mod nonzero;
 pub mod padded_cells;

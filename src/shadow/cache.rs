@@ -19,15 +19,13 @@
 //! the density grid it was baked from (`murk:density_hash`).
 
 use super::BakeReport;
+use super::cache_bricks::read_chart_bricks;
 use super::cache_check::{GridMeta, check_bake_charts, check_consistent, shown};
 pub use super::cache_error::CacheError;
 use super::chart::{Chart, ChartKind, LateralBlend};
-use super::map::{
-    BRICK, BakedBrick, BrickForm, BrickSamples, ChartMap, ChartSelect, LEVELS, ShadowMap, side,
-    spacing,
-};
+use super::map::{BRICK, BrickForm, ChartMap, ChartSelect, LEVELS, ShadowMap, side, spacing};
 use super::{CachedLight, ShadowMapStats};
-use crate::field::{Field, VoxelGrid};
+use crate::field::Field;
 use crate::vdb::{FloatGridOut, VdbFile, write_float_grids};
 use glam::{DMat4, DVec3, IVec3};
 use std::collections::BTreeMap;
@@ -96,7 +94,7 @@ fn brick_code(level: u8, form: BrickForm) -> f32 {
 }
 
 /// The level and form a bricks grid's value stands for.
-fn brick_from_code(v: f32) -> Option<(u8, BrickForm)> {
+pub(super) fn brick_from_code(v: f32) -> Option<(u8, BrickForm)> {
     if !((1.0..64.0).contains(&v) && v.fract() == 0.0) {
         return None;
     }
@@ -106,7 +104,7 @@ fn brick_from_code(v: f32) -> Option<(u8, BrickForm)> {
     Some((level - 1, BrickForm::from_code(v / 16)?))
 }
 
-fn grid_name(light: &str, chart: usize, what: &str) -> String {
+pub(super) fn grid_name(light: &str, chart: usize, what: &str) -> String {
     format!("dsm_{light}_c{chart}_{what}")
 }
 
@@ -367,122 +365,12 @@ pub fn read(
                     .filter(|e| e.is_finite() && *e >= 0.0)
                     .unwrap_or(0.0);
             }
-            let bricks_grid = VoxelGrid::load(&file, &name)?;
-            // Per level: its stored grids, in STORED order.
-            let mut levels: Vec<Option<[VoxelGrid; 4]>> = vec![None; LEVELS];
-            let mut linear_levels: Vec<Option<VoxelGrid>> = vec![None; LEVELS];
-            let mut dark: Option<VoxelGrid> = None;
-            let load_named = |what: &str| {
-                let name = grid_name(light.name(), ci, what);
-                if file.grids().iter().all(|g| g.name != name) {
-                    return Err(bad(format!(
-                        "lacks grid {name} (made by an older murk?); bake again with murk bake-shadows"
-                    )));
-                }
-                Ok(VoxelGrid::load(&file, &name)?)
-            };
-            let mut bricks = Vec::new();
-            let keys = active_voxels(&bricks_grid)
-                .ok_or_else(|| bad(format!("grid {name}: its bricks span too large a region")))?;
-            for key in keys {
-                let v = bricks_grid.voxel_value(key, 0);
-                let Some((level, form)) = brick_from_code(v) else {
-                    return Err(bad(format!(
-                        "grid {name}: brick code {v} is not a level 1..{LEVELS} plus 16 x a form 0..2"
-                    )));
-                };
-                let n = 1i32 << level;
-                let m = side(level);
-                if form == BrickForm::Constant {
-                    let grid = match &mut dark {
-                        Some(g) => g,
-                        None => dark.insert(load_named("dark")?),
-                    };
-                    bricks.push(BakedBrick {
-                        key,
-                        level,
-                        form,
-                        samples: BrickSamples {
-                            tau: vec![grid.voxel_value(key, 0)],
-                            ..Default::default()
-                        },
-                    });
-                    continue;
-                }
-                if form == BrickForm::Linear {
-                    let grid = match &mut linear_levels[level as usize] {
-                        Some(g) => g,
-                        slot => slot.insert(load_named(&format!("L{level}_linear"))?),
-                    };
-                    let mut tau = Vec::with_capacity(m * m * m);
-                    for k in 0..m {
-                        for j in 0..m {
-                            for i in 0..m {
-                                let ijk = key * (n + 1) + IVec3::new(i as i32, j as i32, k as i32);
-                                tau.push(grid.voxel_value(ijk, 0));
-                            }
-                        }
-                    }
-                    bricks.push(BakedBrick {
-                        key,
-                        level,
-                        form,
-                        samples: BrickSamples {
-                            tau,
-                            ..Default::default()
-                        },
-                    });
-                    continue;
-                }
-                let slot = &mut levels[level as usize];
-                let [tau, tau_x, tau_y, tau_xy] = match slot {
-                    Some(grids) => grids,
-                    None => {
-                        // τ is never negative; its slopes are signed.
-                        let load = |(suffix, plane, _): (&str, usize, &str)| {
-                            let name = grid_name(light.name(), ci, &format!("L{level}{suffix}"));
-                            if file.grids().iter().all(|g| g.name != name) {
-                                return Err(bad(format!(
-                                    "lacks grid {name} (made by an older murk?); bake again with murk bake-shadows"
-                                )));
-                            }
-                            Ok(if plane == 0 {
-                                VoxelGrid::load(&file, &name)?
-                            } else {
-                                VoxelGrid::load_signed(&file, &name)?
-                            })
-                        };
-                        slot.insert([
-                            load(STORED[0])?,
-                            load(STORED[1])?,
-                            load(STORED[2])?,
-                            load(STORED[3])?,
-                        ])
-                    }
-                };
-                let mut samples = BrickSamples::with_capacity(m * m * m);
-                for k in 0..m {
-                    for j in 0..m {
-                        for i in 0..m {
-                            let ijk = key * n + IVec3::new(i as i32, j as i32, k as i32);
-                            samples.tau.push(tau.voxel_value(ijk, 0));
-                            let q = ijk.as_dvec3() * spacing(level);
-                            samples.rho.push(density.value_at_world(chart.to_world(q)));
-                            samples.tau_x.push(tau_x.voxel_value(ijk, 0));
-                            samples.tau_y.push(tau_y.voxel_value(ijk, 0));
-                            samples.tau_xy.push(tau_xy.voxel_value(ijk, 0));
-                        }
-                    }
-                }
-                bricks.push(BakedBrick {
-                    key,
-                    level,
-                    form,
-                    samples,
-                });
-            }
-            let cm = ChartMap::new(chart, bricks, 64 << 20)
-                .ok_or_else(|| bad(format!("grid {name}: its bricks span too large a region")))?;
+            let bricks = read_chart_bricks(&file, path, light.name(), ci, &chart, density)?;
+            let too_large = || bad(format!("grid {name}: its bricks span too large a region"));
+            let mut cm = ChartMap::empty(chart, bricks.iter().map(|b| b.0), 64 << 20)
+                .ok_or_else(too_large)?;
+            let packed: Vec<_> = bricks.iter().map(|(key, b)| (*key, b)).collect();
+            cm.push_encoded_all(&packed).ok_or_else(too_large)?;
             chart_maps.push(cm);
         }
         let select = if charts == 6 {
@@ -552,31 +440,4 @@ fn chart_from(meta: &BTreeMap<String, String>) -> Option<Chart> {
         e3,
         unit,
     })
-}
-
-/// The global index of every stored voxel of a (small) grid, from its active bounds;
-/// `None` if the bounds are too large to scan.
-fn active_voxels(g: &VoxelGrid) -> Option<Vec<IVec3>> {
-    let b = g.active_bounds();
-    if b.is_empty() {
-        return Some(Vec::new());
-    }
-    let origin = g.transform().origin;
-    let (lo, hi) = (b.min.ceil().as_ivec3(), b.max.floor().as_ivec3());
-    let mut out = Vec::new();
-    let count = (hi - lo + IVec3::ONE).as_i64vec3().element_product();
-    if count > (64 << 20) {
-        return None;
-    }
-    for z in lo.z..=hi.z {
-        for y in lo.y..=hi.y {
-            for x in lo.x..=hi.x {
-                let global = IVec3::new(x, y, z) + origin;
-                if g.voxel_value(global, 0) > 0.0 {
-                    out.push(global);
-                }
-            }
-        }
-    }
-    Some(out)
 }

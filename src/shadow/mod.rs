@@ -8,6 +8,7 @@
 pub mod bake;
 pub mod brick;
 pub mod cache;
+mod cache_bricks;
 mod cache_check;
 mod cache_error;
 pub mod chart;
