@@ -9,7 +9,9 @@
 # Under single, gpu-single-bake-batch-large bakes the shadow map's light columns on the
 # GPU in batches sixteen times the default (MURK_GPU_BAKE_BATCH): fewer, fuller dispatches;
 # gpu-single-march-cut and -whole march shadow rays through the grid cut into parts
-# (MURK_GPU_MAX_BINDING) and whole (not on an adapter that runs on the CPU).
+# (MURK_GPU_MAX_BINDING) and whole (not on an adapter that runs on the CPU), and
+# gpu-single-map-cached and cpu-single-map-cached read the sun's map from a cache made
+# once by `murk bake-shadows` (a look re-rendered after a camera move: no bake).
 # Prints each run's wall and CPU seconds, the device and the stages of its --stats
 # (gpu_upload: flattening and uploading the grid, maps and lattice; render: rays, march,
 # readback and passes; multiple_scattering: the lattice's solve, of which gpu_lattice ran
@@ -67,6 +69,13 @@ for mode in "${MODES[@]}"; do
         # The bake's light columns in batches of 8 M samples against the default half
         # million: the same map, in fewer and fuller dispatches.
         MURK_GPU_BAKE_BATCH=8388608 run "gpu-single-bake-batch-large" --device gpu --scattering single
+        # A re-render of a look whose map is already made (a camera move, a colour
+        # change): the sun's map read from a cache `murk bake-shadows` wrote, so the
+        # render is the upload, the march and the write, without the bake.
+        "$MURK" bake-shadows "$CLOUD" -o "$OUT/shadows.vdb" "${A[@]:8:6}" --quiet
+        run "gpu-single-map-cached" --device gpu --scattering single --shadow-cache "$OUT/shadows.vdb"
+        run "cpu-single-map-cached" --device cpu --scattering single --threads "$THREADS" \
+            --shadow-cache "$OUT/shadows.vdb"
         if [[ "${BENCH_CUT:-1}" != 0 ]]; then
             # The grid cut into parts (the largest binding lowered to 4 MiB: the values in
             # three buffers) against the same grid whole, with shadow rays marched through
