@@ -26,8 +26,9 @@ use super::chart::{Chart, ChartKind, LateralBlend};
 use super::map::{BRICK, BrickForm, ChartMap, ChartSelect, LEVELS, ShadowMap, side, spacing};
 use super::{CachedLight, ShadowMapStats};
 use crate::field::Field;
-use crate::vdb::{FloatGridOut, VdbFile, write_float_grids};
+use crate::vdb::{VdbFile, float_grid, write_grids};
 use glam::{DMat4, DVec3, IVec3};
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -85,6 +86,7 @@ const STORED: [(&str, usize, &str); 4] = [
     ),
 ];
 
+const BRICKS_QUANTITY: &str = "level + 1 + 16 x form of each brick of the shadow map (form 0: tau and its slopes, Hermite; 1: tau alone, trilinear; 2: one tau)";
 const LINEAR_QUANTITY: &str = "integral of density toward the light of the bricks held as tau alone (trilinear), each brick side(level) samples a side at index key x (2^level + 1): bricks do not share samples";
 const DARK_QUANTITY: &str = "integral of density toward the light of the bricks held as one value (the light there is below the tolerance), at each brick";
 
@@ -108,7 +110,125 @@ pub(super) fn grid_name(light: &str, chart: usize, what: &str) -> String {
     format!("dsm_{light}_c{chart}_{what}")
 }
 
-/// Writes the maps of `lights` (one per light, in order) to `path`, atomically.
+/// A grid's string metadata.
+type Metadata = Vec<(String, String)>;
+
+/// One grid of a chart's map in a cache.
+#[derive(Clone, Copy, PartialEq)]
+pub(super) enum StoredGrid {
+    /// Each brick's level and form ([`brick_code`]), at the brick.
+    Bricks,
+    /// Quantity `STORED[quantity]` of the Hermite bricks of `level`.
+    Hermite { level: u8, quantity: usize },
+    /// τ of the Linear bricks of `level`, each brick apart.
+    Linear { level: u8 },
+    /// The one τ of each Constant brick, at the brick.
+    Dark,
+}
+
+impl StoredGrid {
+    /// Its name after `dsm_<light>_c<chart>_`.
+    pub(super) fn suffix(self) -> String {
+        match self {
+            StoredGrid::Bricks => "bricks".into(),
+            StoredGrid::Hermite { level, quantity } => format!("L{level}{}", STORED[quantity].0),
+            StoredGrid::Linear { level } => format!("L{level}_linear"),
+            StoredGrid::Dark => "dark".into(),
+        }
+    }
+
+    /// A signed quantity (τ's slopes); τ and the codes are never negative.
+    pub(super) fn signed(self) -> bool {
+        matches!(self, StoredGrid::Hermite { quantity, .. } if quantity > 0)
+    }
+
+    /// What its values are (`murk:quantity`), and its level (`murk:level`) if it has one.
+    fn described(self) -> (&'static str, Option<u8>) {
+        match self {
+            StoredGrid::Bricks => (BRICKS_QUANTITY, None),
+            StoredGrid::Hermite { level, quantity } => (STORED[quantity].2, Some(level)),
+            StoredGrid::Linear { level } => (LINEAR_QUANTITY, Some(level)),
+            StoredGrid::Dark => (DARK_QUANTITY, None),
+        }
+    }
+
+    /// Its index step in lattice units: a brick's, or its level's sample spacing.
+    fn step(self) -> f64 {
+        match self.described().1 {
+            Some(level) => spacing(level),
+            None => BRICK as f64,
+        }
+    }
+
+    /// The grids a chart map's bricks fill, in the file's order.
+    fn of(cm: &ChartMap) -> Vec<StoredGrid> {
+        let has = |level: Option<u8>, form: BrickForm| {
+            cm.bricks
+                .iter()
+                .any(|b| b.form == form && level.is_none_or(|l| b.level == l))
+        };
+        let mut out = vec![StoredGrid::Bricks];
+        for level in 0..LEVELS as u8 {
+            if has(Some(level), BrickForm::Hermite) {
+                out.extend(
+                    (0..STORED.len()).map(|quantity| StoredGrid::Hermite { level, quantity }),
+                );
+            }
+            if has(Some(level), BrickForm::Linear) {
+                out.push(StoredGrid::Linear { level });
+            }
+        }
+        if has(None, BrickForm::Constant) {
+            out.push(StoredGrid::Dark);
+        }
+        out
+    }
+
+    /// Its voxels in `cm`, brick by brick, each brick's samples x fastest.
+    fn voxels(self, cm: &ChartMap) -> Box<dyn Iterator<Item = (IVec3, f32)> + '_> {
+        let samples = move |level: u8, form: BrickForm, plane: usize, step: i32| {
+            let m = side(level);
+            cm.bricks
+                .iter()
+                .filter(move |b| b.level == level && b.form == form)
+                .flat_map(move |b| {
+                    let v = cm.brick_quantity(b, plane);
+                    (0..m * m * m).map(move |at| {
+                        let ijk =
+                            IVec3::new((at % m) as i32, (at / m % m) as i32, (at / (m * m)) as i32);
+                        (b.key * step + ijk, v[at])
+                    })
+                })
+        };
+        match self {
+            StoredGrid::Bricks => Box::new(
+                cm.bricks
+                    .iter()
+                    .map(|b| (b.key, brick_code(b.level, b.form))),
+            ),
+            StoredGrid::Hermite { level, quantity } => Box::new(samples(
+                level,
+                BrickForm::Hermite,
+                STORED[quantity].1,
+                1 << level,
+            )),
+            // Linear bricks hold 16-bit steps: stored apart, a brick's samples not shared
+            // with its neighbours', so they read back exactly.
+            StoredGrid::Linear { level } => {
+                Box::new(samples(level, BrickForm::Linear, 0, (1 << level) + 1))
+            }
+            StoredGrid::Dark => Box::new(
+                cm.bricks
+                    .iter()
+                    .filter(|b| b.form == BrickForm::Constant)
+                    .map(|b| (b.key, cm.brick_quantity(b, 0)[0])),
+            ),
+        }
+    }
+}
+
+/// Writes the maps of `lights` (one per light, in order) to `path`, atomically. Each
+/// grid's voxels go straight into its tree, the grids made on all threads.
 pub fn write(
     path: &Path,
     density_hash: u64,
@@ -118,7 +238,8 @@ pub fn write(
     tolerance: f64,
     sigma_t: DVec3,
 ) -> Result<()> {
-    let mut grids = Vec::new();
+    // Every grid of the file, in order: its chart's map, what it holds, name, metadata.
+    let mut grids: Vec<(&ChartMap, StoredGrid, String, Metadata)> = Vec::new();
     for ((light, map), st) in lights.iter().zip(maps).zip(stats) {
         for (ci, cm) in map.charts.iter().enumerate() {
             let chart = &cm.chart;
@@ -126,7 +247,8 @@ pub fn write(
                 ChartKind::Parallel { origin } => ("parallel", origin, 0.0),
                 ChartKind::Perspective { light, scale } => ("perspective", light, scale),
             };
-            let meta = |level: Option<u8>, quantity: &str| {
+            for what in StoredGrid::of(cm) {
+                let (quantity, level) = what.described();
                 let mut m = vec![
                     ("murk:light".to_string(), light.name().to_string()),
                     ("murk:placement".into(), light.geometry().placement()),
@@ -166,89 +288,7 @@ pub fn write(
                 if let Some(l) = level {
                     m.push(("murk:level".into(), l.to_string()));
                 }
-                m
-            };
-            grids.push(FloatGridOut {
-                name: grid_name(light.name(), ci, "bricks"),
-                index_to_world: lattice_transform(chart, BRICK as f64),
-                voxels: cm
-                    .bricks
-                    .iter()
-                    .map(|b| (b.key, brick_code(b.level, b.form)))
-                    .collect(),
-                metadata: meta(
-                    None,
-                    "level + 1 + 16 x form of each brick of the shadow map (form 0: tau and its slopes, Hermite; 1: tau alone, trilinear; 2: one tau)",
-                ),
-            });
-            for level in 0..LEVELS as u8 {
-                let n = 1i32 << level;
-                let m = side(level);
-                let at_level = |form: BrickForm| {
-                    cm.bricks
-                        .iter()
-                        .filter(move |b| b.level == level && b.form == form)
-                };
-                for (suffix, plane, quantity) in STORED {
-                    let mut voxels = Vec::new();
-                    for b in at_level(BrickForm::Hermite) {
-                        let v = cm.brick_quantity(b, plane);
-                        for k in 0..m {
-                            for j in 0..m {
-                                for i in 0..m {
-                                    let ijk = b.key * n + IVec3::new(i as i32, j as i32, k as i32);
-                                    voxels.push((ijk, v[i + m * (j + m * k)]));
-                                }
-                            }
-                        }
-                    }
-                    if voxels.is_empty() {
-                        break;
-                    }
-                    grids.push(FloatGridOut {
-                        name: grid_name(light.name(), ci, &format!("L{level}{suffix}")),
-                        index_to_world: lattice_transform(chart, spacing(level)),
-                        voxels,
-                        metadata: meta(Some(level), quantity),
-                    });
-                }
-                // Linear bricks hold 16-bit steps: stored apart, a brick's samples not
-                // shared with its neighbours', so they read back exactly.
-                let mut voxels = Vec::new();
-                for b in at_level(BrickForm::Linear) {
-                    let v = cm.brick_quantity(b, 0);
-                    for k in 0..m {
-                        for j in 0..m {
-                            for i in 0..m {
-                                let ijk =
-                                    b.key * (n + 1) + IVec3::new(i as i32, j as i32, k as i32);
-                                voxels.push((ijk, v[i + m * (j + m * k)]));
-                            }
-                        }
-                    }
-                }
-                if !voxels.is_empty() {
-                    grids.push(FloatGridOut {
-                        name: grid_name(light.name(), ci, &format!("L{level}_linear")),
-                        index_to_world: lattice_transform(chart, spacing(level)),
-                        voxels,
-                        metadata: meta(Some(level), LINEAR_QUANTITY),
-                    });
-                }
-            }
-            let dark: Vec<(IVec3, f32)> = cm
-                .bricks
-                .iter()
-                .filter(|b| b.form == BrickForm::Constant)
-                .map(|b| (b.key, cm.brick_quantity(b, 0)[0]))
-                .collect();
-            if !dark.is_empty() {
-                grids.push(FloatGridOut {
-                    name: grid_name(light.name(), ci, "dark"),
-                    index_to_world: lattice_transform(chart, BRICK as f64),
-                    voxels: dark,
-                    metadata: meta(None, DARK_QUANTITY),
-                });
+                grids.push((cm, what, grid_name(light.name(), ci, &what.suffix()), m));
             }
         }
     }
@@ -257,7 +297,15 @@ pub fn write(
         format!("murk {}", env!("CARGO_PKG_VERSION")),
     )];
     crate::files::write_atomically(path, |tmp| {
-        write_float_grids(tmp, &grids, &file_meta).map_err(|e| CacheError::Read(e.at(path)))
+        let made = grids
+            .par_iter()
+            .map(|(cm, what, name, meta)| {
+                let to_world = lattice_transform(&cm.chart, what.step());
+                float_grid(tmp, name, to_world, meta, what.voxels(cm))
+            })
+            .collect::<std::result::Result<Vec<_>, _>>()
+            .map_err(|e| CacheError::Read(e.at(path)))?;
+        write_grids(tmp, made, &file_meta).map_err(|e| CacheError::Read(e.at(path)))
     })
 }
 

@@ -3,7 +3,7 @@
 //! brick's samples are gathered from them and packed on all threads, in the bricks grid's
 //! order.
 
-use super::cache::{brick_from_code, grid_name};
+use super::cache::{StoredGrid, brick_from_code, grid_name};
 use super::cache_error::CacheError;
 use super::chart::Chart;
 use super::map::{BrickForm, BrickSamples, EncodedBrick, LEVELS, side, spacing};
@@ -24,45 +24,14 @@ struct BrickGrids {
     dark: Option<VoxelGrid>,
 }
 
-/// A grid a brick form reads: where it goes, and its name's suffix after the chart's.
-#[derive(Clone, PartialEq)]
-enum Wanted {
-    /// Plane `0..4` of level `level`'s Hermite grids (τ, then its slopes: signed).
-    Hermite {
-        level: u8,
-        plane: usize,
-    },
-    Linear {
-        level: u8,
-    },
-    Dark,
-}
-
-impl Wanted {
-    fn suffix(&self) -> String {
-        match self {
-            Wanted::Hermite { level, plane } => {
-                format!("L{level}{}", ["", "_dx", "_dy", "_dxy"][*plane])
-            }
-            Wanted::Linear { level } => format!("L{level}_linear"),
-            Wanted::Dark => "dark".to_string(),
-        }
-    }
-
-    /// τ is never negative; its slopes are signed.
-    fn signed(&self) -> bool {
-        matches!(self, Wanted::Hermite { plane, .. } if *plane > 0)
-    }
-
-    /// What bricks of `level` in `form` read.
-    fn of(level: u8, form: BrickForm) -> Vec<Wanted> {
-        match form {
-            BrickForm::Constant => vec![Wanted::Dark],
-            BrickForm::Linear => vec![Wanted::Linear { level }],
-            BrickForm::Hermite => (0..4)
-                .map(|plane| Wanted::Hermite { level, plane })
-                .collect(),
-        }
+/// The grids bricks of `level` in `form` read.
+fn read_by(level: u8, form: BrickForm) -> Vec<StoredGrid> {
+    match form {
+        BrickForm::Constant => vec![StoredGrid::Dark],
+        BrickForm::Linear => vec![StoredGrid::Linear { level }],
+        BrickForm::Hermite => (0..4)
+            .map(|quantity| StoredGrid::Hermite { level, quantity })
+            .collect(),
     }
 }
 
@@ -86,7 +55,7 @@ pub(super) fn read_chart_bricks(
     let keys = active_voxels(&bricks_grid)
         .ok_or_else(|| bad(format!("grid {name}: its bricks span too large a region")))?;
     let mut coded = Vec::with_capacity(keys.len());
-    let mut wanted: Vec<Wanted> = Vec::new();
+    let mut wanted: Vec<StoredGrid> = Vec::new();
     for key in keys {
         let v = bricks_grid.voxel_value(key, 0);
         let Some((level, form)) = brick_from_code(v) else {
@@ -94,7 +63,7 @@ pub(super) fn read_chart_bricks(
                 "grid {name}: brick code {v} is not a level 1..{LEVELS} plus 16 x a form 0..2"
             )));
         };
-        for w in Wanted::of(level, form) {
+        for w in read_by(level, form) {
             if !wanted.contains(&w) {
                 wanted.push(w);
             }
@@ -129,7 +98,7 @@ pub(super) fn read_chart_bricks(
 }
 
 impl BrickGrids {
-    fn placed(wanted: Vec<Wanted>, loaded: Vec<VoxelGrid>) -> Self {
+    fn placed(wanted: Vec<StoredGrid>, loaded: Vec<VoxelGrid>) -> Self {
         let mut out = BrickGrids {
             hermite: vec![None; LEVELS],
             linear: vec![None; LEVELS],
@@ -138,9 +107,12 @@ impl BrickGrids {
         let mut planes: Vec<[Option<VoxelGrid>; 4]> = vec![Default::default(); LEVELS];
         for (w, g) in wanted.into_iter().zip(loaded) {
             match w {
-                Wanted::Hermite { level, plane } => planes[level as usize][plane] = Some(g),
-                Wanted::Linear { level } => out.linear[level as usize] = Some(g),
-                Wanted::Dark => out.dark = Some(g),
+                StoredGrid::Hermite { level, quantity } => {
+                    planes[level as usize][quantity] = Some(g)
+                }
+                StoredGrid::Linear { level } => out.linear[level as usize] = Some(g),
+                StoredGrid::Dark => out.dark = Some(g),
+                StoredGrid::Bricks => {}
             }
         }
         for (slot, [a, b, c, d]) in out.hermite.iter_mut().zip(planes) {

@@ -14,7 +14,7 @@ mod write;
 
 pub use decode::{DecodedValues, TreeSink};
 pub use error::VdbError;
-pub use write::{FloatGridOut, write_float_grids};
+pub use write::{FloatGridOut, MadeGrid, float_grid, write_float_grids, write_grids};
 
 use error::panic_message;
 use glam::{DMat4, DVec3, IVec3};
