@@ -160,6 +160,17 @@ impl StoredGrid {
         }
     }
 
+    /// The grids that hold bricks of `level` in `form`.
+    pub(super) fn holding(level: u8, form: BrickForm) -> Vec<StoredGrid> {
+        match form {
+            BrickForm::Constant => vec![StoredGrid::Dark],
+            BrickForm::Linear => vec![StoredGrid::Linear { level }],
+            BrickForm::Hermite => (0..STORED.len())
+                .map(|quantity| StoredGrid::Hermite { level, quantity })
+                .collect(),
+        }
+    }
+
     /// The grids a chart map's bricks fill, in the file's order.
     fn of(cm: &ChartMap) -> Vec<StoredGrid> {
         let has = |level: Option<u8>, form: BrickForm| {
@@ -169,17 +180,14 @@ impl StoredGrid {
         };
         let mut out = vec![StoredGrid::Bricks];
         for level in 0..LEVELS as u8 {
-            if has(Some(level), BrickForm::Hermite) {
-                out.extend(
-                    (0..STORED.len()).map(|quantity| StoredGrid::Hermite { level, quantity }),
-                );
-            }
-            if has(Some(level), BrickForm::Linear) {
-                out.push(StoredGrid::Linear { level });
+            for form in [BrickForm::Hermite, BrickForm::Linear] {
+                if has(Some(level), form) {
+                    out.extend(StoredGrid::holding(level, form));
+                }
             }
         }
         if has(None, BrickForm::Constant) {
-            out.push(StoredGrid::Dark);
+            out.extend(StoredGrid::holding(0, BrickForm::Constant));
         }
         out
     }

@@ -24,17 +24,6 @@ struct BrickGrids {
     dark: Option<VoxelGrid>,
 }
 
-/// The grids bricks of `level` in `form` read.
-fn read_by(level: u8, form: BrickForm) -> Vec<StoredGrid> {
-    match form {
-        BrickForm::Constant => vec![StoredGrid::Dark],
-        BrickForm::Linear => vec![StoredGrid::Linear { level }],
-        BrickForm::Hermite => (0..4)
-            .map(|quantity| StoredGrid::Hermite { level, quantity })
-            .collect(),
-    }
-}
-
 /// The bricks of chart `ci` of `light`'s map in `file`, packed as the map holds them
 /// (in the bricks grid's order), with each Hermite sample's density read from `density`
 /// where the map's lattice puts it.
@@ -63,7 +52,7 @@ pub(super) fn read_chart_bricks(
                 "grid {name}: brick code {v} is not a level 1..{LEVELS} plus 16 x a form 0..2"
             )));
         };
-        for w in read_by(level, form) {
+        for w in StoredGrid::holding(level, form) {
             if !wanted.contains(&w) {
                 wanted.push(w);
             }
