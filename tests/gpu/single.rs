@@ -28,6 +28,32 @@ fn the_gpu_looks_shadows_up_in_point_lights_cube_maps_and_anisotropic_media() {
 }
 
 #[test]
+fn the_gpu_renders_the_maps_a_shadow_cache_holds() {
+    need_gpu!();
+    // A look re-rendered from `murk bake-shadows`'s cache after a camera move: both
+    // devices read the sun's map from the file instead of baking it, and the GPU's image
+    // of it is the CPU's.
+    let cache = scratch("gpu-shadow-cache").join("shadows.vdb");
+    let mut bake = options("16x9");
+    bake.output = Some(cache.clone());
+    let plan = RenderPlan::new(&bake, fixture("cloud.vdb")).unwrap();
+    bake_shadow_file(&plan, &Silent).unwrap();
+    let mut o = options("40x24");
+    o.eye = Some("3,1,2".into());
+    o.shadow_cache = Some(cache.clone());
+    for device in [Device::Cpu, Device::Gpu] {
+        let maps = render("cloud.vdb", &o, device).stats.scene.shadow_maps;
+        assert!(
+            !maps.is_empty() && maps.iter().all(|m| m.source.starts_with("cache")),
+            "{device:?}: the maps came from {:?}",
+            maps.iter().map(|m| &m.source).collect::<Vec<_>>()
+        );
+    }
+    let (e, _) = gpu_matches_cpu("cloud.vdb", &o);
+    eprintln!("maps from a cache: radiance rel. RMSE {e:e}");
+}
+
+#[test]
 fn the_gpus_buffers_are_at_most_one_and_a_half_times_the_cpus_density_and_maps() {
     need_gpu!();
     // The memory target: what the GPU holds of the scene (the grid's nodes with
