@@ -3,8 +3,8 @@
 //! brick's samples are gathered from them and packed on all threads, in the bricks grid's
 //! order.
 
-use super::cache::{StoredGrid, brick_from_code, grid_name};
 use super::cache_error::CacheError;
+use super::cache_layout::{StoredGrid, brick_from_code, grid_name};
 use super::chart::Chart;
 use super::map::{BrickForm, BrickSamples, EncodedBrick, LEVELS, side, spacing};
 use crate::field::grid_reader::GridReader;

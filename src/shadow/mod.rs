@@ -11,6 +11,7 @@ pub mod cache;
 mod cache_bricks;
 mod cache_check;
 mod cache_error;
+mod cache_layout;
 pub mod chart;
 pub mod column_marcher;
 pub mod columns;
